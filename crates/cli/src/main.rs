@@ -1,0 +1,47 @@
+//! glassbake-cli: the `glassbake` binary. Thin: one subcommand per pipeline job, each in its
+//! own module under `commands/`, parsing arguments and calling into the stage crates.
+//! Bad input ends with a one-line message and exit code 2.
+
+mod commands;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(name = "glassbake", version, about = "Neural scene baking for scenes with glass")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Inspect, validate and export scenes.
+    #[command(subcommand)]
+    Scene(commands::scene::SceneCommand),
+}
+
+fn main() {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_env("GLASSBAKE_LOG")
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
+        )
+        .with_writer(std::io::stderr)
+        .without_time()
+        .with_target(false)
+        .init();
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Scene(cmd) => commands::scene::run(cmd),
+    };
+    if let Err(e) = result {
+        eprintln!("error: {}", one_line(&e));
+        let user_error = e.downcast_ref::<glassbake_core::Error>().is_some_and(|e| e.is_user_error());
+        std::process::exit(if user_error { 2 } else { 1 });
+    }
+}
+
+/// The error and its causes on one line.
+fn one_line(e: &anyhow::Error) -> String {
+    e.chain().map(|c| c.to_string().replace('\n', " ")).collect::<Vec<_>>().join(": ")
+}

@@ -1,0 +1,135 @@
+//! The buffer channel layout of DESIGN.md §3 — the only place where channel names and
+//! offsets are spelled. The rasterizer writes these planes in this order, the dataset stores
+//! them under these EXR names, and the network reads them by these offsets.
+//!
+//! EXR names are `layer.attribute.component` (`opaque.normal.X`,
+//! `transparent.2.relative_depth.Y`), so a frame opens in tev/Nuke/Blender with readable
+//! layers. Scalar attributes use the component `Y`, as EXR viewers expect for luminance-like
+//! single channels.
+
+/// One attribute of a buffer: a name and its component suffixes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Attribute {
+    pub name: &'static str,
+    pub components: &'static [&'static str],
+}
+
+const XYZ: &[&str] = &["X", "Y", "Z"];
+const RGB: &[&str] = &["R", "G", "B"];
+const SCALAR: &[&str] = &["Y"];
+
+/// Opaque G-buffer (opaque geometry only): 17 channels.
+pub const OPAQUE_ATTRIBUTES: [Attribute; 7] = [
+    Attribute { name: "normal", components: XYZ },
+    Attribute { name: "position", components: XYZ },
+    Attribute { name: "albedo", components: RGB },
+    Attribute { name: "roughness", components: SCALAR },
+    Attribute { name: "wo", components: XYZ },
+    Attribute { name: "depth", components: SCALAR },
+    Attribute { name: "Ld", components: RGB },
+];
+
+/// One transparency buffer (only its object drawn, front-most surface): 16 channels.
+pub const TRANSPARENT_ATTRIBUTES: [Attribute; 8] = [
+    Attribute { name: "normal", components: XYZ },
+    Attribute { name: "position", components: XYZ },
+    Attribute { name: "albedo", components: RGB },
+    Attribute { name: "roughness", components: SCALAR },
+    Attribute { name: "wo", components: XYZ },
+    Attribute { name: "depth", components: SCALAR },
+    Attribute { name: "relative_depth", components: SCALAR },
+    Attribute { name: "coverage", components: SCALAR },
+];
+
+pub const OPAQUE_CHANNELS: usize = 17;
+pub const TRANSPARENT_CHANNELS: usize = 16;
+
+/// Channel offsets within the opaque (and naive) G-buffer.
+pub mod opaque {
+    pub const NORMAL: usize = 0;
+    pub const POSITION: usize = 3;
+    pub const ALBEDO: usize = 6;
+    pub const ROUGHNESS: usize = 9;
+    pub const WO: usize = 10;
+    pub const DEPTH: usize = 13;
+    pub const LD: usize = 14;
+}
+
+/// Channel offsets within a transparency buffer.
+pub mod transparent {
+    pub const NORMAL: usize = 0;
+    pub const POSITION: usize = 3;
+    pub const ALBEDO: usize = 6;
+    pub const ROUGHNESS: usize = 9;
+    pub const WO: usize = 10;
+    pub const DEPTH: usize = 13;
+    pub const RELATIVE_DEPTH: usize = 14;
+    pub const COVERAGE: usize = 15;
+}
+
+/// EXR layer of the opaque G-buffer.
+pub const OPAQUE_LAYER: &str = "opaque";
+/// EXR layer of the naive G-buffer (glass overwrites what is behind it; the paper's baseline).
+pub const NAIVE_LAYER: &str = "naive";
+/// Channel names of path-traced ground truth images.
+pub const GROUND_TRUTH_CHANNELS: [&str; 3] = ["R", "G", "B"];
+
+/// EXR layer of transparency buffer `k`.
+pub fn transparent_layer(k: usize) -> String {
+    format!("transparent.{k}")
+}
+
+fn channel_names(layer: &str, attributes: &[Attribute]) -> Vec<String> {
+    attributes
+        .iter()
+        .flat_map(|a| a.components.iter().map(move |c| format!("{layer}.{}.{c}", a.name)))
+        .collect()
+}
+
+pub fn opaque_channel_names() -> Vec<String> {
+    channel_names(OPAQUE_LAYER, &OPAQUE_ATTRIBUTES)
+}
+
+pub fn naive_channel_names() -> Vec<String> {
+    channel_names(NAIVE_LAYER, &OPAQUE_ATTRIBUTES)
+}
+
+pub fn transparent_channel_names(k: usize) -> Vec<String> {
+    channel_names(&transparent_layer(k), &TRANSPARENT_ATTRIBUTES)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn offset_of(attributes: &[Attribute], name: &str) -> usize {
+        let mut offset = 0;
+        for a in attributes {
+            if a.name == name {
+                return offset;
+            }
+            offset += a.components.len();
+        }
+        panic!("no attribute {name}");
+    }
+
+    #[test]
+    fn counts_and_offsets_match_the_attribute_tables() {
+        assert_eq!(opaque_channel_names().len(), OPAQUE_CHANNELS);
+        assert_eq!(transparent_channel_names(3).len(), TRANSPARENT_CHANNELS);
+        let o = &OPAQUE_ATTRIBUTES;
+        assert_eq!(offset_of(o, "normal"), opaque::NORMAL);
+        assert_eq!(offset_of(o, "position"), opaque::POSITION);
+        assert_eq!(offset_of(o, "albedo"), opaque::ALBEDO);
+        assert_eq!(offset_of(o, "roughness"), opaque::ROUGHNESS);
+        assert_eq!(offset_of(o, "wo"), opaque::WO);
+        assert_eq!(offset_of(o, "depth"), opaque::DEPTH);
+        assert_eq!(offset_of(o, "Ld"), opaque::LD);
+        let t = &TRANSPARENT_ATTRIBUTES;
+        assert_eq!(offset_of(t, "depth"), transparent::DEPTH);
+        assert_eq!(offset_of(t, "relative_depth"), transparent::RELATIVE_DEPTH);
+        assert_eq!(offset_of(t, "coverage"), transparent::COVERAGE);
+        assert_eq!(transparent_channel_names(2)[14], "transparent.2.relative_depth.Y");
+        assert_eq!(opaque_channel_names()[14], "opaque.Ld.R");
+    }
+}

@@ -1,0 +1,365 @@
+//! The scene model every later stage consumes: meshes, textures, materials, objects, lights,
+//! the camera ranges and the named variables.
+
+use std::sync::Arc;
+
+use glam::{Affine3A, Vec2, Vec3, Vec4};
+use serde::{Deserialize, Serialize};
+
+use crate::camera_spec::CameraSpec;
+use crate::variables::Variable;
+
+/// A triangle mesh in object space. Normals and UVs are per vertex (same length as
+/// `positions`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub uvs: Vec<Vec2>,
+    pub indices: Vec<[u32; 3]>,
+}
+
+impl Mesh {
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len()
+    }
+
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Append another mesh (used by shape builders to combine parts).
+    pub fn append(&mut self, other: &Mesh) {
+        let base = self.positions.len() as u32;
+        self.positions.extend_from_slice(&other.positions);
+        self.normals.extend_from_slice(&other.normals);
+        self.uvs.extend_from_slice(&other.uvs);
+        self.indices.extend(other.indices.iter().map(|t| [t[0] + base, t[1] + base, t[2] + base]));
+    }
+
+    /// Apply a transform to positions and normals (normals by the inverse transpose).
+    pub fn transformed(&self, transform: &Affine3A) -> Mesh {
+        let normal_matrix = transform.matrix3.inverse().transpose();
+        Mesh {
+            positions: self.positions.iter().map(|&p| transform.transform_point3(p)).collect(),
+            normals: self
+                .normals
+                .iter()
+                .map(|&n| Vec3::from(normal_matrix * glam::Vec3A::from(n)).normalize_or_zero())
+                .collect(),
+            uvs: self.uvs.clone(),
+            indices: self.indices.clone(),
+        }
+    }
+
+    /// Axis-aligned bounds (min, max) in object space; `None` for an empty mesh.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let first = *self.positions.first()?;
+        Some(self.positions.iter().fold((first, first), |(lo, hi), &p| (lo.min(p), hi.max(p))))
+    }
+
+    /// Area-weighted vertex normals from the faces, for meshes loaded without normals.
+    pub fn compute_vertex_normals(&mut self) {
+        let mut normals = vec![Vec3::ZERO; self.positions.len()];
+        for t in &self.indices {
+            let [a, b, c] = t.map(|i| self.positions[i as usize]);
+            let n = (b - a).cross(c - a);
+            for &i in t {
+                normals[i as usize] += n;
+            }
+        }
+        self.normals = normals.into_iter().map(|n| n.normalize_or(Vec3::Y)).collect();
+    }
+
+    /// Drop triangles of (near) zero area or with an out-of-range index; returns how many
+    /// were dropped.
+    pub fn drop_degenerate_triangles(&mut self) -> usize {
+        let before = self.indices.len();
+        let positions = &self.positions;
+        self.indices.retain(|t| {
+            if t.iter().any(|&i| i as usize >= positions.len()) {
+                return false;
+            }
+            let [a, b, c] = t.map(|i| positions[i as usize]);
+            let doubled_area = (b - a).cross(c - a).length();
+            let scale = (b - a).length_squared().max((c - a).length_squared()).max(1e-30);
+            doubled_area > 1e-7 * scale
+        });
+        before - self.indices.len()
+    }
+}
+
+/// A texture in linear RGBA f32 (sRGB colour textures are decoded on load). Sampled with
+/// repeat wrapping.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    pub texels: Vec<Vec4>,
+    /// Whether the texture holds colour (sRGB-encoded when exported to 8-bit files) rather
+    /// than data such as roughness.
+    pub is_color: bool,
+}
+
+impl Texture {
+    pub fn from_fn(name: &str, width: u32, height: u32, is_color: bool, f: impl Fn(f32, f32) -> Vec4) -> Self {
+        let mut texels = Vec::with_capacity((width * height) as usize);
+        for y in 0..height {
+            for x in 0..width {
+                let u = (x as f32 + 0.5) / width as f32;
+                let v = (y as f32 + 0.5) / height as f32;
+                texels.push(f(u, v));
+            }
+        }
+        Texture { name: name.to_string(), width, height, texels, is_color }
+    }
+
+    pub fn texel(&self, x: i64, y: i64) -> Vec4 {
+        let x = x.rem_euclid(self.width as i64) as usize;
+        let y = y.rem_euclid(self.height as i64) as usize;
+        self.texels[y * self.width as usize + x]
+    }
+
+    /// Bilinear sample with repeat wrapping; v = 0 is the top row (glTF convention).
+    pub fn sample(&self, uv: Vec2) -> Vec4 {
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = uv.y * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let top = self.texel(x0, y0).lerp(self.texel(x0 + 1, y0), fx);
+        let bottom = self.texel(x0, y0 + 1).lerp(self.texel(x0 + 1, y0 + 1), fx);
+        top.lerp(bottom, fy)
+    }
+}
+
+/// How light passes through a transmissive material. The tint is the material's base colour
+/// (glTF's convention for KHR_materials_transmission).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Transmission {
+    /// Fraction of non-metallic light that is transmitted rather than diffusely reflected
+    /// (glTF `transmissionFactor`); 1 for clear glass.
+    pub weight: f32,
+    pub ior: f32,
+    /// A thin-walled surface (a pane): light enters and leaves at the same point, without
+    /// refraction offset. glTF: transmission without KHR_materials_volume, or thickness 0.
+    pub thin: bool,
+}
+
+/// Below this roughness a dielectric is treated as perfectly smooth.
+pub const SMOOTH_ROUGHNESS: f32 = 1e-3;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum DielectricKind {
+    Smooth,
+    /// GGX microfacet transmission (Walter et al. 2007) with the material's roughness.
+    Rough,
+    Thin,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// Linear RGB; for transmissive materials also the transmission tint.
+    pub base_color: Vec3,
+    /// Multiplies `base_color` (index into `Scene::textures`).
+    pub base_color_texture: Option<usize>,
+    /// GGX roughness parameter (perceptual, as in glTF: alpha = roughness^2).
+    pub roughness: f32,
+    /// Its green channel multiplies `roughness` (glTF metallic-roughness convention).
+    pub roughness_texture: Option<usize>,
+    pub metallic: f32,
+    /// Emitted radiance (glTF emissiveFactor x emissive strength).
+    pub emission: Vec3,
+    pub transmission: Option<Transmission>,
+}
+
+impl Material {
+    pub fn diffuse(name: &str, base_color: Vec3) -> Self {
+        Material {
+            name: name.to_string(),
+            base_color,
+            base_color_texture: None,
+            roughness: 1.0,
+            roughness_texture: None,
+            metallic: 0.0,
+            emission: Vec3::ZERO,
+            transmission: None,
+        }
+    }
+
+    pub fn glass(name: &str, tint: Vec3, roughness: f32, ior: f32, thin: bool) -> Self {
+        Material {
+            roughness,
+            transmission: Some(Transmission { weight: 1.0, ior, thin }),
+            ..Material::diffuse(name, tint)
+        }
+    }
+
+    pub fn is_transmissive(&self) -> bool {
+        self.transmission.is_some_and(|t| t.weight > 0.0)
+    }
+
+    pub fn is_emissive(&self) -> bool {
+        self.emission.max_element() > 0.0
+    }
+
+    pub fn dielectric_kind(&self) -> Option<DielectricKind> {
+        let t = self.transmission?;
+        Some(if t.thin {
+            DielectricKind::Thin
+        } else if self.roughness < SMOOTH_ROUGHNESS {
+            DielectricKind::Smooth
+        } else {
+            DielectricKind::Rough
+        })
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Object {
+    pub name: String,
+    /// Index into `Scene::meshes`.
+    pub mesh: usize,
+    /// Index into `Scene::materials`.
+    pub material: usize,
+    /// Object-to-world transform.
+    pub transform: Affine3A,
+    /// Transparent objects each get their own transparency buffer.
+    pub transparent: bool,
+}
+
+/// A one-sided (unless `two_sided`) rectangular area light emitting uniform radiance from the
+/// side of `edge_u x edge_v`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RectLight {
+    pub name: String,
+    pub corner: Vec3,
+    pub edge_u: Vec3,
+    pub edge_v: Vec3,
+    pub radiance: Vec3,
+    #[serde(default)]
+    pub two_sided: bool,
+}
+
+impl RectLight {
+    pub fn normal(&self) -> Vec3 {
+        self.edge_u.cross(self.edge_v).normalize()
+    }
+    pub fn area(&self) -> f32 {
+        self.edge_u.cross(self.edge_v).length()
+    }
+    pub fn center(&self) -> Vec3 {
+        self.corner + 0.5 * (self.edge_u + self.edge_v)
+    }
+    /// Corners in counter-clockwise order seen from the emitting side.
+    pub fn corners(&self) -> [Vec3; 4] {
+        let c = self.corner;
+        [c, c + self.edge_u, c + self.edge_u + self.edge_v, c + self.edge_v]
+    }
+    /// The light as two triangles facing its emitting side.
+    pub fn to_mesh(&self) -> Mesh {
+        let n = self.normal();
+        Mesh {
+            positions: self.corners().to_vec(),
+            normals: vec![n; 4],
+            uvs: vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)],
+            indices: vec![[0, 1, 2], [0, 2, 3]],
+        }
+    }
+}
+
+/// A complete scene: geometry, appearance, lights, the camera ranges and the variables.
+/// Cloning is cheap (meshes and textures are shared), which is what makes
+/// [`Scene::instantiate`] cheap.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub name: String,
+    pub meshes: Vec<Arc<Mesh>>,
+    pub textures: Vec<Arc<Texture>>,
+    pub materials: Vec<Material>,
+    pub objects: Vec<Object>,
+    pub rect_lights: Vec<RectLight>,
+    pub camera: CameraSpec,
+    pub variables: Vec<Variable>,
+    /// Constant radiance seen where rays leave the scene.
+    pub background: Vec3,
+    /// Warnings raised while loading (dropped triangles, unsupported extensions, ...).
+    pub load_warnings: Vec<String>,
+}
+
+impl Scene {
+    /// Indices (into `objects`) of the transparent objects; transparency buffer `k` belongs
+    /// to the `k`-th of them.
+    pub fn transparent_objects(&self) -> Vec<usize> {
+        (0..self.objects.len()).filter(|&i| self.objects[i].transparent).collect()
+    }
+
+    pub fn transparent_count(&self) -> usize {
+        self.objects.iter().filter(|o| o.transparent).count()
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.objects.iter().map(|o| self.meshes[o.mesh].triangle_count()).sum()
+    }
+
+    /// Objects whose material emits light (emissive-mesh area lights).
+    pub fn emissive_objects(&self) -> Vec<usize> {
+        (0..self.objects.len()).filter(|&i| self.materials[self.objects[i].material].is_emissive()).collect()
+    }
+
+    pub fn light_count(&self) -> usize {
+        self.rect_lights.len() + self.emissive_objects().len()
+    }
+
+    pub fn object_index(&self, name: &str) -> Option<usize> {
+        self.objects.iter().position(|o| o.name == name)
+    }
+    pub fn material_index(&self, name: &str) -> Option<usize> {
+        self.materials.iter().position(|m| m.name == name)
+    }
+    pub fn light_index(&self, name: &str) -> Option<usize> {
+        self.rect_lights.iter().position(|l| l.name == name)
+    }
+
+    /// An object's mesh in world space.
+    pub fn world_mesh(&self, object: usize) -> Mesh {
+        let o = &self.objects[object];
+        self.meshes[o.mesh].transformed(&o.transform)
+    }
+
+    /// World-space bounds of all objects and lights.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let mut acc: Option<(Vec3, Vec3)> = None;
+        let mut add = |p: Vec3| {
+            acc = Some(match acc {
+                None => (p, p),
+                Some((lo, hi)) => (lo.min(p), hi.max(p)),
+            })
+        };
+        for o in &self.objects {
+            for &p in &self.meshes[o.mesh].positions {
+                add(o.transform.transform_point3(p));
+            }
+        }
+        for l in &self.rect_lights {
+            for p in l.corners() {
+                add(p);
+            }
+        }
+        acc
+    }
+
+    /// Non-fatal problems a user should hear about.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut w = self.load_warnings.clone();
+        if self.transparent_count() == 0 {
+            w.push("the scene has no transparent object: GlassNet degenerates to a plain G-buffer renderer".into());
+        }
+        if self.light_count() == 0 {
+            w.push("the scene has no light (no rectangle light, no emissive mesh): it renders black".into());
+        }
+        w
+    }
+}
