@@ -1,20 +1,615 @@
-//! Resolving a scene argument (a built-in name or a path) and validating the result.
+//! Resolving a scene argument (a built-in name or a path), the glTF / OBJ / manifest loaders,
+//! and validation. Every error names the file and the field at fault.
 
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use glam::{Affine3A, Mat4, Vec2, Vec3, Vec4};
+use glassbake_core::color::srgb_to_linear;
 use glassbake_core::{Error, Result};
 
-use crate::model::Scene;
+use crate::builtin::{builtin, BUILTIN_NAMES};
+use crate::camera_spec::{CameraPosition, CameraSpec, Interval};
+use crate::manifest::{parse_manifest, Manifest, NumberOrRange, PositionManifest, TargetManifest};
+use crate::model::{Material, Mesh, Object, RectLight, Scene, Texture, Transmission};
+use crate::variables::{Variable, VariableTarget};
 
 /// Load a scene from a built-in name or a path to a manifest (.toml), glTF (.gltf/.glb) or
-/// OBJ file. Errors name the file and the field at fault.
+/// OBJ file, and validate it.
 pub fn load_scene(arg: &str) -> Result<Scene> {
-    if let Some(scene) = crate::builtin::builtin(arg) {
+    if let Some(scene) = builtin(arg) {
         return Ok(scene);
     }
-    Err(Error::bad_input(arg, "scene", "not yet supported"))
+    let path = Path::new(arg);
+    let extension = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
+    let scene = match extension.as_deref() {
+        Some("toml") => load_manifest(path)?,
+        Some("gltf" | "glb" | "obj") => {
+            let mut scene = load_geometry(path)?;
+            let (lo, hi) = scene.bounds().ok_or_else(|| Error::bad_input(path.display(), "geometry", "the file holds no triangles"))?;
+            scene.camera = CameraSpec::framing(lo, hi);
+            scene
+        }
+        _ if !path.exists() && !arg.contains(['/', '\\', '.']) => {
+            return Err(Error::bad_input(
+                arg,
+                "scene",
+                format!("no built-in scene of that name (built-ins: {})", BUILTIN_NAMES.join(", ")),
+            ))
+        }
+        _ => {
+            return Err(Error::bad_input(
+                path.display(),
+                "scene",
+                "expected a built-in name or a .toml manifest, .gltf, .glb or .obj file",
+            ))
+        }
+    };
+    validate(&scene, arg)?;
+    for w in &scene.load_warnings {
+        tracing::warn!("{arg}: {w}");
+    }
+    Ok(scene)
 }
 
-/// Check invariants every later stage relies on: finite geometry, unique names, sane ranges.
+fn require_file(path: &Path) -> Result<()> {
+    if !path.is_file() {
+        return Err(Error::bad_input(path.display(), "file", "no such file"));
+    }
+    Ok(())
+}
+
+/// Load a glTF or OBJ file as a scene with a default name and no camera ranges or variables.
+pub fn load_geometry(path: &Path) -> Result<Scene> {
+    require_file(path)?;
+    let extension = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
+    match extension.as_deref() {
+        Some("gltf" | "glb") => load_gltf(path),
+        Some("obj") => load_obj(path),
+        _ => Err(Error::bad_input(path.display(), "geometry", "expected a .gltf, .glb or .obj file")),
+    }
+}
+
+fn empty_scene(path: &Path) -> Scene {
+    let name = path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_else(|| "scene".into());
+    Scene {
+        name,
+        meshes: Vec::new(),
+        textures: Vec::new(),
+        materials: Vec::new(),
+        objects: Vec::new(),
+        rect_lights: Vec::new(),
+        camera: CameraSpec::framing(Vec3::splat(-1.0), Vec3::ONE),
+        variables: Vec::new(),
+        background: Vec3::ZERO,
+        load_warnings: Vec::new(),
+    }
+}
+
+/// Give each object a unique name (a `#n` suffix on repeats), since manifests refer to
+/// objects by name.
+fn unique_name(taken: &mut HashMap<String, usize>, base: &str) -> String {
+    let count = taken.entry(base.to_string()).or_insert(0);
+    *count += 1;
+    if *count == 1 {
+        base.to_string()
+    } else {
+        format!("{base}#{}", *count - 1)
+    }
+}
+
+/// Drop degenerate triangles and fill in missing normals/UVs, recording warnings.
+fn finish_mesh(mut mesh: Mesh, label: &str, warnings: &mut Vec<String>) -> Mesh {
+    if mesh.uvs.len() != mesh.positions.len() {
+        mesh.uvs = vec![Vec2::ZERO; mesh.positions.len()];
+    }
+    if mesh.positions.iter().all(|p| p.is_finite()) {
+        let dropped = mesh.drop_degenerate_triangles();
+        if dropped > 0 {
+            warnings.push(format!("{label}: dropped {dropped} degenerate triangle(s)"));
+        }
+    }
+    if mesh.normals.len() != mesh.positions.len() {
+        mesh.compute_vertex_normals();
+    }
+    mesh
+}
+
+fn gltf_texture(
+    scene: &mut Scene,
+    cache: &mut HashMap<(usize, bool), usize>,
+    images: &[gltf::image::Data],
+    image_index: usize,
+    is_color: bool,
+    label: &str,
+) -> Result<usize> {
+    if let Some(&i) = cache.get(&(image_index, is_color)) {
+        return Ok(i);
+    }
+    let data = &images[image_index];
+    use gltf::image::Format;
+    let channels = match data.format {
+        Format::R8 => 1,
+        Format::R8G8 => 2,
+        Format::R8G8B8 => 3,
+        Format::R8G8B8A8 => 4,
+        other => {
+            return Err(Error::bad_input(label, format!("images[{image_index}]"), format!("unsupported pixel format {other:?} (8-bit textures only)")))
+        }
+    };
+    let decode = |v: u8| {
+        let v = v as f32 / 255.0;
+        if is_color { srgb_to_linear(v) } else { v }
+    };
+    let texels = data
+        .pixels
+        .chunks_exact(channels)
+        .map(|p| {
+            let c = |i: usize| p.get(i).map_or(if i == 3 { 1.0 } else { decode(p[0]) }, |&v| if i == 3 { v as f32 / 255.0 } else { decode(v) });
+            Vec4::new(c(0), c(1), c(2), c(3))
+        })
+        .collect();
+    scene.textures.push(Arc::new(Texture {
+        name: format!("image{image_index}"),
+        width: data.width,
+        height: data.height,
+        texels,
+        is_color,
+    }));
+    let index = scene.textures.len() - 1;
+    cache.insert((image_index, is_color), index);
+    Ok(index)
+}
+
+fn gltf_material(
+    m: &gltf::Material,
+    scene: &mut Scene,
+    cache: &mut HashMap<(usize, bool), usize>,
+    images: &[gltf::image::Data],
+    label: &str,
+) -> Result<Material> {
+    let pbr = m.pbr_metallic_roughness();
+    let base = pbr.base_color_factor();
+    let name = m.name().map(str::to_string).unwrap_or_else(|| format!("material{}", m.index().unwrap_or(0)));
+    let mut warn_uv = |info_uv: u32| {
+        if info_uv != 0 {
+            scene.load_warnings.push(format!("material {name}: texture uses TEXCOORD_{info_uv}; only TEXCOORD_0 is read"));
+        }
+    };
+    let base_tex = pbr.base_color_texture().map(|t| {
+        warn_uv(t.tex_coord());
+        t.texture().source().index()
+    });
+    let rough_tex = pbr.metallic_roughness_texture().map(|t| {
+        warn_uv(t.tex_coord());
+        t.texture().source().index()
+    });
+    let base_color_texture = base_tex.map(|i| gltf_texture(scene, cache, images, i, true, label)).transpose()?;
+    let roughness_texture = rough_tex.map(|i| gltf_texture(scene, cache, images, i, false, label)).transpose()?;
+    let strength = m.emissive_strength().unwrap_or(1.0);
+    let transmission = m.transmission().map(|t| Transmission {
+        weight: t.transmission_factor(),
+        ior: m.ior().unwrap_or(1.5),
+        // glTF: without KHR_materials_volume (or with zero thickness) the surface is thin-walled.
+        thin: m.volume().is_none_or(|v| v.thickness_factor() <= 0.0),
+    });
+    Ok(Material {
+        name,
+        base_color: Vec3::new(base[0], base[1], base[2]),
+        base_color_texture,
+        roughness: pbr.roughness_factor(),
+        roughness_texture,
+        metallic: pbr.metallic_factor(),
+        emission: Vec3::from(m.emissive_factor()) * strength,
+        transmission: transmission.filter(|t| t.weight > 0.0),
+    })
+}
+
+/// Load a glTF 2.0 file (.gltf or .glb) with its buffers and textures.
+pub fn load_gltf(path: &Path) -> Result<Scene> {
+    let label = path.display().to_string();
+    let (document, buffers, images) =
+        gltf::import(path).map_err(|e| Error::bad_input(&label, "glTF", e.to_string().replace('\n', " ")))?;
+    let mut scene = empty_scene(path);
+    if document.extensions_used().any(|e| e == "KHR_lights_punctual") {
+        scene.load_warnings.push("KHR_lights_punctual lights are ignored: declare rectangle lights in a manifest".into());
+    }
+    let mut texture_cache = HashMap::new();
+    // Materials keep the file's order, so indices match the file's material indices.
+    for m in document.materials() {
+        let material = gltf_material(&m, &mut scene, &mut texture_cache, &images, &label)?;
+        scene.materials.push(material);
+    }
+    let mut default_material = None;
+    let mut names = HashMap::new();
+    let gltf_scene = document
+        .default_scene()
+        .or_else(|| document.scenes().next())
+        .ok_or_else(|| Error::bad_input(&label, "scenes", "the file has no scene"))?;
+    // Depth-first in file order, so objects (and thus transparency buffers) keep a stable order.
+    let mut stack: Vec<(gltf::Node, Mat4)> = gltf_scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
+    stack.reverse();
+    while let Some((node, parent)) = stack.pop() {
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        let children: Vec<_> = node.children().collect();
+        for child in children.into_iter().rev() {
+            stack.push((child, world));
+        }
+        let Some(mesh) = node.mesh() else { continue };
+        let base_name = node.name().or(mesh.name()).map(str::to_string).unwrap_or_else(|| format!("node{}", node.index()));
+        let primitive_count = mesh.primitives().len();
+        for primitive in mesh.primitives() {
+            let field = format!("meshes[{}].primitives[{}]", mesh.index(), primitive.index());
+            if primitive.mode() != gltf::mesh::Mode::Triangles {
+                scene.load_warnings.push(format!("{field}: {:?} primitives are skipped (triangles only)", primitive.mode()));
+                continue;
+            }
+            let reader = primitive.reader(|b| Some(&buffers[b.index()]));
+            let positions: Vec<Vec3> = reader
+                .read_positions()
+                .ok_or_else(|| Error::bad_input(&label, format!("{field}.attributes.POSITION"), "missing"))?
+                .map(Vec3::from)
+                .collect();
+            let normals = reader.read_normals().map(|n| n.map(Vec3::from).collect()).unwrap_or_default();
+            let uvs = reader.read_tex_coords(0).map(|t| t.into_f32().map(Vec2::from).collect()).unwrap_or_default();
+            let flat: Vec<u32> = match reader.read_indices() {
+                Some(i) => i.into_u32().collect(),
+                None => (0..positions.len() as u32).collect(),
+            };
+            let indices = flat.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+            let name = if primitive_count > 1 { format!("{base_name}.{}", primitive.index()) } else { base_name.clone() };
+            let mesh = finish_mesh(Mesh { positions, normals, uvs, indices }, &format!("{field} ({name})"), &mut scene.load_warnings);
+            let material = match primitive.material().index() {
+                Some(i) => i,
+                None => match default_material {
+                    Some(i) => i,
+                    None => {
+                        let m = gltf_material(&primitive.material(), &mut scene, &mut texture_cache, &images, &label)?;
+                        scene.materials.push(Material { name: "default".into(), ..m });
+                        *default_material.insert(scene.materials.len() - 1)
+                    }
+                },
+            };
+            scene.meshes.push(Arc::new(mesh));
+            let transparent = scene.materials[material].is_transmissive();
+            scene.objects.push(Object {
+                name: unique_name(&mut names, &name),
+                mesh: scene.meshes.len() - 1,
+                material,
+                transform: Affine3A::from_mat4(world),
+                transparent,
+            });
+        }
+    }
+    Ok(scene)
+}
+
+fn load_image_texture(path: &Path, name: &str, is_color: bool, label: &str, field: &str) -> Result<Texture> {
+    let img = image::open(path)
+        .map_err(|e| Error::bad_input(label, field, format!("{}: {e}", path.display())))?
+        .to_rgba32f();
+    let texels = img
+        .pixels()
+        .map(|p| {
+            let c = |v: f32| if is_color { srgb_to_linear(v) } else { v };
+            Vec4::new(c(p[0]), c(p[1]), c(p[2]), p[3])
+        })
+        .collect();
+    Ok(Texture { name: name.to_string(), width: img.width(), height: img.height(), texels, is_color })
+}
+
+fn parse_floats3(s: &str) -> Option<Vec3> {
+    let v: Vec<f32> = s.split_whitespace().filter_map(|x| x.parse().ok()).collect();
+    match v.len() {
+        1 => Some(Vec3::splat(v[0])),
+        3.. => Some(Vec3::new(v[0], v[1], v[2])),
+        _ => None,
+    }
+}
+
+/// Load a Wavefront OBJ file with its MTL materials. Glass is recognised by dissolve `d` < 1
+/// or an illumination model 4, 6, 7 or 9; `Ni` is its IOR and `Tf` its tint; `Ke` emission;
+/// roughness from the Phong exponent `Ns` (alpha = sqrt(2 / (Ns + 2))).
+pub fn load_obj(path: &Path) -> Result<Scene> {
+    let label = path.display().to_string();
+    let options = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+    let (models, materials) =
+        tobj::load_obj(path, &options).map_err(|e| Error::bad_input(&label, "OBJ", e.to_string()))?;
+    let mut scene = empty_scene(path);
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let obj_materials = match materials {
+        Ok(m) => m,
+        Err(e) => {
+            scene.load_warnings.push(format!("materials: {e}; using a grey default"));
+            Vec::new()
+        }
+    };
+    for (i, m) in obj_materials.iter().enumerate() {
+        let field = format!("material {}", m.name);
+        let unknown = |key: &str| m.unknown_param.get(key).and_then(|v| parse_floats3(v));
+        let kd = m.diffuse.map(Vec3::from).unwrap_or(Vec3::splat(0.8));
+        let illum = m.illumination_model.unwrap_or(2);
+        let dissolve = m.dissolve.unwrap_or(1.0);
+        let glass = dissolve < 1.0 || matches!(illum, 4 | 6 | 7 | 9);
+        let ns = m.shininess.unwrap_or(0.0).max(0.0);
+        let alpha = (2.0 / (ns + 2.0)).sqrt();
+        let base_color_texture = match &m.diffuse_texture {
+            Some(tex) => {
+                let texture = load_image_texture(&dir.join(tex), tex, true, &label, &format!("{field}.map_Kd"))?;
+                scene.textures.push(Arc::new(texture));
+                Some(scene.textures.len() - 1)
+            }
+            None => None,
+        };
+        let mut material = Material {
+            name: if m.name.is_empty() { format!("material{i}") } else { m.name.clone() },
+            base_color: kd,
+            base_color_texture,
+            // glTF roughness is sqrt(alpha).
+            roughness: alpha.sqrt().clamp(0.0, 1.0),
+            roughness_texture: None,
+            metallic: 0.0,
+            emission: m.emissive.map(Vec3::from).unwrap_or(Vec3::ZERO),
+            transmission: None,
+        };
+        if glass {
+            material.base_color = unknown("Tf").unwrap_or(Vec3::ONE);
+            material.roughness = if ns >= 1000.0 || m.shininess.is_none() { 0.0 } else { material.roughness };
+            material.transmission = Some(Transmission {
+                weight: if dissolve < 1.0 { 1.0 - dissolve } else { 1.0 },
+                ior: m.optical_density.unwrap_or(1.5),
+                thin: false,
+            });
+        }
+        scene.materials.push(material);
+    }
+    let mut default_material = None;
+    let mut names = HashMap::new();
+    for model in &models {
+        let m = &model.mesh;
+        let positions: Vec<Vec3> = m.positions.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])).collect();
+        let normals: Vec<Vec3> = m.normals.chunks_exact(3).map(|n| Vec3::new(n[0], n[1], n[2])).collect();
+        // OBJ's v runs bottom-up; ours (glTF's) top-down.
+        let uvs: Vec<Vec2> = m.texcoords.chunks_exact(2).map(|t| Vec2::new(t[0], 1.0 - t[1])).collect();
+        let indices = m.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+        let name = if model.name.is_empty() { "object".to_string() } else { model.name.clone() };
+        let mesh = finish_mesh(Mesh { positions, normals, uvs, indices }, &format!("object {name}"), &mut scene.load_warnings);
+        let material = match m.material_id.filter(|&id| id < scene.materials.len()) {
+            Some(id) => id,
+            None => *default_material.get_or_insert_with(|| {
+                scene.materials.push(Material::diffuse("default", Vec3::splat(0.8)));
+                scene.materials.len() - 1
+            }),
+        };
+        scene.meshes.push(Arc::new(mesh));
+        scene.objects.push(Object {
+            name: unique_name(&mut names, &name),
+            mesh: scene.meshes.len() - 1,
+            material,
+            transform: Affine3A::IDENTITY,
+            transparent: scene.materials[material].is_transmissive(),
+        });
+    }
+    Ok(scene)
+}
+
+fn interval(value: &NumberOrRange, file: &str, field: &str) -> Result<Interval> {
+    match value {
+        NumberOrRange::Number(v) => Ok(Interval::fixed(*v)),
+        NumberOrRange::Range(r) => match r.as_slice() {
+            [min, max] if min <= max => Ok(Interval::new(*min, *max)),
+            [min, max] => Err(Error::bad_input(file, field, format!("reversed range [{min}, {max}]: min must not exceed max"))),
+            _ => Err(Error::bad_input(file, field, format!("expected a number or [min, max], got {} values", r.len()))),
+        },
+    }
+}
+
+fn name_list<'a>(names: impl Iterator<Item = &'a str>) -> String {
+    let v: Vec<&str> = names.collect();
+    if v.is_empty() { "none".into() } else { v.join(", ") }
+}
+
+/// Load a manifest and the geometry it points to, and apply its declarations.
+pub fn load_manifest(path: &Path) -> Result<Scene> {
+    let file = path.display().to_string();
+    require_file(path)?;
+    let text = std::fs::read_to_string(path).map_err(|e| Error::bad_input(&file, "file", e.to_string()))?;
+    let manifest = parse_manifest(&text).map_err(|(field, message)| Error::bad_input(&file, field, message))?;
+    let geometry: PathBuf = path.parent().unwrap_or(Path::new(".")).join(&manifest.geometry);
+    if !geometry.is_file() {
+        return Err(Error::bad_input(&file, "geometry", format!("no such file: {}", geometry.display())));
+    }
+    let mut scene = load_geometry(&geometry)?;
+    apply_manifest(&mut scene, &manifest, &file)?;
+    Ok(scene)
+}
+
+/// Apply a parsed manifest to a loaded geometry scene.
+pub fn apply_manifest(scene: &mut Scene, manifest: &Manifest, file: &str) -> Result<()> {
+    if let Some(name) = &manifest.name {
+        scene.name = name.clone();
+    }
+    if let Some(bg) = manifest.background {
+        scene.background = Vec3::from(bg);
+    }
+    for (name, o) in &manifest.objects {
+        let i = scene.object_index(name).ok_or_else(|| {
+            Error::bad_input(file, format!("objects.{name}"), format!("no object of that name (objects: {})", name_list(scene.objects.iter().map(|o| o.name.as_str()))))
+        })?;
+        if let Some(t) = o.transparent {
+            scene.objects[i].transparent = t;
+        }
+    }
+    for (i, l) in manifest.lights.iter().enumerate() {
+        let light = RectLight {
+            name: l.name.clone(),
+            corner: Vec3::from(l.corner),
+            edge_u: Vec3::from(l.edge_u),
+            edge_v: Vec3::from(l.edge_v),
+            radiance: Vec3::from(l.radiance),
+            two_sided: l.two_sided,
+        };
+        if light.edge_u.cross(light.edge_v).length() <= 0.0 || !light.edge_u.cross(light.edge_v).is_finite() {
+            return Err(Error::bad_input(file, format!("lights[{i}]"), "edge_u and edge_v must span a rectangle of nonzero area"));
+        }
+        scene.rect_lights.push(light);
+    }
+    if let Some(c) = &manifest.camera {
+        let position = match &c.position {
+            PositionManifest::Box { min, max } => {
+                let (min, max) = (Vec3::from(*min), Vec3::from(*max));
+                if !min.cmple(max).all() {
+                    return Err(Error::bad_input(file, "camera.position", format!("reversed box: min {min} exceeds max {max}")));
+                }
+                CameraPosition::Box { min, max }
+            }
+            PositionManifest::Orbit { center, radius, azimuth_deg, elevation_deg } => CameraPosition::Orbit {
+                center: Vec3::from(*center),
+                radius: interval(radius, file, "camera.position.radius")?,
+                azimuth_deg: interval(azimuth_deg, file, "camera.position.azimuth_deg")?,
+                elevation_deg: interval(elevation_deg, file, "camera.position.elevation_deg")?,
+            },
+        };
+        scene.camera = CameraSpec {
+            position,
+            target: Vec3::from(c.target),
+            target_jitter: c.target_jitter.map(Vec3::from).unwrap_or(Vec3::ZERO),
+            up: c.up.map(Vec3::from).unwrap_or(Vec3::Y),
+            fov_x_deg: interval(&c.fov_x_deg, file, "camera.fov_x_deg")?,
+            near: c.near.unwrap_or(0.01),
+            far: c.far.unwrap_or(100.0),
+        };
+    } else if let Some((lo, hi)) = scene.bounds() {
+        scene.camera = CameraSpec::framing(lo, hi);
+    }
+    for (i, v) in manifest.variables.iter().enumerate() {
+        let field = format!("variables[{i}] ({})", v.name);
+        let (min, max) = match v.range.as_slice() {
+            [min, max] if min < max => (*min, *max),
+            [min, max] if min == max => {
+                return Err(Error::bad_input(file, format!("{field}.range"), format!("empty range [{min}, {max}]: a variable must vary")))
+            }
+            [min, max] => {
+                return Err(Error::bad_input(file, format!("{field}.range"), format!("reversed range [{min}, {max}]: min must be below max")))
+            }
+            r => return Err(Error::bad_input(file, format!("{field}.range"), format!("expected [min, max], got {} values", r.len()))),
+        };
+        let material = |name: &str| {
+            scene.material_index(name).ok_or_else(|| {
+                Error::bad_input(file, format!("{field}.target.material"), format!("no material named {name:?} (materials: {})", name_list(scene.materials.iter().map(|m| m.name.as_str()))))
+            })
+        };
+        let object = |name: &str| {
+            scene.object_index(name).ok_or_else(|| {
+                Error::bad_input(file, format!("{field}.target.object"), format!("no object named {name:?} (objects: {})", name_list(scene.objects.iter().map(|o| o.name.as_str()))))
+            })
+        };
+        let light = |name: &str| {
+            scene.light_index(name).ok_or_else(|| {
+                Error::bad_input(file, format!("{field}.target.light"), format!("no rectangle light named {name:?} (lights: {})", name_list(scene.rect_lights.iter().map(|l| l.name.as_str()))))
+            })
+        };
+        let axis = |a: [f32; 3]| {
+            let a = Vec3::from(a);
+            if a.length_squared() > 0.0 && a.is_finite() { Ok(a) } else { Err(Error::bad_input(file, format!("{field}.target.axis"), "must be a nonzero finite vector")) }
+        };
+        let target = match &v.target {
+            TargetManifest::Roughness { material: m } => VariableTarget::Roughness { material: material(m)? },
+            TargetManifest::Hue { material: m, saturation, brightness } => {
+                VariableTarget::Hue { material: material(m)?, saturation: *saturation, brightness: *brightness }
+            }
+            TargetManifest::Translation { object: o, axis: a } => VariableTarget::Translation { object: object(o)?, axis: axis(*a)? },
+            TargetManifest::LightTranslation { light: l, axis: a } => VariableTarget::LightTranslation { light: light(l)?, axis: axis(*a)? },
+            TargetManifest::LightIntensity { light: l } => VariableTarget::LightIntensity { light: light(l)? },
+            TargetManifest::EmissionIntensity { material: m } => VariableTarget::EmissionIntensity { material: material(m)? },
+        };
+        let default = v.default.unwrap_or(0.5 * (min + max));
+        if !(min..=max).contains(&default) {
+            return Err(Error::bad_input(file, format!("{field}.default"), format!("{default} is outside the range [{min}, {max}]")));
+        }
+        scene.variables.push(Variable { name: v.name.clone(), min, max, default, target });
+    }
+    Ok(())
+}
+
+fn check_finite(file: &str, field: String, values: &[f32]) -> Result<()> {
+    if values.iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(Error::bad_input(file, field, "contains NaN or infinity"))
+    }
+}
+
+fn check_unique<'a>(file: &str, kind: &str, names: impl Iterator<Item = &'a str>) -> Result<()> {
+    let mut seen = std::collections::HashSet::new();
+    for n in names {
+        if !seen.insert(n) {
+            return Err(Error::bad_input(file, kind, format!("the name {n:?} is used twice")));
+        }
+    }
+    Ok(())
+}
+
+/// Check the invariants every later stage relies on: finite geometry and parameters,
+/// consistent mesh attributes, unique names, sane ranges.
 pub fn validate(scene: &Scene, file: &str) -> Result<()> {
-    let _ = (scene, file);
+    for o in &scene.objects {
+        let mesh = &scene.meshes[o.mesh];
+        let field = format!("object {:?}", o.name);
+        for (i, p) in mesh.positions.iter().enumerate() {
+            check_finite(file, format!("{field} vertex {i} position"), &p.to_array())?;
+        }
+        for (i, n) in mesh.normals.iter().enumerate() {
+            check_finite(file, format!("{field} vertex {i} normal"), &n.to_array())?;
+        }
+        for (i, uv) in mesh.uvs.iter().enumerate() {
+            check_finite(file, format!("{field} vertex {i} uv"), &uv.to_array())?;
+        }
+        if mesh.normals.len() != mesh.positions.len() || mesh.uvs.len() != mesh.positions.len() {
+            return Err(Error::bad_input(file, field, "normals/uvs do not match the vertex count"));
+        }
+        if let Some(t) = mesh.indices.iter().position(|t| t.iter().any(|&i| i as usize >= mesh.positions.len())) {
+            return Err(Error::bad_input(file, format!("{field} triangle {t}"), "vertex index out of range"));
+        }
+        check_finite(file, format!("{field} transform"), &o.transform.to_cols_array())?;
+        if o.transform.matrix3.determinant() == 0.0 {
+            return Err(Error::bad_input(file, format!("{field} transform"), "is singular"));
+        }
+    }
+    for m in &scene.materials {
+        let field = format!("material {:?}", m.name);
+        check_finite(file, field.clone(), &[m.base_color.to_array(), m.emission.to_array()].concat())?;
+        check_finite(file, field.clone(), &[m.roughness, m.metallic])?;
+        if !(0.0..=1.0).contains(&m.roughness) || !(0.0..=1.0).contains(&m.metallic) {
+            return Err(Error::bad_input(file, field, "roughness and metallic must lie in [0, 1]"));
+        }
+        if let Some(t) = m.transmission {
+            if !(t.ior.is_finite() && t.ior > 0.0) || !(0.0..=1.0).contains(&t.weight) {
+                return Err(Error::bad_input(file, field, "transmission needs ior > 0 and a weight in [0, 1]"));
+            }
+        }
+    }
+    for l in &scene.rect_lights {
+        let v = [l.corner.to_array(), l.edge_u.to_array(), l.edge_v.to_array(), l.radiance.to_array()].concat();
+        check_finite(file, format!("light {:?}", l.name), &v)?;
+    }
+    check_unique(file, "objects", scene.objects.iter().map(|o| o.name.as_str()))?;
+    check_unique(file, "materials", scene.materials.iter().map(|m| m.name.as_str()))?;
+    check_unique(file, "lights", scene.rect_lights.iter().map(|l| l.name.as_str()))?;
+    check_unique(file, "variables", scene.variables.iter().map(|v| v.name.as_str()))?;
+    let c = &scene.camera;
+    check_finite(file, "camera".into(), &[c.target.to_array(), c.up.to_array(), c.target_jitter.to_array()].concat())?;
+    if !(c.fov_x_deg.min > 0.0 && c.fov_x_deg.max < 180.0) {
+        return Err(Error::bad_input(file, "camera.fov_x_deg", "must lie in (0, 180) degrees"));
+    }
+    if !(c.near > 0.0 && c.far > c.near) {
+        return Err(Error::bad_input(file, "camera.near/far", "need 0 < near < far"));
+    }
+    for v in &scene.variables {
+        if !(v.min < v.max) || !v.min.is_finite() || !v.max.is_finite() {
+            return Err(Error::bad_input(file, format!("variable {:?}", v.name), "range must be finite with min < max"));
+        }
+    }
     Ok(())
 }

@@ -1,0 +1,515 @@
+//! Loader, manifest, variable and sampling tests on small files the tests write themselves.
+
+use std::path::{Path, PathBuf};
+
+use glam::{Vec3, Vec4};
+use glassbake_core::Error;
+use glassbake_scene::builtin::{builtin, BUILTIN_NAMES};
+use glassbake_scene::{load_scene, DielectricKind};
+use serde_json::json;
+
+fn write(path: &Path, bytes: impl AsRef<[u8]>) {
+    std::fs::write(path, bytes).unwrap();
+}
+
+fn f32_bytes(values: &[f32]) -> Vec<u8> {
+    values.iter().flat_map(|v| v.to_le_bytes()).collect()
+}
+
+/// A unit quad (two triangles) in the xy-plane as glTF buffer data: positions, uvs, indices.
+fn quad_buffer() -> Vec<u8> {
+    let mut bin = f32_bytes(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0]);
+    bin.extend(f32_bytes(&[0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0]));
+    bin.extend([0u16, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes()));
+    bin
+}
+
+/// A glTF document with two nodes sharing the quad: an opaque textured one and a glass one
+/// translated by (0, 0, 2) with transmission, IOR and (optionally) volume.
+fn quad_gltf(buffer_uri: Option<&str>, volume: bool) -> serde_json::Value {
+    let mut glass_ext = json!({
+        "KHR_materials_transmission": {"transmissionFactor": 1.0},
+        "KHR_materials_ior": {"ior": 1.33},
+    });
+    if volume {
+        glass_ext["KHR_materials_volume"] = json!({"thicknessFactor": 0.5});
+    }
+    let mut buffer = json!({"byteLength": quad_buffer().len()});
+    if let Some(uri) = buffer_uri {
+        buffer["uri"] = json!(uri);
+    }
+    json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume", "KHR_materials_emissive_strength"],
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1]}],
+        "nodes": [
+            {"name": "wall", "mesh": 0},
+            {"name": "glass", "mesh": 1, "translation": [0.0, 0.0, 2.0]},
+        ],
+        "meshes": [
+            {"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0}]},
+            {"primitives": [{"attributes": {"POSITION": 0}, "indices": 2, "material": 1}]},
+        ],
+        "materials": [
+            {"name": "poster", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "roughnessFactor": 0.7, "metallicFactor": 0.0},
+             "emissiveFactor": [1.0, 0.5, 0.0], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}}},
+            {"name": "glass", "pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.95, 1.0, 1.0], "roughnessFactor": 0.0, "metallicFactor": 0.0},
+             "extensions": glass_ext},
+        ],
+        "textures": [{"source": 0}],
+        "images": [{"uri": "poster.png"}],
+        "buffers": [buffer],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 48},
+            {"buffer": 0, "byteOffset": 48, "byteLength": 32},
+            {"buffer": 0, "byteOffset": 80, "byteLength": 12},
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0]},
+            {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"},
+            {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"},
+        ],
+    })
+}
+
+/// A 2x1 PNG: left texel sRGB 188 (linear ~0.5), right texel pure red.
+fn write_poster(dir: &Path) {
+    let img = image::RgbaImage::from_raw(2, 1, vec![188, 188, 188, 255, 255, 0, 0, 255]).unwrap();
+    img.save(dir.join("poster.png")).unwrap();
+}
+
+fn write_quad_gltf(dir: &Path, volume: bool) -> PathBuf {
+    write_poster(dir);
+    write(&dir.join("quad.bin"), quad_buffer());
+    let path = dir.join("quad.gltf");
+    write(&path, serde_json::to_vec(&quad_gltf(Some("quad.bin"), volume)).unwrap());
+    path
+}
+
+#[test]
+fn gltf_with_transmission_and_texture() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_quad_gltf(dir.path(), false);
+    let scene = load_scene(path.to_str().unwrap()).unwrap();
+    assert_eq!(scene.objects.len(), 2);
+    assert_eq!(scene.triangle_count(), 4);
+    let wall = &scene.objects[scene.object_index("wall").unwrap()];
+    let glass = &scene.objects[scene.object_index("glass").unwrap()];
+    assert!(!wall.transparent && glass.transparent);
+    assert_eq!(scene.transparent_objects(), vec![scene.object_index("glass").unwrap()]);
+    // Node translation is applied.
+    assert_eq!(scene.world_mesh(scene.object_index("glass").unwrap()).positions[2], Vec3::new(1.0, 1.0, 2.0));
+
+    let poster = &scene.materials[wall.material];
+    assert_eq!(poster.roughness, 0.7);
+    assert_eq!(poster.emission, Vec3::new(4.0, 2.0, 0.0));
+    let tex = &scene.textures[poster.base_color_texture.unwrap()];
+    assert_eq!((tex.width, tex.height), (2, 1));
+    // sRGB 188/255 decodes to linear 0.5029 (IEC 61966-2-1).
+    assert!((tex.texels[0].x - 0.5029).abs() < 1e-3, "{}", tex.texels[0].x);
+    assert_eq!(tex.texels[1], Vec4::new(1.0, 0.0, 0.0, 1.0));
+
+    let m = &scene.materials[glass.material];
+    let t = m.transmission.unwrap();
+    assert_eq!((t.weight, t.ior, t.thin), (1.0, 1.33, true));
+    assert_eq!(m.dielectric_kind(), Some(DielectricKind::Thin));
+    assert_eq!(m.base_color, Vec3::new(0.9, 0.95, 1.0));
+    // Missing normals are computed from the faces: the quad faces +z.
+    assert!(scene.meshes[glass.mesh].normals.iter().all(|&n| (n - Vec3::Z).length() < 1e-6));
+}
+
+#[test]
+fn gltf_volume_makes_a_solid_dielectric() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_quad_gltf(dir.path(), true);
+    let scene = load_scene(path.to_str().unwrap()).unwrap();
+    let glass = &scene.materials[scene.objects[scene.object_index("glass").unwrap()].material];
+    assert_eq!(glass.dielectric_kind(), Some(DielectricKind::Smooth));
+}
+
+#[test]
+fn glb_binary_container_loads() {
+    let dir = tempfile::tempdir().unwrap();
+    write_poster(dir.path());
+    let mut json = serde_json::to_vec(&quad_gltf(None, false)).unwrap();
+    while json.len() % 4 != 0 {
+        json.push(b' ');
+    }
+    let mut bin = quad_buffer();
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut glb = Vec::new();
+    glb.extend(b"glTF");
+    glb.extend(2u32.to_le_bytes());
+    glb.extend((total as u32).to_le_bytes());
+    glb.extend((json.len() as u32).to_le_bytes());
+    glb.extend(b"JSON");
+    glb.extend(&json);
+    glb.extend((bin.len() as u32).to_le_bytes());
+    glb.extend(b"BIN\0");
+    glb.extend(&bin);
+    let path = dir.path().join("quad.glb");
+    write(&path, glb);
+    let scene = load_scene(path.to_str().unwrap()).unwrap();
+    assert_eq!(scene.objects.len(), 2);
+    assert_eq!(scene.transparent_count(), 1);
+}
+
+const OBJ: &str = "mtllib scene.mtl
+v 0 0 0
+v 1 0 0
+v 1 1 0
+v 0 1 0
+v 2 2 2
+vt 0 0
+vt 1 0
+vt 1 1
+vt 0 1
+o floor
+usemtl wood
+f 1/1 2/2 3/3 4/4
+o lens
+usemtl glass
+f 1 2 3
+o sliver
+usemtl lamp
+f 1 2 1
+f 1 2 5
+";
+
+const MTL: &str = "newmtl wood
+Kd 1 1 1
+Ns 10
+map_Kd poster.png
+newmtl glass
+Kd 0 0 0
+Tf 0.8 0.9 1.0
+Ni 1.45
+Ns 1000
+illum 7
+newmtl lamp
+Kd 0 0 0
+Ke 5 5 4
+";
+
+#[test]
+fn obj_with_mtl_glass_texture_and_emission() {
+    let dir = tempfile::tempdir().unwrap();
+    write_poster(dir.path());
+    write(&dir.path().join("scene.mtl"), MTL);
+    let path = dir.path().join("scene.obj");
+    write(&path, OBJ);
+    let scene = load_scene(path.to_str().unwrap()).unwrap();
+    assert_eq!(scene.objects.len(), 3);
+    let floor = &scene.objects[scene.object_index("floor").unwrap()];
+    assert_eq!(scene.meshes[floor.mesh].triangle_count(), 2, "the quad face is triangulated");
+    // OBJ v runs bottom-up; the model's v is top-down.
+    let uvs = &scene.meshes[floor.mesh].uvs;
+    assert!(uvs.contains(&glam::Vec2::new(0.0, 1.0)) && uvs.contains(&glam::Vec2::new(1.0, 0.0)));
+    let wood = &scene.materials[floor.material];
+    assert!(wood.base_color_texture.is_some());
+    // Ns 10 -> alpha = sqrt(2/12); glTF roughness = sqrt(alpha).
+    assert!((wood.roughness - (2.0f32 / 12.0).sqrt().sqrt()).abs() < 1e-6);
+    let lens = &scene.objects[scene.object_index("lens").unwrap()];
+    assert!(lens.transparent);
+    let glass = &scene.materials[lens.material];
+    assert_eq!(glass.transmission.unwrap().ior, 1.45);
+    assert_eq!(glass.base_color, Vec3::new(0.8, 0.9, 1.0));
+    assert_eq!(glass.dielectric_kind(), Some(DielectricKind::Smooth));
+    let sliver = &scene.objects[scene.object_index("sliver").unwrap()];
+    assert_eq!(scene.materials[sliver.material].emission, Vec3::new(5.0, 5.0, 4.0));
+    // The zero-area triangle `1 2 1` is dropped with a warning.
+    assert_eq!(scene.meshes[sliver.mesh].triangle_count(), 1);
+    assert!(scene.warnings().iter().any(|w| w.contains("degenerate")), "{:?}", scene.warnings());
+    assert_eq!(scene.light_count(), 1);
+}
+
+fn manifest_text(geometry: &str, variables: &str) -> String {
+    format!(
+        r#"
+name = "quads"
+geometry = "{geometry}"
+background = [0.1, 0.1, 0.1]
+
+[camera]
+target = [0.5, 0.5, 0.0]
+fov_x_deg = [40.0, 50.0]
+near = 0.1
+far = 50.0
+position = {{ kind = "orbit", center = [0.5, 0.5, 0.0], radius = [3.0, 4.0], azimuth_deg = [-20.0, 20.0], elevation_deg = 10.0 }}
+
+[[lights]]
+name = "key"
+corner = [0.0, 3.0, 0.0]
+edge_u = [1.0, 0.0, 0.0]
+edge_v = [0.0, 0.0, 1.0]
+radiance = [10.0, 10.0, 10.0]
+
+{variables}
+"#
+    )
+}
+
+const ALL_VARIABLES: &str = r#"
+[[variables]]
+name = "glass_x"
+range = [-1.0, 1.0]
+target = { kind = "translation", object = "glass", axis = [1.0, 0.0, 0.0] }
+
+[[variables]]
+name = "glass_rough"
+range = [0.0, 0.5]
+default = 0.25
+target = { kind = "roughness", material = "glass" }
+
+[[variables]]
+name = "glass_hue"
+range = [0.0, 360.0]
+target = { kind = "hue", material = "glass", saturation = 1.0, brightness = 1.0 }
+
+[[variables]]
+name = "key_y"
+range = [-0.5, 0.5]
+target = { kind = "light_translation", light = "key", axis = [0.0, 1.0, 0.0] }
+
+[[variables]]
+name = "key_power"
+range = [0.5, 2.0]
+target = { kind = "light_intensity", light = "key" }
+
+[[variables]]
+name = "glow"
+range = [0.0, 2.0]
+target = { kind = "emission_intensity", material = "poster" }
+"#;
+
+fn write_manifest(dir: &Path, variables: &str) -> PathBuf {
+    write_quad_gltf(dir, false);
+    let path = dir.join("manifest.toml");
+    write(&path, manifest_text("quad.gltf", variables));
+    path
+}
+
+#[test]
+fn manifest_declares_camera_lights_and_variables() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_manifest(dir.path(), ALL_VARIABLES);
+    let scene = load_scene(path.to_str().unwrap()).unwrap();
+    assert_eq!(scene.name, "quads");
+    assert_eq!(scene.background, Vec3::splat(0.1));
+    assert_eq!(scene.rect_lights.len(), 1);
+    assert_eq!(scene.variables.len(), 6);
+    assert_eq!(scene.variables[0].default, 0.0, "default is the middle of the range");
+    assert_eq!(scene.variables[1].default, 0.25);
+    for i in 0..50 {
+        let s = scene.sample(3, i);
+        let d = s.camera.position - Vec3::new(0.5, 0.5, 0.0);
+        assert!((3.0..=4.0001).contains(&d.length()), "{}", d.length());
+        assert!((40.0..=50.0).contains(&s.camera.fov_x_deg));
+        for (v, value) in scene.variables.iter().zip(&s.values) {
+            assert!((v.min..=v.max).contains(value));
+        }
+    }
+}
+
+#[test]
+fn variable_application_is_exact_and_leaves_the_base_scene_untouched() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load_scene(write_manifest(dir.path(), ALL_VARIABLES).to_str().unwrap()).unwrap();
+    let glass = scene.object_index("glass").unwrap();
+    let glass_material = scene.objects[glass].material;
+    let poster = scene.material_index("poster").unwrap();
+    let values = [0.5, 0.3, 120.0, -0.25, 2.0, 0.5];
+    let inst = scene.instantiate(&values).unwrap();
+    assert_eq!(inst.world_mesh(glass).positions[0], Vec3::new(0.5, 0.0, 2.0));
+    assert_eq!(inst.materials[glass_material].roughness, 0.3);
+    // Hue 120 at full saturation and value is pure green.
+    assert!((inst.materials[glass_material].base_color - Vec3::new(0.0, 1.0, 0.0)).length() < 1e-6);
+    assert_eq!(inst.rect_lights[0].corner, Vec3::new(0.0, 2.75, 0.0));
+    assert_eq!(inst.rect_lights[0].radiance, Vec3::splat(20.0));
+    assert_eq!(inst.materials[poster].emission, Vec3::new(2.0, 1.0, 0.0));
+    // The base scene is unchanged and instancing is deterministic.
+    assert_eq!(scene.world_mesh(glass).positions[0], Vec3::new(0.0, 0.0, 2.0));
+    assert_eq!(scene.rect_lights[0].radiance, Vec3::splat(10.0));
+    let again = scene.instantiate(&values).unwrap();
+    assert_eq!(again.content_hash(), inst.content_hash());
+    assert_ne!(scene.content_hash(), inst.content_hash());
+    // Applying twice from the base does not accumulate.
+    let twice = inst.instantiate(&scene.default_values()).unwrap();
+    assert_eq!(twice.world_mesh(glass).positions[0].x, 0.5, "instantiate applies to its receiver's base");
+    assert!(scene.instantiate(&values[..2]).is_err());
+    assert!(scene.instantiate(&[f32::NAN, 0.3, 120.0, 0.0, 1.0, 1.0]).is_err());
+}
+
+#[test]
+fn set_assignments_are_checked() {
+    let scene = builtin("cornellbox").unwrap();
+    let v = scene.values_from_assignments(&["sphere_x=0.2".into(), "light_intensity = 1.5".into()]).unwrap();
+    assert_eq!(v, vec![0.2, 0.0, 0.0, 1.5]);
+    for bad in ["sphere_x", "nope=1", "sphere_x=abc", "sphere_x=9"] {
+        assert!(matches!(scene.values_from_assignments(&[bad.into()]), Err(Error::BadInput { .. })), "{bad}");
+    }
+}
+
+#[test]
+fn sampling_is_reproducible_per_index() {
+    for name in BUILTIN_NAMES {
+        let scene = builtin(name).unwrap();
+        let forward: Vec<_> = (0..20).map(|i| scene.sample(42, i)).collect();
+        // Any sample regenerated alone, in any order, is identical.
+        for i in (0..20).rev() {
+            assert_eq!(scene.sample(42, i), forward[i as usize]);
+        }
+        assert_ne!(scene.sample(43, 0).camera, forward[0].camera);
+        assert_ne!(forward[0].camera, forward[1].camera);
+        // Uniform in range: the mean of many fov draws is near the middle of the range.
+        let n = 2000;
+        let mean: f32 = (0..n).map(|i| scene.sample(7, i).camera.fov_x_deg).sum::<f32>() / n as f32;
+        let fov = scene.camera.fov_x_deg;
+        assert!((mean - fov.mid()).abs() < 0.05 * (fov.max - fov.min), "{name}: {mean}");
+    }
+}
+
+fn expect_bad_input(result: glassbake_core::Result<glassbake_scene::Scene>, file_part: &str, field_part: &str) {
+    match result {
+        Err(Error::BadInput { file, field, message }) => {
+            assert!(file.contains(file_part), "file {file:?} should name {file_part:?}");
+            assert!(field.contains(field_part), "field {field:?} should contain {field_part:?} ({message})");
+            assert!(!message.contains('\n') && !field.contains('\n'));
+        }
+        Err(other) => panic!("expected BadInput, got {other}"),
+        Ok(_) => panic!("expected an error"),
+    }
+}
+
+#[test]
+fn bad_inputs_name_the_file_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    expect_bad_input(load_scene(d.join("missing.toml").to_str().unwrap()), "missing.toml", "file");
+    expect_bad_input(load_scene("cornelbox"), "cornelbox", "scene");
+    expect_bad_input(load_scene(d.join("scene.fbx").to_str().unwrap()), "scene.fbx", "scene");
+
+    write_quad_gltf(d, false);
+    let manifest = d.join("m.toml");
+    let cases: &[(&str, &str)] = &[
+        ("geometry = \"quad.gltf\"\n[camera\n", "line"),
+        ("geometry = \"quad.gltf\"\nbogus = 1\n", "line 2"),
+        ("geometry = \"nothere.gltf\"\n", "geometry"),
+        (
+            "geometry = \"quad.gltf\"\n[[variables]]\nname = \"r\"\nrange = [0.0, 1.0]\ntarget = { kind = \"roughness\", material = \"steel\" }\n",
+            "variables[0] (r).target.material",
+        ),
+        (
+            "geometry = \"quad.gltf\"\n[[variables]]\nname = \"x\"\nrange = [0.0, 1.0]\ntarget = { kind = \"translation\", object = \"ghost\", axis = [1.0, 0.0, 0.0] }\n",
+            "variables[0] (x).target.object",
+        ),
+        (
+            "geometry = \"quad.gltf\"\n[[variables]]\nname = \"x\"\nrange = [1.0, 1.0]\ntarget = { kind = \"translation\", object = \"glass\", axis = [1.0, 0.0, 0.0] }\n",
+            "variables[0] (x).range",
+        ),
+        (
+            "geometry = \"quad.gltf\"\n[[variables]]\nname = \"x\"\nrange = [1.0, -1.0]\ntarget = { kind = \"translation\", object = \"glass\", axis = [1.0, 0.0, 0.0] }\n",
+            "variables[0] (x).range",
+        ),
+        (
+            "geometry = \"quad.gltf\"\n[[variables]]\nname = \"x\"\nrange = []\ntarget = { kind = \"translation\", object = \"glass\", axis = [1.0, 0.0, 0.0] }\n",
+            "variables[0] (x).range",
+        ),
+        (
+            "geometry = \"quad.gltf\"\n[camera]\ntarget = [0.0, 0.0, 0.0]\nfov_x_deg = [50.0, 40.0]\nposition = { kind = \"box\", min = [0.0, 0.0, 1.0], max = [0.0, 0.0, 2.0] }\n",
+            "camera.fov_x_deg",
+        ),
+        (
+            "geometry = \"quad.gltf\"\n[[variables]]\nname = \"l\"\nrange = [0.0, 1.0]\ntarget = { kind = \"light_intensity\", light = \"sun\" }\n",
+            "target.light",
+        ),
+    ];
+    for (text, field) in cases {
+        write(&manifest, text);
+        expect_bad_input(load_scene(manifest.to_str().unwrap()), "m.toml", field);
+    }
+
+    let broken = d.join("broken.gltf");
+    write(&broken, "{ \"asset\": { \"version\": \"2.0\" }, \"nodes\": [ { \"mesh\": 7 } ] ");
+    expect_bad_input(load_scene(broken.to_str().unwrap()), "broken.gltf", "glTF");
+
+    for bad in ["nan", "inf"] {
+        let obj = d.join(format!("{bad}.obj"));
+        write(&obj, format!("v 0 0 0\nv 1 0 0\nv 0 {bad} 0\nf 1 2 3\n"));
+        expect_bad_input(load_scene(obj.to_str().unwrap()), &format!("{bad}.obj"), "vertex 2 position");
+    }
+}
+
+#[test]
+fn a_scene_without_glass_is_valid_but_warned() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("plain.obj");
+    write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    let scene = load_scene(obj.to_str().unwrap()).unwrap();
+    assert_eq!(scene.transparent_count(), 0);
+    let warnings = scene.warnings();
+    assert!(warnings.iter().any(|w| w.contains("no transparent object")), "{warnings:?}");
+    assert!(warnings.iter().any(|w| w.contains("no light")), "{warnings:?}");
+}
+
+#[test]
+fn export_round_trips_every_builtin() {
+    for name in BUILTIN_NAMES {
+        let original = builtin(name).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        glassbake_scene::export::export_scene(&original, dir.path()).unwrap();
+        let loaded = load_scene(dir.path().join("manifest.toml").to_str().unwrap()).unwrap();
+        assert_eq!(loaded.name, original.name);
+        assert_eq!(loaded.objects.len(), original.objects.len(), "{name}");
+        assert_eq!(loaded.transparent_count(), original.transparent_count(), "{name}");
+        assert_eq!(loaded.triangle_count(), original.triangle_count(), "{name}");
+        assert_eq!(loaded.variables, original.variables, "{name}");
+        assert_eq!(loaded.rect_lights, original.rect_lights, "{name}");
+        assert_eq!(loaded.background, original.background, "{name}");
+        for (a, b) in loaded.objects.iter().zip(&original.objects) {
+            assert_eq!(a.name, b.name);
+            assert_eq!(a.transparent, b.transparent);
+            assert_eq!(a.transform, b.transform, "{name}/{}", a.name);
+            assert_eq!(loaded.meshes[a.mesh].positions, original.meshes[b.mesh].positions);
+            let (ma, mb) = (&loaded.materials[a.material], &original.materials[b.material]);
+            assert_eq!((ma.roughness, ma.metallic, ma.transmission), (mb.roughness, mb.metallic, mb.transmission));
+            assert!((ma.emission - mb.emission).length() < 1e-5);
+        }
+        // Same ranges, so the same samples.
+        for i in 0..5 {
+            assert_eq!(loaded.sample(9, i), original.sample(9, i), "{name}");
+        }
+    }
+}
+
+#[test]
+fn mitsuba_export_writes_every_shape_and_the_camera() {
+    let scene = builtin("cornell-glass").unwrap();
+    let sample = scene.sample(0, 3);
+    let instance = scene.instantiate(&sample.values).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("scene.xml");
+    glassbake_scene::mitsuba::write_mitsuba(&instance, &sample.camera, &out).unwrap();
+    let xml = std::fs::read_to_string(&out).unwrap();
+    assert_eq!(xml.matches("<shape type=\"ply\"").count(), scene.objects.len());
+    assert_eq!(xml.matches("<shape type=\"rectangle\"").count(), scene.rect_lights.len());
+    assert!(xml.contains("thindielectric"));
+    assert!(xml.contains(&format!("<float name=\"fov\" value=\"{}\"/>", sample.camera.fov_x_deg)));
+    // Each PLY holds exactly its header plus 8 floats per vertex and 13 bytes per triangle.
+    for (i, o) in scene.objects.iter().enumerate() {
+        let bytes = std::fs::read(dir.path().join(format!("meshes/{i:03}.ply"))).unwrap();
+        let header_end = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+        let mesh = &scene.meshes[o.mesh];
+        assert_eq!(bytes.len() - header_end, mesh.vertex_count() * 32 + mesh.triangle_count() * 13);
+    }
+    // The pane moved by its variable is baked into its world-space mesh.
+    let pane = scene.object_index("pane").unwrap();
+    let bytes = std::fs::read(dir.path().join(format!("meshes/{pane:03}.ply"))).unwrap();
+    let header_end = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+    let x = f32::from_le_bytes(bytes[header_end..header_end + 4].try_into().unwrap());
+    assert_eq!(x, instance.world_mesh(pane).positions[0].x);
+}
