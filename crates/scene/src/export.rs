@@ -256,6 +256,17 @@ pub fn manifest_of(scene: &Scene, geometry: &str) -> Manifest {
     }
 }
 
+/// Replace every float by the shortest decimal that reads back as the same f32 (the model is
+/// f32; printed as f64, 0.08 would read 0.07999999821186066).
+fn shortest_floats(value: &mut toml::Value) {
+    match value {
+        toml::Value::Float(f) => *f = (*f as f32).to_string().parse().unwrap_or(*f),
+        toml::Value::Array(items) => items.iter_mut().for_each(shortest_floats),
+        toml::Value::Table(table) => table.iter_mut().for_each(|(_, v)| shortest_floats(v)),
+        _ => {}
+    }
+}
+
 /// Write `dir/manifest.toml`, `dir/scene.gltf`, `dir/scene.bin` and one PNG per texture.
 /// The manifest is written last, so an interrupted export never leaves a loadable but
 /// incomplete scene.
@@ -269,7 +280,9 @@ pub fn export_scene(scene: &Scene, dir: &Path) -> Result<()> {
     let json = serde_json::to_vec_pretty(&doc).map_err(|e| Error::Internal(e.to_string()))?;
     write_bytes_atomically(&dir.join(GLTF_FILE), &json)?;
     let manifest = manifest_of(scene, GLTF_FILE);
-    let text = toml::to_string(&manifest).map_err(|e| Error::Internal(format!("serialising manifest: {e}")))?;
+    let mut value = toml::Value::try_from(&manifest).map_err(|e| Error::Internal(format!("serialising manifest: {e}")))?;
+    shortest_floats(&mut value);
+    let text = toml::to_string(&value).map_err(|e| Error::Internal(format!("serialising manifest: {e}")))?;
     let text = format!("# glassbake scene manifest; geometry and materials are in {GLTF_FILE}.\n{text}");
     write_atomically(&dir.join("manifest.toml"), |tmp| std::fs::write(tmp, &text).map_err(|e| Error::io(tmp, e)))
 }
