@@ -600,6 +600,20 @@ pub fn validate(scene: &Scene, file: &str) -> Result<()> {
     check_unique(file, "variables", scene.variables.iter().map(|v| v.name.as_str()))?;
     let c = &scene.camera;
     check_finite(file, "camera".into(), &[c.target.to_array(), c.up.to_array(), c.target_jitter.to_array()].concat())?;
+    match c.position {
+        CameraPosition::Box { min, max } => check_finite(file, "camera.position".into(), &[min.to_array(), max.to_array()].concat())?,
+        CameraPosition::Orbit { center, radius, azimuth_deg, elevation_deg } => {
+            let values = [center.x, center.y, center.z, radius.min, radius.max, azimuth_deg.min, azimuth_deg.max, elevation_deg.min, elevation_deg.max];
+            check_finite(file, "camera.position".into(), &values)?;
+            if radius.min < 0.0 {
+                return Err(Error::bad_input(file, "camera.position.radius", "must not be negative"));
+            }
+        }
+    }
+    if c.up.cross(c.target - c.position.middle()).length_squared() == 0.0 {
+        return Err(Error::bad_input(file, "camera.up", "must not be parallel to the view direction"));
+    }
+    check_finite(file, "camera.fov_x_deg".into(), &[c.fov_x_deg.min, c.fov_x_deg.max, c.near, c.far])?;
     if !(c.fov_x_deg.min > 0.0 && c.fov_x_deg.max < 180.0) {
         return Err(Error::bad_input(file, "camera.fov_x_deg", "must lie in (0, 180) degrees"));
     }
