@@ -29,7 +29,7 @@ struct BinaryBuffer {
 
 impl BinaryBuffer {
     fn push_view(&mut self, data: &[u8], target: u32) -> usize {
-        while self.bytes.len() % 4 != 0 {
+        while !self.bytes.len().is_multiple_of(4) {
             self.bytes.push(0);
         }
         self.views.push(json!({"buffer": 0, "byteOffset": self.bytes.len(), "byteLength": data.len(), "target": target}));

@@ -585,7 +585,7 @@ pub fn validate(scene: &Scene, file: &str) -> Result<()> {
             return Err(Error::bad_input(file, field, "roughness and metallic must lie in [0, 1]"));
         }
         if let Some(t) = m.transmission {
-            if !(t.ior.is_finite() && t.ior > 0.0) || !(0.0..=1.0).contains(&t.weight) {
+            if !(t.ior.is_finite() && t.ior > 0.0 && (0.0..=1.0).contains(&t.weight)) {
                 return Err(Error::bad_input(file, field, "transmission needs ior > 0 and a weight in [0, 1]"));
             }
         }
@@ -621,7 +621,8 @@ pub fn validate(scene: &Scene, file: &str) -> Result<()> {
         return Err(Error::bad_input(file, "camera.near/far", "need 0 < near < far"));
     }
     for v in &scene.variables {
-        if !(v.min < v.max) || !v.min.is_finite() || !v.max.is_finite() {
+        let ordered = v.min < v.max;
+        if !ordered || !v.min.is_finite() || !v.max.is_finite() {
             return Err(Error::bad_input(file, format!("variable {:?}", v.name), "range must be finite with min < max"));
         }
     }

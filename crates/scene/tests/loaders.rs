@@ -133,11 +133,11 @@ fn glb_binary_container_loads() {
     let dir = tempfile::tempdir().unwrap();
     write_poster(dir.path());
     let mut json = serde_json::to_vec(&quad_gltf(None, false)).unwrap();
-    while json.len() % 4 != 0 {
+    while !json.len().is_multiple_of(4) {
         json.push(b' ');
     }
     let mut bin = quad_buffer();
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let total = 12 + 8 + json.len() + 8 + bin.len();
