@@ -117,6 +117,25 @@ impl PlanarImage {
         PlanarImage::from_planes(self.width, self.height, names.to_vec(), data)
     }
 
+    /// The `width` x `height` window whose top-left pixel is (x, y), all channels.
+    pub fn crop(&self, x: u32, y: u32, width: u32, height: u32) -> Result<Self> {
+        if x + width > self.width || y + height > self.height {
+            return Err(Error::Internal(format!(
+                "crop {width}x{height}+{x}+{y} outside a {}x{} image",
+                self.width, self.height
+            )));
+        }
+        let mut data = Vec::with_capacity(width as usize * height as usize * self.channels.len());
+        for c in 0..self.channels.len() {
+            let plane = self.plane(c);
+            for row in y..y + height {
+                let start = (row * self.width + x) as usize;
+                data.extend_from_slice(&plane[start..start + width as usize]);
+            }
+        }
+        PlanarImage::from_planes(width, height, self.channels.clone(), data)
+    }
+
     /// Write all channels to an EXR file, atomically (temp file + rename).
     pub fn write_exr(&self, path: &Path, precision: ExrPrecision) -> Result<()> {
         use exr::prelude::*;
@@ -283,6 +302,20 @@ mod tests {
         let bad = dir.path().join("bad.exr");
         std::fs::write(&bad, b"not an exr").unwrap();
         assert!(PlanarImage::read_exr(&bad).is_err());
+    }
+
+    #[test]
+    fn crop_takes_the_window() {
+        let im = gradient();
+        let c = im.crop(1, 1, 3, 2).unwrap();
+        assert_eq!((c.width(), c.height()), (3, 2));
+        for y in 0..2 {
+            for x in 0..3 {
+                assert_eq!(c.get(0, x, y), im.get(0, x + 1, y + 1));
+                assert_eq!(c.get(1, x, y), im.get(1, x + 1, y + 1));
+            }
+        }
+        assert!(im.crop(3, 0, 3, 1).is_err());
     }
 
     #[test]
