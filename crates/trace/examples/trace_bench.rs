@@ -1,0 +1,44 @@
+//! Path-tracing throughput on the built-in scenes: samples (camera paths) per second with
+//! one thread and with all threads, printed as a Markdown table.
+//!
+//! cargo run --release -p glassbake-trace --example trace_bench -- [--res 128] [--spp 32]
+//!
+//! Each scene is rendered as sample 0 of seed 0 (the camera and variable values the dataset
+//! would use). The time includes the BVH build, as a dataset render's would.
+
+use glassbake_scene::builtin::builtin;
+use glassbake_trace::{render, TraceSettings};
+
+fn main() {
+    let mut res = 128u32;
+    let mut spp = 32u32;
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut i = 0;
+    while i < args.len() {
+        let value = args.get(i + 1).and_then(|v| v.parse::<u32>().ok());
+        match (args[i].as_str(), value) {
+            ("--res", Some(v)) => res = v,
+            ("--spp", Some(v)) => spp = v,
+            _ => {
+                eprintln!("usage: trace_bench [--res N] [--spp N]");
+                std::process::exit(2);
+            }
+        }
+        i += 2;
+    }
+    let all_threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    println!("{res}x{res}, {spp} spp, sample 0 of seed 0; samples/s (camera paths per second)\n");
+    println!("| scene | triangles | 1 thread | {all_threads} threads |");
+    println!("|---|---|---|---|");
+    for name in ["cornell-glass", "cornellbox", "cornellbox8", "desk", "bathroom"] {
+        let scene = builtin(name).expect("built-in scene");
+        let sample = scene.sample(0, 0);
+        let instance = scene.instantiate(&sample.values).expect("sampled values are in range");
+        let rate = |threads: usize| {
+            let settings = TraceSettings { threads: Some(threads), ..TraceSettings::new(res, res, spp, 1) };
+            render(&instance, &sample.camera, &settings, None).expect("render").samples_per_second()
+        };
+        let (one, all) = (rate(1), rate(all_threads));
+        println!("| {name} | {} | {one:.0} | {all:.0} |", instance.triangle_count());
+    }
+}
