@@ -88,8 +88,6 @@ pub struct SceneGeometry {
     bvh: Option<CwBvh>,
     hot: Vec<HotTriangle>,
     pub attributes: Vec<TriangleAttributes>,
-    /// Whether any triangle may let shadow rays through.
-    pub has_pass_through: bool,
 }
 
 fn to_bvh(v: Vec3) -> BvhVec3 {
@@ -150,9 +148,8 @@ impl SceneGeometry {
             }
         }
 
-        let has_pass_through = attributes.iter().any(|a| a.may_pass_through);
         if attributes.is_empty() {
-            return SceneGeometry { bvh: None, hot: Vec::new(), attributes, has_pass_through };
+            return SceneGeometry { bvh: None, hot: Vec::new(), attributes };
         }
         let bvh_triangles: Vec<BvhTriangle> = attributes
             .iter()
@@ -167,7 +164,7 @@ impl SceneGeometry {
                 HotTriangle { v0: p[0], edge1: p[1] - p[0], edge2: p[2] - p[0], index: i }
             })
             .collect();
-        SceneGeometry { bvh: Some(bvh), hot, attributes, has_pass_through }
+        SceneGeometry { bvh: Some(bvh), hot, attributes }
     }
 
     pub fn triangle_count(&self) -> usize {
@@ -196,37 +193,24 @@ impl SceneGeometry {
         best.map(|(t, b1, b2, triangle)| Hit { t, triangle, b1, b2 })
     }
 
-    /// Whether anything that cannot let light through lies on the segment (t_min, t_max).
-    /// Triangles that may pass light through are ignored here; see [`Self::pass_through_hits`].
-    pub fn blocked_by_opaque(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> bool {
+    /// One traversal for a shadow segment (t_min, t_max): returns whether anything that
+    /// cannot let light through lies on it, and (when nothing does) leaves in `panes` every
+    /// hit with a triangle that may pass light through, in BVH traversal order
+    /// (deterministic for a given scene).
+    pub fn shadow_query(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32, panes: &mut Vec<Hit>) -> bool {
+        panes.clear();
         let Some(bvh) = self.bvh.as_ref() else { return false };
         let hot = &self.hot;
         let attributes = &self.attributes;
         !bvh.ray_traverse_miss(bvh_ray(origin, direction, t_min, t_max), |_, id| {
             let tri = &hot[id];
+            let Some((t, b1, b2)) = tri.intersect(origin, direction, t_min, t_max) else { return f32::INFINITY };
             if attributes[tri.index as usize].may_pass_through {
+                panes.push(Hit { t, triangle: tri.index, b1, b2 });
                 return f32::INFINITY;
             }
-            tri.intersect(origin, direction, t_min, t_max).map_or(f32::INFINITY, |h| h.0)
+            t
         })
-    }
-
-    /// All hits with pass-through candidates on the segment (t_min, t_max), in BVH
-    /// traversal order (deterministic for a given scene).
-    pub fn pass_through_hits(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32, out: &mut Vec<Hit>) {
-        out.clear();
-        let Some(bvh) = self.bvh.as_ref() else { return };
-        let hot = &self.hot;
-        let attributes = &self.attributes;
-        bvh.ray_traverse_anyhit(bvh_ray(origin, direction, t_min, t_max), |_, id| {
-            let tri = &hot[id];
-            if !attributes[tri.index as usize].may_pass_through {
-                return;
-            }
-            if let Some((t, b1, b2)) = tri.intersect(origin, direction, t_min, t_max) {
-                out.push(Hit { t, triangle: tri.index, b1, b2 });
-            }
-        });
     }
 }
 
@@ -264,14 +248,21 @@ mod tests {
                 (None, None) => {}
                 other => panic!("BVH and brute force disagree: {other:?}"),
             }
-            // Nothing lies before the closest hit; the closest hit blocks unless it is a pane.
+            // Nothing lies before the closest hit; the closest hit blocks unless it is a pane,
+            // and then the shadow query reports it.
+            let mut panes = Vec::new();
             if let Some((t, triangle)) = slow {
-                assert!(!geometry.blocked_by_opaque(origin, direction, 0.0, t * 0.999));
+                assert!(!geometry.shadow_query(origin, direction, 0.0, t * 0.999, &mut panes));
+                assert!(panes.is_empty());
                 let pane = geometry.attributes[triangle as usize].may_pass_through;
-                assert_eq!(geometry.blocked_by_opaque(origin, direction, 0.0, t * 1.001 + 1e-4), !pane || {
-                    // Behind a pane there may be an opaque triangle within the slack.
-                    geometry.blocked_by_opaque(origin, direction, t * 1.0001, t * 1.001 + 1e-4)
-                });
+                let blocked = geometry.shadow_query(origin, direction, 0.0, t * 1.0001, &mut panes);
+                if pane {
+                    assert!(blocked || panes.iter().any(|h| h.triangle == triangle));
+                } else {
+                    assert!(blocked);
+                }
+            } else {
+                assert!(!geometry.shadow_query(origin, direction, 0.0, 1e3, &mut panes) && panes.is_empty());
             }
         }
     }

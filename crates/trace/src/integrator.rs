@@ -19,7 +19,7 @@ pub struct PathSettings {
     /// Longest path, counted in segments as Mitsuba does: 1 = emitters seen directly,
     /// 2 = direct lighting, ... Straight crossings of smooth thin panes do not count.
     pub max_depth: u32,
-    /// Russian roulette starts once a path has this many segments.
+    /// Russian roulette applies to paths longer than this many segments.
     pub rr_depth: u32,
     pub material_model: MaterialModel,
 }
@@ -231,13 +231,12 @@ impl<'a> PreparedScene<'a> {
         settings: &PathSettings,
         scratch: &mut Vec<Hit>,
     ) -> Option<(Vec3, f32)> {
-        if t_max <= 0.0 || self.geometry.blocked_by_opaque(origin, direction, 0.0, t_max) {
+        if t_max <= 0.0 || self.geometry.shadow_query(origin, direction, 0.0, t_max, scratch) {
             return None;
         }
-        if !self.geometry.has_pass_through {
+        if scratch.is_empty() {
             return Some((Vec3::ONE, 1.0));
         }
-        self.geometry.pass_through_hits(origin, direction, 0.0, t_max, scratch);
         // Multiply in distance order so the result does not depend on traversal order.
         scratch.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.triangle.cmp(&b.triangle)));
         let mut transmittance = Vec3::ONE;
