@@ -142,17 +142,20 @@ impl<'a> PreparedScene<'a> {
                 }
             }
             let Owner::Object { material, .. } = hit.owner else { break };
-            if depth >= settings.max_depth {
-                break;
-            }
-
             let surface = self.surface_material(material, hit.uv);
             let bsdf = Bsdf::new(&surface, hit.shading_normal, settings.material_model);
+            // At the length limit a path may still cross smooth thin panes, which do not
+            // count as segments: shadow rays cross them too, and MIS assumes BSDF sampling
+            // can follow.
+            let at_depth_limit = depth >= settings.max_depth;
+            if at_depth_limit && bsdf.pass_through(wo).is_none() {
+                break;
+            }
             let ng = hit.geometric_normal;
             let wo_side = wo.dot(ng);
 
             // Next-event estimation.
-            if bsdf.has_non_delta() {
+            if !at_depth_limit && bsdf.has_non_delta() {
                 let u_select = rng.next_f32();
                 let u_light = rng.next_vec2();
                 if let Some(light) = self.lights.sample(hit.position, u_select, u_light) {
@@ -185,6 +188,9 @@ impl<'a> PreparedScene<'a> {
             let u_event = rng.next_f32();
             let u = rng.next_vec2();
             let Some(sample) = bsdf.sample(wo, u_lobe, u_event, u) else { break };
+            if at_depth_limit && !sample.pass_through {
+                break;
+            }
             let reflection = sample.wi.dot(ng) * wo_side > 0.0;
             if reflection == sample.transmitted {
                 // The shading normal claims a side the geometry contradicts.

@@ -346,3 +346,86 @@ fn builtin_scenes_render_finite_and_lit() {
         assert!(mean > 0.01 && mean.is_finite(), "{name}: mean {mean}");
     }
 }
+
+/// Direct light through a smooth thin pane: shadow rays cross it (attenuated by the slab's
+/// transmittance T'(theta) and the tint) and BSDF samples cross it too; MIS must weigh the
+/// two consistently for the sum to be unbiased. The exact answer integrates the plane's own
+/// BSDF times the light's radiance times T' over the light, by quadrature.
+#[test]
+fn direct_light_through_a_thin_pane_matches_quadrature() {
+    use glassbake_trace::microfacet::thin_slab_reflectance;
+    use glassbake_trace::{Bsdf, SurfaceMaterial};
+    let radiance = 3.0f32;
+    let tint = Vec3::new(0.9, 0.6, 0.3);
+    let mut scene = empty_scene("pane");
+    let plane_material = Material { roughness: 0.6, ..Material::diffuse("plane", Vec3::splat(0.5)) };
+    add_object(&mut scene, "plane", rect(Vec3::ZERO, Vec3::X * 20.0, Vec3::NEG_Z * 20.0, Vec2::ONE), plane_material.clone());
+    add_object(&mut scene, "pane", rect(Vec3::new(0.0, 0.8, 0.0), Vec3::X * 10.0, Vec3::NEG_Z * 10.0, Vec2::ONE), Material::glass("pane", tint, 0.0, 1.5, true));
+    let light = RectLight { name: "light".into(), corner: Vec3::new(-0.5, 1.5, -0.5), edge_u: Vec3::X, edge_v: Vec3::Z, radiance: Vec3::splat(radiance), two_sided: false };
+    scene.rect_lights.push(light.clone());
+    // Below the pane, so camera rays reach the plane directly.
+    let camera = Camera::look_at(Vec3::new(1.2, 0.6, 1.4), Vec3::new(0.0, 0.0, 0.0), 60.0);
+    let (w, h) = (16u32, 16u32);
+    // Direct light only: camera -> plane -> (pane crossings) -> light.
+    let settings = TraceSettings { max_depth: 2, ..TraceSettings::new(w, h, 4096, 6) };
+    let out = render(&scene, &camera, &settings, None).unwrap();
+    let surface = SurfaceMaterial { base_color: Vec3::splat(0.5), roughness: 0.6, metallic: 0.0, transmission: None };
+    let bsdf = Bsdf::new(&surface, Vec3::Y, MaterialModel::Gltf);
+    // The exact value of a box-filtered pixel: the average over a 4x4 grid of points in it,
+    // each integrated over a 32x32 grid on the light.
+    let n = 32;
+    let exact = |px: f32, py: f32| -> Option<Vec3> {
+        let ray = camera.ray(px, py, w, h);
+        let t = -ray.origin.y / ray.direction.y;
+        if t <= 0.0 {
+            return None;
+        }
+        let (p, wo) = (ray.at(t), -ray.direction);
+        let mut sum = Vec3::ZERO;
+        for i in 0..n {
+            for j in 0..n {
+                let q = light.corner + light.edge_u * ((i as f32 + 0.5) / n as f32) + light.edge_v * ((j as f32 + 0.5) / n as f32);
+                let d = q - p;
+                let distance2 = d.length_squared();
+                let wi = d / distance2.sqrt();
+                let pane_transmittance = tint * (1.0 - thin_slab_reflectance(wi.y, 1.5));
+                // cos at the plane (normal +y) times cos at the light (normal -y), dA = 1/n^2.
+                let geometry = wi.y * wi.y / distance2 / (n * n) as f32;
+                sum += bsdf.eval(wo, wi) * pane_transmittance * radiance * geometry;
+            }
+        }
+        Some(sum)
+    };
+    let (mut relative_sum, mut count, mut worst) = (0.0f64, 0, 0.0f64);
+    for y in (0..h).step_by(2) {
+        for x in (0..w).step_by(2) {
+            let mut expected = Vec3::ZERO;
+            let mut on_plane = true;
+            for sy in 0..4 {
+                for sx in 0..4 {
+                    match exact(x as f32 + (sx as f32 + 0.5) / 4.0, y as f32 + (sy as f32 + 0.5) / 4.0) {
+                        Some(v) => expected += v / 16.0,
+                        None => on_plane = false,
+                    }
+                }
+            }
+            // Near the horizon a pixel spans metres of floor; leave those out.
+            if !on_plane || expected.min_element() < 0.01 {
+                continue;
+            }
+            for channel in 0..3 {
+                let relative = out.image.get(channel, x, y) as f64 / expected[channel] as f64 - 1.0;
+                relative_sum += relative;
+                worst = worst.max(relative.abs());
+                count += 1;
+            }
+        }
+    }
+    let bias = relative_sum / count as f64;
+    eprintln!("thin pane: {count} pixel channels, mean relative error {bias:+.5}, worst {worst:.4}");
+    assert!(count > 100, "{count}");
+    // 4096 spp leave ~0.1% noise on the mean; a pass-through MIS that BSDF sampling cannot
+    // follow at the depth limit showed up here as -0.5%.
+    assert!(bias.abs() < 0.003, "mean relative error {bias}");
+    assert!(worst < 0.05, "worst pixel off by {worst}");
+}
