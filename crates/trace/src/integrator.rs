@@ -192,8 +192,11 @@ impl<'a> PreparedScene<'a> {
                 break;
             }
             let reflection = sample.wi.dot(ng) * wo_side > 0.0;
-            if reflection == sample.transmitted {
-                // The shading normal claims a side the geometry contradicts.
+            if reflection == sample.transmitted && !sample.delta {
+                // The shading normal claims a side the geometry contradicts: following the
+                // ray would leak light through the surface. (Delta events of glass keep
+                // going: the next hit reads the side from the geometry, so nothing leaks,
+                // and ending them would darken smooth glass by a fraction of a percent.)
                 break;
             }
             throughput *= sample.weight;
