@@ -22,4 +22,4 @@ mod bsdf_tests;
 
 pub use bsdf::{Bsdf, MaterialModel, SurfaceMaterial};
 pub use integrator::{PreparedScene, SurfaceHit};
-pub use render::{render, Progress, TraceOutput, TraceSettings};
+pub use render::{render, sample_trace_seed, Progress, TraceOutput, TraceSettings};

@@ -24,7 +24,7 @@ pub struct TraceSettings {
     pub height: u32,
     /// Samples per pixel.
     pub spp: u32,
-    /// The image seed; the dataset stage passes `purpose_seed(sample.seed, "trace")`.
+    /// The image seed; for dataset sample `s` it is [`sample_trace_seed`]`(s)`.
     pub seed: u64,
     /// Longest path in segments (Mitsuba's convention: 1 = emitters only, 2 = direct light).
     pub max_depth: u32,
@@ -87,6 +87,12 @@ impl TraceOutput {
     pub fn samples_per_second(&self) -> f64 {
         self.samples as f64 / self.elapsed.as_secs_f64().max(1e-9)
     }
+}
+
+/// The image seed of a dataset sample: `glassbake dataset` and `glassbake trace --sample`
+/// both use it, so the two render the same ground truth.
+pub fn sample_trace_seed(sample: &glassbake_scene::Sample) -> u64 {
+    glassbake_core::seed::purpose_seed(sample.seed, "trace")
 }
 
 /// Progress callback: (pixels done, pixels in all). Called from worker threads.

@@ -10,7 +10,7 @@ use glassbake_core::image::ExrPrecision;
 use glassbake_core::seed::purpose_seed;
 use glassbake_core::{Camera, Error};
 use glassbake_scene::load_scene;
-use glassbake_trace::{render, TraceSettings};
+use glassbake_trace::{render, sample_trace_seed, TraceSettings};
 use indicatif::{ProgressBar, ProgressStyle};
 
 #[derive(Args)]
@@ -76,7 +76,8 @@ pub fn run(args: TraceArgs) -> Result<()> {
     let (camera, values, image_seed) = match args.sample {
         Some(index) => {
             let sample = scene.sample(args.seed, index);
-            (sample.camera, sample.values, purpose_seed(sample.seed, "trace"))
+            let seed = sample_trace_seed(&sample);
+            (sample.camera, sample.values, seed)
         }
         None => {
             let default_camera = scene.camera.middle();
