@@ -13,10 +13,11 @@
 //! Rough thin panes (roughness above `SMOOTH_ROUGHNESS`): a thin slab whose two faces carry
 //! the same microfacet roughness has no single correct single-scattering model. We use the
 //! GGX reflection lobe with the slab's summed reflectance R'(wo.m), and for transmission the
-//! same lobe mirrored through the pane's plane, weighted by 1 - R'. So a rough pane blurs
-//! what is seen through it exactly as much as it blurs reflections, conserves energy like
-//! the GGX reflection lobe, and becomes the smooth pane (straight through, no offset) as
-//! roughness goes to zero.
+//! same lobe mirrored through the pane's plane, weighted by 1 - R' (glTF
+//! KHR_materials_transmission defines its thin-walled BTDF the same way: the half vector of
+//! the mirrored light direction). So a rough pane blurs what is seen through it exactly as
+//! much as it blurs reflections, conserves energy like the GGX reflection lobe, and becomes
+//! the smooth pane (straight through, no offset) as roughness goes to zero.
 
 use std::f32::consts::FRAC_1_PI;
 
