@@ -182,12 +182,17 @@ impl Bsdf {
 
     /// f(wo, wi), world space, excluding delta lobes.
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        self.eval_local(self.frame.to_local(wo), self.frame.to_local(wi))
+        self.eval_pdf(wo, wi).0
     }
 
     /// Solid-angle density with which `sample` produces `wi` through its non-delta lobes.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        self.pdf_local(self.frame.to_local(wo), self.frame.to_local(wi))
+        self.eval_pdf(wo, wi).1
+    }
+
+    /// `eval` and `pdf` at once, cheaper than both.
+    pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        self.eval_pdf_local(self.frame.to_local(wo), self.frame.to_local(wi))
     }
 
     /// If this surface is a smooth thin pane (at least partly), the attenuation of light
@@ -279,11 +284,10 @@ impl Bsdf {
                 }
             }
         };
-        let pdf = self.pdf_local(wo_local, wi_local);
+        let (f, pdf) = self.eval_pdf_local(wo_local, wi_local);
         if pdf <= 0.0 || !pdf.is_finite() {
             return None;
         }
-        let f = self.eval_local(wo_local, wi_local);
         let transmitted = wi_local.z * wo_local.z < 0.0;
         let etap = match self.dielectric {
             Dielectric::Rough { eta, .. } if transmitted => {
@@ -318,133 +322,100 @@ impl Bsdf {
         }
     }
 
-    fn eval_local(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+    /// f(wo, wi) of the non-delta lobes and the density with which `sample` produces wi,
+    /// together: they share the half vector, D and the Fresnel terms.
+    fn eval_pdf_local(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         if wo.z == 0.0 || wi.z == 0.0 {
-            return Vec3::ZERO;
+            return (Vec3::ZERO, 0.0);
         }
+        let p = self.lobe_probabilities(wo);
         let mut f = Vec3::ZERO;
-        let same_side = wo.z * wi.z > 0.0;
-        if same_side && (self.base_weight > 0.0 || self.metal_weight > 0.0) {
-            if self.lambertian {
-                return self.base_color * FRAC_1_PI;
-            }
+        let mut pdf = 0.0;
+        if wo.z * wi.z > 0.0 {
             // The opaque lobes are two-sided: mirror both directions to the upper side.
             let (o, i) = (Vec3::new(wo.x, wo.y, wo.z.abs()), Vec3::new(wi.x, wi.y, wi.z.abs()));
+            pdf += p[0] * cosine_hemisphere_pdf(i.z);
+            if self.lambertian {
+                return (self.base_color * FRAC_1_PI, pdf);
+            }
             let h = (o + i).normalize_or_zero();
-            if h != Vec3::ZERO {
-                let specular = self.ggx.d(h) * self.ggx.g2(o, i) / (4.0 * o.z * i.z);
+            let opaque = self.base_weight > 0.0 || self.metal_weight > 0.0;
+            if h != Vec3::ZERO && (opaque || p[1] + p[2] > 0.0) {
+                let d = self.ggx.d(h);
                 let cos_oh = o.dot(h);
-                if self.base_weight > 0.0 {
-                    // glTF's fresnel_mix of the diffuse base and the specular layer, except
-                    // that the diffuse part is weighted by the Fresnel term of the view
-                    // angle, 1 - F(wo.n), rather than of each microfacet, 1 - F(wo.h): with
-                    // F(wo.h) a white base reflects up to 15% more than it receives at
-                    // grazing angles.
-                    let diffuse_fresnel = schlick_scalar(DIELECTRIC_F0, o.z);
-                    let specular_fresnel = schlick_scalar(DIELECTRIC_F0, cos_oh);
-                    f += self.base_weight
-                        * ((1.0 - diffuse_fresnel) * self.base_color * FRAC_1_PI + Vec3::splat(specular_fresnel * specular));
+                if opaque {
+                    let specular = d * self.ggx.g2(o, i) / (4.0 * o.z * i.z);
+                    if self.base_weight > 0.0 {
+                        // glTF's fresnel_mix of the diffuse base and the specular layer,
+                        // except that the diffuse part is weighted by the Fresnel term of
+                        // the view angle, 1 - F(wo.n), rather than of each microfacet,
+                        // 1 - F(wo.h): with F(wo.h) a white base reflects up to 15% more
+                        // than it receives at grazing angles.
+                        let diffuse_fresnel = schlick_scalar(DIELECTRIC_F0, o.z);
+                        let specular_fresnel = schlick_scalar(DIELECTRIC_F0, cos_oh);
+                        f += self.base_weight
+                            * ((1.0 - diffuse_fresnel) * self.base_color * FRAC_1_PI
+                                + Vec3::splat(specular_fresnel * specular));
+                    }
+                    if self.metal_weight > 0.0 {
+                        f += self.metal_weight * schlick(self.base_color, cos_oh) * specular;
+                    }
                 }
-                if self.metal_weight > 0.0 {
-                    f += self.metal_weight * schlick(self.base_color, cos_oh) * specular;
-                }
+                // Visible-normal sampling of the reflection: D_wo(h) / (4 wo.h).
+                pdf += (p[1] + p[2]) * self.ggx.g1(o) * d / (4.0 * o.z);
             }
         }
         if self.glass_weight > 0.0 {
-            f += self.glass_weight * self.eval_dielectric(wo, wi);
+            let (fd, pd) = self.eval_pdf_dielectric(wo, wi);
+            f += self.glass_weight * fd;
+            pdf += p[3] * pd;
         }
-        f
+        (f, pdf)
     }
 
-    fn eval_dielectric(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+    fn eval_pdf_dielectric(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         match self.dielectric {
             Dielectric::Rough { eta, tint, ggx } => {
-                let Some((m, etap)) = dielectric_half_vector(wo, wi, eta) else { return Vec3::ZERO };
+                let Some((m, etap)) = dielectric_half_vector(wo, wi, eta) else { return (Vec3::ZERO, 0.0) };
                 let reflectance = fresnel_dielectric(wo.dot(m), eta);
                 let d = ggx.d(m);
                 let g = ggx.g2(wo, wi);
+                let visible = ggx.visible_pdf(wo, m);
                 if etap == 1.0 {
-                    Vec3::splat(d * g * reflectance / (4.0 * wi.z * wo.z).abs())
+                    let f = Vec3::splat(d * g * reflectance / (4.0 * wi.z * wo.z).abs());
+                    (f, visible / (4.0 * wo.dot(m).abs()) * reflectance)
                 } else {
-                    // Walter et al. 2007, eq. 21, radiance form.
-                    // With eta_o = 1 on wo's side: eta_o^2 / (eta_i i.m + eta_o o.m)^2 becomes
-                    // 1 / (etap i.m + o.m)^2.
+                    // Walter et al. 2007, eq. 21, radiance form. With eta_o = 1 on wo's side,
+                    // eta_o^2 / (eta_i i.m + eta_o o.m)^2 becomes 1 / (etap i.m + o.m)^2.
                     let denom = wi.dot(m) * etap + wo.dot(m);
                     let value = d * g * (1.0 - reflectance) * (wi.dot(m) * wo.dot(m) / (wi.z * wo.z)).abs() / (denom * denom);
-                    tint * value
+                    // Jacobian of the refracted half vector (Walter et al. 2007, eq. 17).
+                    let pdf_denom = wi.dot(m) + wo.dot(m) / etap;
+                    let pdf = visible * wi.dot(m).abs() / (pdf_denom * pdf_denom) * (1.0 - reflectance);
+                    (tint * value, pdf)
                 }
             }
             Dielectric::ThinRough { eta, tint, ggx } => {
                 let side = wo.z.signum();
                 let o = Vec3::new(wo.x, wo.y, wo.z * side);
                 let transmitted = wo.z * wi.z < 0.0;
+                // Transmission: wi mirrored through the pane's plane, then to wo's side.
                 let i = Vec3::new(wi.x, wi.y, if transmitted { -wi.z * side } else { wi.z * side });
                 let h = (o + i).normalize_or_zero();
                 if h == Vec3::ZERO {
-                    return Vec3::ZERO;
+                    return (Vec3::ZERO, 0.0);
                 }
-                let lobe = ggx.d(h) * ggx.g2(o, i) / (4.0 * o.z * i.z);
+                let d = ggx.d(h);
+                let lobe = d * ggx.g2(o, i) / (4.0 * o.z * i.z);
+                let lobe_pdf = ggx.g1(o) * d / (4.0 * o.z);
                 let reflectance = thin_slab_reflectance(o.dot(h), eta);
                 if transmitted {
-                    tint * (lobe * (1.0 - reflectance))
+                    (tint * (lobe * (1.0 - reflectance)), lobe_pdf * (1.0 - reflectance))
                 } else {
-                    Vec3::splat(lobe * reflectance)
+                    (Vec3::splat(lobe * reflectance), lobe_pdf * reflectance)
                 }
             }
-            _ => Vec3::ZERO,
-        }
-    }
-
-    fn pdf_local(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z == 0.0 || wi.z == 0.0 {
-            return 0.0;
-        }
-        let p = self.lobe_probabilities(wo);
-        let mut pdf = 0.0;
-        if wo.z * wi.z > 0.0 {
-            let (o, i) = (Vec3::new(wo.x, wo.y, wo.z.abs()), Vec3::new(wi.x, wi.y, wi.z.abs()));
-            pdf += p[0] * cosine_hemisphere_pdf(i.z);
-            if p[1] + p[2] > 0.0 {
-                let h = (o + i).normalize_or_zero();
-                if h != Vec3::ZERO {
-                    pdf += (p[1] + p[2]) * self.ggx.visible_pdf(o, h) / (4.0 * o.dot(h));
-                }
-            }
-        }
-        if p[3] > 0.0 {
-            pdf += p[3] * self.pdf_dielectric(wo, wi);
-        }
-        pdf
-    }
-
-    fn pdf_dielectric(&self, wo: Vec3, wi: Vec3) -> f32 {
-        match self.dielectric {
-            Dielectric::Rough { eta, ggx, .. } => {
-                let Some((m, etap)) = dielectric_half_vector(wo, wi, eta) else { return 0.0 };
-                let reflectance = fresnel_dielectric(wo.dot(m), eta);
-                let visible = ggx.visible_pdf(wo, m);
-                if etap == 1.0 {
-                    visible / (4.0 * wo.dot(m).abs()) * reflectance
-                } else {
-                    // Jacobian of the refracted half vector (Walter et al. 2007, eq. 17).
-                    let denom = wi.dot(m) + wo.dot(m) / etap;
-                    visible * wi.dot(m).abs() / (denom * denom) * (1.0 - reflectance)
-                }
-            }
-            Dielectric::ThinRough { eta, ggx, .. } => {
-                let side = wo.z.signum();
-                let o = Vec3::new(wo.x, wo.y, wo.z * side);
-                let transmitted = wo.z * wi.z < 0.0;
-                let i = Vec3::new(wi.x, wi.y, if transmitted { -wi.z * side } else { wi.z * side });
-                let h = (o + i).normalize_or_zero();
-                if h == Vec3::ZERO {
-                    return 0.0;
-                }
-                let reflectance = thin_slab_reflectance(o.dot(h), eta);
-                let event = if transmitted { 1.0 - reflectance } else { reflectance };
-                ggx.visible_pdf(o, h) / (4.0 * o.dot(h)) * event
-            }
-            _ => 0.0,
+            _ => (Vec3::ZERO, 0.0),
         }
     }
 }

@@ -161,7 +161,7 @@ impl<'a> PreparedScene<'a> {
                 if let Some(light) = self.lights.sample(hit.position, u_select, u_light) {
                     let wi = light.wi;
                     let reflection = wi.dot(ng) * wo_side > 0.0;
-                    let f = bsdf.eval(wo, wi);
+                    let (f, pdf) = bsdf.eval_pdf(wo, wi);
                     let shading_reflection = wi.dot(hit.shading_normal) * wo.dot(hit.shading_normal) > 0.0;
                     if f != Vec3::ZERO && reflection == shading_reflection {
                         // Aim from the offset origin itself: reusing wi from the surface point
@@ -174,7 +174,7 @@ impl<'a> PreparedScene<'a> {
                         if let Some((transmittance, crossing_probability)) =
                             self.transmittance(shadow_origin, to_light / shadow_distance, t_max, settings, scratch)
                         {
-                            let bsdf_pdf = bsdf.pdf(wo, wi) * crossing_probability;
+                            let bsdf_pdf = pdf * crossing_probability;
                             let weight = power_heuristic(light.pdf, bsdf_pdf);
                             let cos = wi.dot(hit.shading_normal).abs();
                             radiance += throughput * f * cos * transmittance * light.radiance * (weight / light.pdf);
