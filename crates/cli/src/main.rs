@@ -18,6 +18,8 @@ enum Command {
     /// Inspect, validate and export scenes.
     #[command(subcommand)]
     Scene(commands::scene::SceneCommand),
+    /// Path trace one frame (ground truth) to EXR + PNG preview.
+    Trace(commands::trace::TraceArgs),
 }
 
 fn main() {
@@ -33,6 +35,7 @@ fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Scene(cmd) => commands::scene::run(cmd),
+        Command::Trace(args) => commands::trace::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {}", one_line(&e));

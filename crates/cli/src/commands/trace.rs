@@ -1,0 +1,128 @@
+//! `glassbake trace`: path trace one frame of a scene into an EXR (f32 linear RGB) and a PNG
+//! preview beside it (clamp tone map, sRGB).
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::Args;
+use glassbake_core::glam::Vec3;
+use glassbake_core::image::ExrPrecision;
+use glassbake_core::seed::purpose_seed;
+use glassbake_core::{Camera, Error};
+use glassbake_scene::load_scene;
+use glassbake_trace::{render, sample_trace_seed, TraceSettings};
+use indicatif::{ProgressBar, ProgressStyle};
+
+#[derive(Args)]
+pub struct TraceArgs {
+    /// A built-in name (cornellbox, cornellbox8, desk, bathroom, cornell-glass) or a scene path.
+    scene: String,
+    /// Render sample i of the sample set: its camera, its variable values, its trace seed
+    /// (exactly what `glassbake dataset` renders for that sample).
+    #[arg(long, conflicts_with_all = ["camera", "set"])]
+    sample: Option<u64>,
+    /// Seed of the sample set (with --sample), or the image seed (otherwise).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// An explicit camera: position and look-at target, optionally the horizontal field of
+    /// view in degrees (default: the middle of the scene's range).
+    #[arg(long, value_name = "PX,PY,PZ,TX,TY,TZ[,FOV]", allow_hyphen_values = true)]
+    camera: Option<String>,
+    /// Set a scene variable (repeatable); the others keep their defaults.
+    #[arg(long = "set", value_name = "NAME=VALUE")]
+    set: Vec<String>,
+    /// Image width and height in pixels.
+    #[arg(long, default_value_t = 128)]
+    res: u32,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 256)]
+    spp: u32,
+    /// Longest path in segments (1 = emitters seen directly, 2 = direct light).
+    #[arg(long, default_value_t = TraceSettings::DEFAULT_MAX_DEPTH)]
+    max_depth: u32,
+    /// Worker threads (default: all cores). The image does not depend on it.
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Output EXR; the PNG preview goes beside it with the extension .png.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+fn parse_camera(text: &str, default: &Camera) -> Result<Camera, Error> {
+    let values: Vec<f32> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| Error::bad_input("--camera", text, "expected comma-separated numbers"))?;
+    if values.len() != 6 && values.len() != 7 {
+        return Err(Error::bad_input("--camera", text, format!("expected 6 or 7 numbers, got {}", values.len())));
+    }
+    if values.iter().any(|v| !v.is_finite()) {
+        return Err(Error::bad_input("--camera", text, "numbers must be finite"));
+    }
+    Ok(Camera {
+        position: Vec3::new(values[0], values[1], values[2]),
+        target: Vec3::new(values[3], values[4], values[5]),
+        fov_x_deg: values.get(6).copied().unwrap_or(default.fov_x_deg),
+        ..*default
+    })
+}
+
+pub fn run(args: TraceArgs) -> Result<()> {
+    let scene = load_scene(&args.scene)?;
+    for w in scene.warnings() {
+        eprintln!("warning: {w}");
+    }
+    let (camera, values, image_seed) = match args.sample {
+        Some(index) => {
+            let sample = scene.sample(args.seed, index);
+            let seed = sample_trace_seed(&sample);
+            (sample.camera, sample.values, seed)
+        }
+        None => {
+            let default_camera = scene.camera.middle();
+            let camera = match &args.camera {
+                Some(text) => parse_camera(text, &default_camera)?,
+                None => default_camera,
+            };
+            (camera, scene.values_from_assignments(&args.set)?, purpose_seed(args.seed, "trace"))
+        }
+    };
+    let instance = scene.instantiate(&values)?;
+    let settings = TraceSettings {
+        max_depth: args.max_depth,
+        threads: args.threads,
+        ..TraceSettings::new(args.res, args.res, args.spp, image_seed)
+    };
+
+    let bar = ProgressBar::new(args.res as u64 * args.res as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{msg} [{bar:40}] {percent:>3}%  {elapsed_precise} elapsed, ETA {eta_precise}")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    bar.set_message(format!("tracing {} {}x{} @ {} spp", scene.name, args.res, args.res, args.spp));
+    let progress = |done: u64, _total: u64| bar.set_position(done);
+    let output = render(&instance, &camera, &settings, Some(&progress))?;
+    bar.finish_and_clear();
+    for w in &output.warnings {
+        eprintln!("warning: {w}");
+    }
+
+    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    output.image.write_exr(&args.out, ExrPrecision::F32)?;
+    let preview = args.out.with_extension("png");
+    output.image.write_png_rgb(&preview, [0, 1, 2])?;
+    println!(
+        "wrote {} and {} ({} samples in {:.1} s, {:.0} samples/s, {} discarded)",
+        args.out.display(),
+        preview.display(),
+        output.samples,
+        output.elapsed.as_secs_f64(),
+        output.samples_per_second(),
+        output.discarded_samples
+    );
+    Ok(())
+}

@@ -1,0 +1,281 @@
+//! The unidirectional path tracer: next-event estimation with multiple importance sampling
+//! (Veach 1997, power heuristic), Russian roulette, a maximum path length, and shadow rays
+//! that pass straight through smooth thin panes (exact for a pane, since it does not bend
+//! light), with MIS that counts the pane crossings on both strategies.
+
+use glam::{Vec2, Vec3};
+use glassbake_core::Ray;
+use glassbake_scene::Scene;
+
+use crate::bsdf::{Bsdf, MaterialModel, SurfaceMaterial};
+use crate::geometry::{Hit, Owner, SceneGeometry};
+use crate::lights::LightSampler;
+use crate::rng::Pcg32;
+use crate::sampling::power_heuristic;
+
+/// How a path is traced.
+#[derive(Clone, Copy, Debug)]
+pub struct PathSettings {
+    /// Longest path, counted in segments as Mitsuba does: 1 = emitters seen directly,
+    /// 2 = direct lighting, ... Straight crossings of smooth thin panes do not count.
+    pub max_depth: u32,
+    /// Russian roulette applies to paths longer than this many segments.
+    pub rr_depth: u32,
+    pub material_model: MaterialModel,
+}
+
+/// A scene ready to trace: geometry, BVH, lights.
+pub struct PreparedScene<'a> {
+    pub scene: &'a Scene,
+    pub geometry: SceneGeometry,
+    pub lights: LightSampler,
+}
+
+/// What a ray hit, ready for shading.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceHit {
+    pub position: Vec3,
+    pub distance: f32,
+    /// Geometric normal, oriented to agree with the shading normal (the mesh's outside).
+    pub geometric_normal: Vec3,
+    pub shading_normal: Vec3,
+    pub uv: Vec2,
+    pub owner: Owner,
+    pub emitter: Option<u32>,
+}
+
+/// Hard cap on path vertices, pane crossings included: a guard against pathological scenes
+/// (two mirrors facing each other with Russian roulette off), never reached in practice.
+const MAX_VERTICES: u32 = 4096;
+
+impl<'a> PreparedScene<'a> {
+    pub fn new(scene: &'a Scene) -> Self {
+        let lights = LightSampler::new(scene);
+        let geometry = SceneGeometry::build(scene, &|owner, index| lights.emitter_of(owner, index));
+        PreparedScene { scene, geometry, lights }
+    }
+
+    /// The closest surface along `ray` (no minimum distance).
+    pub fn intersect(&self, ray: &Ray) -> Option<SurfaceHit> {
+        self.intersect_from(ray.origin, ray.direction, 0.0, f32::INFINITY)
+    }
+
+    fn intersect_from(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
+        let hit = self.geometry.closest_hit(origin, direction, t_min, t_max)?;
+        Some(self.surface_hit(&hit))
+    }
+
+    fn surface_hit(&self, hit: &Hit) -> SurfaceHit {
+        let a = &self.geometry.attributes[hit.triangle as usize];
+        let b0 = 1.0 - hit.b1 - hit.b2;
+        let [p0, p1, p2] = a.positions;
+        let position = p0 * b0 + p1 * hit.b1 + p2 * hit.b2;
+        let mut geometric_normal = (p1 - p0).cross(p2 - p0).normalize();
+        let shading_normal = match a.normals {
+            Some([n0, n1, n2]) => (n0 * b0 + n1 * hit.b1 + n2 * hit.b2).normalize_or(geometric_normal),
+            None => geometric_normal,
+        };
+        if geometric_normal.dot(shading_normal) < 0.0 {
+            geometric_normal = -geometric_normal;
+        }
+        let [t0, t1, t2] = a.uvs;
+        SurfaceHit {
+            position,
+            distance: hit.t,
+            geometric_normal,
+            shading_normal,
+            uv: t0 * b0 + t1 * hit.b1 + t2 * hit.b2,
+            owner: a.owner,
+            emitter: a.emitter,
+        }
+    }
+
+    /// Material parameters at a hit, textures applied.
+    pub fn surface_material(&self, material: u32, uv: Vec2) -> SurfaceMaterial {
+        let m = &self.scene.materials[material as usize];
+        let mut base_color = m.base_color;
+        if let Some(t) = m.base_color_texture.and_then(|t| self.scene.textures.get(t)) {
+            base_color *= t.sample(uv).truncate();
+        }
+        let mut roughness = m.roughness;
+        if let Some(t) = m.roughness_texture.and_then(|t| self.scene.textures.get(t)) {
+            roughness *= t.sample(uv).y;
+        }
+        SurfaceMaterial { base_color, roughness, metallic: m.metallic, transmission: m.transmission }
+    }
+
+    /// Radiance arriving at the camera along `ray`, one path sample.
+    pub fn trace_path(&self, ray: &Ray, rng: &mut Pcg32, settings: &PathSettings, scratch: &mut Vec<Hit>) -> Vec3 {
+        let background = self.scene.background;
+        let mut radiance = Vec3::ZERO;
+        let mut throughput = Vec3::ONE;
+        let mut origin = ray.origin;
+        let mut direction = ray.direction;
+        let mut t_min = 0.0;
+        // Segments so far, counting the one being traced.
+        let mut depth = 1u32;
+        // Product of the IOR ratios crossed, squared, undoing the radiance scaling of
+        // refraction for Russian roulette.
+        let mut eta_scale = 1.0f32;
+        // MIS state: whether the path since its last non-delta vertex is something only BSDF
+        // sampling can produce, that vertex, and the density of reaching here from it.
+        let mut specular = true;
+        let mut mis_origin = origin;
+        let mut mis_pdf = 0.0f32;
+
+        for _ in 0..MAX_VERTICES {
+            let Some(hit) = self.intersect_from(origin, direction, t_min, f32::INFINITY) else {
+                radiance += throughput * background;
+                break;
+            };
+            let wo = -direction;
+
+            if let Some(emitter) = hit.emitter {
+                let emitted = self.lights.emitters[emitter as usize].emitted(wo);
+                if emitted != Vec3::ZERO {
+                    let weight = if specular {
+                        1.0
+                    } else {
+                        power_heuristic(mis_pdf, self.lights.pdf(emitter, mis_origin, hit.position))
+                    };
+                    radiance += throughput * emitted * weight;
+                }
+            }
+            let Owner::Object { material, .. } = hit.owner else { break };
+            let surface = self.surface_material(material, hit.uv);
+            let bsdf = Bsdf::new(&surface, hit.shading_normal, settings.material_model);
+            // At the length limit a path may still cross smooth thin panes, which do not
+            // count as segments: shadow rays cross them too, and MIS assumes BSDF sampling
+            // can follow.
+            let at_depth_limit = depth >= settings.max_depth;
+            if at_depth_limit && bsdf.pass_through(wo).is_none() {
+                break;
+            }
+            let ng = hit.geometric_normal;
+            let wo_side = wo.dot(ng);
+
+            // Next-event estimation.
+            if !at_depth_limit && bsdf.has_non_delta() {
+                let u_select = rng.next_f32();
+                let u_light = rng.next_vec2();
+                if let Some(light) = self.lights.sample(hit.position, u_select, u_light) {
+                    let wi = light.wi;
+                    let reflection = wi.dot(ng) * wo_side > 0.0;
+                    let (f, pdf) = bsdf.eval_pdf(wo, wi);
+                    let shading_reflection = wi.dot(hit.shading_normal) * wo.dot(hit.shading_normal) > 0.0;
+                    if f != Vec3::ZERO && reflection == shading_reflection {
+                        // Aim from the offset origin itself: reusing wi from the surface point
+                        // would cross the light's plane short of the sampled point and hit the
+                        // light itself at grazing angles.
+                        let shadow_origin = offset_origin(hit.position, ng, wi);
+                        let to_light = light.point - shadow_origin;
+                        let shadow_distance = to_light.length();
+                        let t_max = shadow_distance * (1.0 - 1e-4) - ray_epsilon(light.point);
+                        if let Some((transmittance, crossing_probability)) =
+                            self.transmittance(shadow_origin, to_light / shadow_distance, t_max, settings, scratch)
+                        {
+                            let bsdf_pdf = pdf * crossing_probability;
+                            let weight = power_heuristic(light.pdf, bsdf_pdf);
+                            let cos = wi.dot(hit.shading_normal).abs();
+                            radiance += throughput * f * cos * transmittance * light.radiance * (weight / light.pdf);
+                        }
+                    }
+                }
+            }
+
+            // Continue the path.
+            let u_lobe = rng.next_f32();
+            let u_event = rng.next_f32();
+            let u = rng.next_vec2();
+            let Some(sample) = bsdf.sample(wo, u_lobe, u_event, u) else { break };
+            if at_depth_limit && !sample.pass_through {
+                break;
+            }
+            let reflection = sample.wi.dot(ng) * wo_side > 0.0;
+            if reflection == sample.transmitted && !sample.delta {
+                // The shading normal claims a side the geometry contradicts: following the
+                // ray would leak light through the surface. (Delta events of glass keep
+                // going: the next hit reads the side from the geometry, so nothing leaks,
+                // and ending them would darken smooth glass by a fraction of a percent.)
+                break;
+            }
+            throughput *= sample.weight;
+            if sample.transmitted && sample.etap != 1.0 {
+                eta_scale *= sample.etap * sample.etap;
+            }
+            if sample.pass_through {
+                mis_pdf *= sample.pdf;
+            } else {
+                depth += 1;
+                specular = sample.delta;
+                mis_pdf = sample.pdf;
+                mis_origin = hit.position;
+            }
+            origin = offset_origin(hit.position, ng, sample.wi);
+            direction = sample.wi;
+            t_min = 0.0;
+
+            if throughput == Vec3::ZERO {
+                break;
+            }
+            if depth > settings.rr_depth {
+                let survival = (throughput.max_element() * eta_scale).min(0.95);
+                if rng.next_f32() >= survival {
+                    break;
+                }
+                throughput /= survival;
+            }
+        }
+        radiance
+    }
+
+    /// Light transport along a shadow segment: `None` if something opaque blocks it,
+    /// otherwise the product of the smooth thin panes' transmittances and the product of
+    /// the probabilities with which BSDF sampling would have crossed them.
+    fn transmittance(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+        settings: &PathSettings,
+        scratch: &mut Vec<Hit>,
+    ) -> Option<(Vec3, f32)> {
+        if t_max <= 0.0 || self.geometry.shadow_query(origin, direction, 0.0, t_max, scratch) {
+            return None;
+        }
+        if scratch.is_empty() {
+            return Some((Vec3::ONE, 1.0));
+        }
+        // Multiply in distance order so the result does not depend on traversal order.
+        scratch.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.triangle.cmp(&b.triangle)));
+        let mut transmittance = Vec3::ONE;
+        let mut probability = 1.0;
+        let mut previous_t = f32::NEG_INFINITY;
+        for hit in scratch.iter() {
+            // A ray through a shared edge reports both triangles; the pane is crossed once.
+            if hit.t - previous_t < 1e-6 * hit.t.max(1.0) {
+                continue;
+            }
+            previous_t = hit.t;
+            let surface = self.surface_hit(hit);
+            let Owner::Object { material, .. } = surface.owner else { return None };
+            let bsdf = Bsdf::new(&self.surface_material(material, surface.uv), surface.shading_normal, settings.material_model);
+            let (t, p) = bsdf.pass_through(-direction)?;
+            transmittance *= t;
+            probability *= p;
+        }
+        Some((transmittance, probability))
+    }
+}
+
+/// Distance by which new rays start off a surface, relative to the scene's magnitude at
+/// that point (f32 positions carry about 7 significant digits).
+fn ray_epsilon(p: Vec3) -> f32 {
+    1e-4 * p.abs().max_element().max(1.0)
+}
+
+/// A ray origin just off the surface at `p`, on the side `direction` leaves to.
+pub fn offset_origin(p: Vec3, geometric_normal: Vec3, direction: Vec3) -> Vec3 {
+    let side = if direction.dot(geometric_normal) >= 0.0 { 1.0 } else { -1.0 };
+    p + geometric_normal * (side * ray_epsilon(p))
+}

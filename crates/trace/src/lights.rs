@@ -1,0 +1,192 @@
+//! Emitters and their sampling for next-event estimation: rectangle lights and the
+//! triangles of emissive-mesh objects, picked in proportion to their power and sampled
+//! uniformly by area.
+
+use std::f32::consts::PI;
+
+use glam::{Vec2, Vec3};
+use glassbake_scene::Scene;
+
+use crate::geometry::Owner;
+use crate::sampling::{luminance, uniform_triangle};
+
+#[derive(Clone, Copy, Debug)]
+enum Shape {
+    /// corner + u * edge_u + v * edge_v, u, v in [0, 1].
+    Parallelogram { corner: Vec3, edge_u: Vec3, edge_v: Vec3 },
+    Triangle { v0: Vec3, edge1: Vec3, edge2: Vec3 },
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct Emitter {
+    shape: Shape,
+    /// Unit normal of the emitting side.
+    pub normal: Vec3,
+    pub area: f32,
+    pub radiance: Vec3,
+    pub two_sided: bool,
+}
+
+impl Emitter {
+    /// Radiance leaving the emitter towards `w` (unit, pointing away from it).
+    pub fn emitted(&self, w: Vec3) -> Vec3 {
+        if self.two_sided || self.normal.dot(w) > 0.0 {
+            self.radiance
+        } else {
+            Vec3::ZERO
+        }
+    }
+
+    fn power(&self) -> f64 {
+        let sides = if self.two_sided { 2.0 } else { 1.0 };
+        let p = luminance(self.radiance).max(0.0) as f64 * self.area as f64 * PI as f64 * sides;
+        if p.is_finite() {
+            p
+        } else {
+            0.0
+        }
+    }
+}
+
+/// A point on an emitter, chosen for a shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    pub point: Vec3,
+    /// Unit direction from the shading point to `point`.
+    pub wi: Vec3,
+    pub distance: f32,
+    /// Radiance arriving along -wi.
+    pub radiance: Vec3,
+    /// Solid-angle density at the shading point, selection probability included.
+    pub pdf: f32,
+}
+
+pub struct LightSampler {
+    pub emitters: Vec<Emitter>,
+    /// Selection probability of each emitter and the running sum for picking.
+    pmf: Vec<f32>,
+    cdf: Vec<f64>,
+    /// Emitter index of each rect light, and of the first triangle of each object (the
+    /// object's triangles follow in mesh order), for [`crate::geometry::SceneGeometry`].
+    rect_light_emitter: Vec<Option<u32>>,
+    object_first_emitter: Vec<Option<u32>>,
+}
+
+impl LightSampler {
+    pub fn new(scene: &Scene) -> Self {
+        let mut emitters = Vec::new();
+        let mut rect_light_emitter = Vec::new();
+        for light in &scene.rect_lights {
+            let area = light.area();
+            if area > 0.0 && light.radiance.max_element() > 0.0 {
+                rect_light_emitter.push(Some(emitters.len() as u32));
+                emitters.push(Emitter {
+                    shape: Shape::Parallelogram { corner: light.corner, edge_u: light.edge_u, edge_v: light.edge_v },
+                    normal: light.normal(),
+                    area,
+                    radiance: light.radiance,
+                    two_sided: light.two_sided,
+                });
+            } else {
+                rect_light_emitter.push(None);
+            }
+        }
+        let mut object_first_emitter = vec![None; scene.objects.len()];
+        for object_index in scene.emissive_objects() {
+            let material = &scene.materials[scene.objects[object_index].material];
+            let mesh = scene.world_mesh(object_index);
+            object_first_emitter[object_index] = Some(emitters.len() as u32);
+            // One emitter per mesh triangle (degenerate ones get zero power), so that
+            // triangle k of the object is emitter first + k.
+            for indices in &mesh.indices {
+                let positions = indices.map(|i| mesh.positions.get(i as usize).copied().unwrap_or(Vec3::ZERO));
+                let edge1 = positions[1] - positions[0];
+                let edge2 = positions[2] - positions[0];
+                let cross = edge1.cross(edge2);
+                let area = 0.5 * cross.length();
+                let mut normal = cross.normalize_or_zero();
+                // Emit on the side the vertex normals point to (the mesh's outside).
+                if mesh.normals.len() == mesh.positions.len() {
+                    let vertex_normals: Vec3 = indices.iter().map(|&i| mesh.normals[i as usize]).sum();
+                    if vertex_normals.dot(normal) < 0.0 {
+                        normal = -normal;
+                    }
+                }
+                emitters.push(Emitter {
+                    shape: Shape::Triangle { v0: positions[0], edge1, edge2 },
+                    normal,
+                    area: if normal == Vec3::ZERO { 0.0 } else { area },
+                    radiance: material.emission,
+                    two_sided: false,
+                });
+            }
+        }
+        let powers: Vec<f64> = emitters.iter().map(Emitter::power).collect();
+        let total: f64 = powers.iter().sum();
+        let mut cdf = Vec::with_capacity(powers.len());
+        let mut running = 0.0;
+        for p in &powers {
+            running += p;
+            cdf.push(running / total);
+        }
+        let pmf = powers.iter().map(|p| if total > 0.0 { (p / total) as f32 } else { 0.0 }).collect();
+        if total <= 0.0 {
+            cdf.clear();
+        }
+        LightSampler { emitters, pmf, cdf, rect_light_emitter, object_first_emitter }
+    }
+
+    /// Whether next-event estimation has anything to sample.
+    pub fn is_empty(&self) -> bool {
+        self.cdf.is_empty()
+    }
+
+    /// The emitter index of a triangle owner (see [`crate::geometry::SceneGeometry::build`]).
+    pub fn emitter_of(&self, owner: Owner, triangle_index: usize) -> Option<u32> {
+        match owner {
+            Owner::RectLight { light } => self.rect_light_emitter[light as usize],
+            Owner::Object { object, .. } => self.object_first_emitter[object as usize].map(|first| first + triangle_index as u32),
+        }
+    }
+
+    pub fn sample(&self, from: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
+        if self.cdf.is_empty() {
+            return None;
+        }
+        let index = self.cdf.partition_point(|&c| c <= u_select as f64).min(self.cdf.len() - 1);
+        let emitter = &self.emitters[index];
+        let point = match emitter.shape {
+            Shape::Parallelogram { corner, edge_u, edge_v } => corner + u.x * edge_u + u.y * edge_v,
+            Shape::Triangle { v0, edge1, edge2 } => {
+                let b = uniform_triangle(u);
+                v0 + b.x * edge1 + b.y * edge2
+            }
+        };
+        let to_light = point - from;
+        let distance2 = to_light.length_squared();
+        if distance2 <= 0.0 {
+            return None;
+        }
+        let distance = distance2.sqrt();
+        let wi = to_light / distance;
+        let radiance = emitter.emitted(-wi);
+        let cos_light = emitter.normal.dot(-wi).abs();
+        if radiance == Vec3::ZERO || cos_light <= 0.0 {
+            return None;
+        }
+        let pdf = self.pmf[index] * distance2 / (cos_light * emitter.area);
+        (pdf.is_finite() && pdf > 0.0).then_some(LightSample { point, wi, distance, radiance, pdf })
+    }
+
+    /// The solid-angle density with which `sample` from `from` picks `point` on `emitter`.
+    pub fn pdf(&self, emitter: u32, from: Vec3, point: Vec3) -> f32 {
+        let e = &self.emitters[emitter as usize];
+        let to_light = point - from;
+        let distance2 = to_light.length_squared();
+        let cos_light = e.normal.dot(to_light).abs() / distance2.sqrt();
+        if cos_light <= 0.0 || e.area <= 0.0 {
+            return 0.0;
+        }
+        self.pmf[emitter as usize] * distance2 / (cos_light * e.area)
+    }
+}

@@ -1,0 +1,431 @@
+//! Whole-renderer tests with known answers: white furnaces, a diffuse plane under a
+//! rectangle light against its exact irradiance, the camera convention, determinism across
+//! thread counts, and the bad-input rules.
+
+use std::f32::consts::PI;
+use std::sync::Arc;
+
+use glam::{Affine3A, Vec2, Vec3};
+use glassbake_core::{Camera, Error};
+use glassbake_scene::shapes::{rect, uv_sphere};
+use glassbake_scene::{CameraSpec, Material, Mesh, Object, RectLight, Scene};
+use glassbake_trace::{render, MaterialModel, PreparedScene, TraceSettings};
+
+fn empty_scene(name: &str) -> Scene {
+    Scene {
+        name: name.to_string(),
+        meshes: Vec::new(),
+        textures: Vec::new(),
+        materials: Vec::new(),
+        objects: Vec::new(),
+        rect_lights: Vec::new(),
+        camera: CameraSpec::framing(Vec3::splat(-1.0), Vec3::ONE),
+        variables: Vec::new(),
+        background: Vec3::ZERO,
+        load_warnings: Vec::new(),
+    }
+}
+
+fn add_object(scene: &mut Scene, name: &str, mesh: Mesh, material: Material) -> usize {
+    scene.meshes.push(Arc::new(mesh));
+    let transparent = material.is_transmissive();
+    scene.materials.push(material);
+    scene.objects.push(Object {
+        name: name.to_string(),
+        mesh: scene.meshes.len() - 1,
+        material: scene.materials.len() - 1,
+        transform: Affine3A::IDENTITY,
+        transparent,
+    });
+    scene.objects.len() - 1
+}
+
+/// A unit sphere whose outside is its inside: faces and normals point to the centre.
+fn inward_sphere() -> Mesh {
+    let mut mesh = uv_sphere(1.0, 48, 24);
+    for t in &mut mesh.indices {
+        t.swap(1, 2);
+    }
+    for n in &mut mesh.normals {
+        *n = -*n;
+    }
+    mesh
+}
+
+fn mean_and_extremes(values: &[f32]) -> (f64, f32, f32) {
+    let mean = values.iter().map(|&v| v as f64).sum::<f64>() / values.len() as f64;
+    let lo = values.iter().copied().fold(f32::INFINITY, f32::min);
+    let hi = values.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    (mean, lo, hi)
+}
+
+/// Inside a closed emitting enclosure of albedo a and emission Le, radiance is the same
+/// everywhere: L = Le (1 + a + a^2 + ...) = Le / (1 - a), or Le * N with a = 1 and paths
+/// cut at N segments.
+#[test]
+fn white_furnace_inside_an_emitting_sphere() {
+    let camera = Camera::look_at(Vec3::ZERO, Vec3::new(0.2, 0.1, -1.0), 60.0);
+    for (albedo, max_depth, rr_depth, expected) in [(0.5f32, 10_000, 5, 2.0f64), (1.0, 5, u32::MAX, 5.0)] {
+        let mut scene = empty_scene("furnace");
+        let material = Material { emission: Vec3::ONE, ..Material::diffuse("shell", Vec3::splat(albedo)) };
+        add_object(&mut scene, "shell", inward_sphere(), material);
+        let settings = TraceSettings {
+            max_depth,
+            rr_depth,
+            material_model: MaterialModel::Lambertian,
+            ..TraceSettings::new(8, 8, 128, 3)
+        };
+        let out = render(&scene, &camera, &settings, None).unwrap();
+        assert_eq!(out.discarded_samples, 0);
+        for channel in 0..3 {
+            let (mean, lo, hi) = mean_and_extremes(out.image.plane(channel));
+            eprintln!("emitting furnace, albedo {albedo}, channel {channel}: mean {mean:.5} (expected {expected}), pixels in [{lo:.4}, {hi:.4}]");
+            assert!((mean - expected).abs() < 0.01 * expected, "albedo {albedo}: mean {mean}, expected {expected}");
+            assert!(lo as f64 > 0.9 * expected && (hi as f64) < 1.1 * expected, "albedo {albedo}: pixels in [{lo}, {hi}]");
+        }
+    }
+}
+
+/// A closed object that neither emits nor absorbs, in a uniform environment of radiance 1,
+/// is invisible: every pixel is 1. Glass must be invisible too (no absorption, no tint).
+#[test]
+fn white_furnace_with_an_environment() {
+    let camera = Camera::look_at(Vec3::new(0.0, 0.3, 3.5), Vec3::ZERO, 40.0);
+    let white_glass = |roughness: f32, thin: bool| Material::glass("glass", Vec3::ONE, roughness, 1.5, thin);
+    let cases: [(&str, Mesh, Material, MaterialModel, f64); 4] = [
+        ("lambertian sphere", uv_sphere(1.0, 48, 24), Material::diffuse("white", Vec3::ONE), MaterialModel::Lambertian, 0.01),
+        ("smooth glass sphere", uv_sphere(1.0, 48, 24), white_glass(0.0, false), MaterialModel::Gltf, 0.01),
+        ("thin pane", rect(Vec3::ZERO, Vec3::new(1.5, 0.0, -1.0), Vec3::Y * 1.5, Vec2::ONE), white_glass(0.0, true), MaterialModel::Gltf, 0.01),
+        ("rough thin pane", rect(Vec3::ZERO, Vec3::new(1.5, 0.0, -1.0), Vec3::Y * 1.5, Vec2::ONE), white_glass(0.3, true), MaterialModel::Gltf, 0.05),
+    ];
+    for (name, mesh, material, model, tolerance) in cases {
+        let mut scene = empty_scene(name);
+        scene.background = Vec3::ONE;
+        add_object(&mut scene, name, mesh, material);
+        let settings = TraceSettings { material_model: model, ..TraceSettings::new(12, 12, 64, 9) };
+        let out = render(&scene, &camera, &settings, None).unwrap();
+        let (mean, lo, hi) = mean_and_extremes(out.image.plane(1));
+        eprintln!("environment furnace, {name}: mean {mean:.5}, pixels in [{lo:.4}, {hi:.4}]");
+        assert!((mean - 1.0).abs() < tolerance, "{name}: mean {mean}");
+        assert!(lo > 0.75 && hi < 1.25, "{name}: pixels in [{lo}, {hi}]");
+    }
+    // A rough glass sphere loses a little energy (single-scattering microfacets) and must
+    // never gain any.
+    let mut scene = empty_scene("rough glass");
+    scene.background = Vec3::ONE;
+    add_object(&mut scene, "sphere", uv_sphere(1.0, 48, 24), white_glass(0.3, false));
+    let out = render(&scene, &camera, &TraceSettings::new(12, 12, 64, 9), None).unwrap();
+    let (mean, _, _) = mean_and_extremes(out.image.plane(1));
+    eprintln!("environment furnace, rough glass sphere: mean {mean:.5}");
+    assert!(mean < 1.01 && mean > 0.85, "rough glass sphere: mean {mean}");
+}
+
+/// Irradiance at `p` (normal `n`) from a uniformly emitting polygon of radiance `radiance`
+/// entirely above p's horizon: Lambert's formula, E = L/2 * |sum_i theta_i n.gamma_i|
+/// (Arvo 1995, "Applications of Irradiance Tensors to the Simulation of Non-Lambertian
+/// Phenomena", eq. 6).
+fn polygon_irradiance(p: Vec3, n: Vec3, corners: &[Vec3], radiance: f32) -> f64 {
+    let mut sum = 0.0f64;
+    for i in 0..corners.len() {
+        let a = (corners[i] - p).as_dvec3().normalize();
+        let b = (corners[(i + 1) % corners.len()] - p).as_dvec3().normalize();
+        let theta = a.dot(b).clamp(-1.0, 1.0).acos();
+        let gamma = a.cross(b).normalize();
+        sum += theta * gamma.dot(n.as_dvec3());
+    }
+    0.5 * radiance as f64 * sum.abs()
+}
+
+#[test]
+fn diffuse_plane_under_a_rectangle_light_matches_exact_irradiance() {
+    let albedo = 0.5f32;
+    let radiance = 2.0f32;
+    let corners = [Vec3::new(-0.5, 1.0, -0.5), Vec3::new(0.5, 1.0, -0.5), Vec3::new(0.5, 1.0, 0.5), Vec3::new(-0.5, 1.0, 0.5)];
+    let camera = Camera::look_at(Vec3::new(2.2, 1.7, 2.6), Vec3::new(0.0, 0.0, 0.0), 55.0);
+    let (w, h) = (32u32, 32u32);
+    for light_kind in ["rect light", "emissive mesh"] {
+        let mut scene = empty_scene(light_kind);
+        let plane = add_object(&mut scene, "plane", rect(Vec3::ZERO, Vec3::X * 20.0, Vec3::NEG_Z * 20.0, Vec2::ONE), Material::diffuse("plane", Vec3::splat(albedo)));
+        if light_kind == "rect light" {
+            scene.rect_lights.push(RectLight {
+                name: "light".into(),
+                corner: corners[0],
+                edge_u: Vec3::X,
+                edge_v: Vec3::Z,
+                radiance: Vec3::splat(radiance),
+                two_sided: false,
+            });
+        } else {
+            let emitter = Material { emission: Vec3::splat(radiance), ..Material::diffuse("emitter", Vec3::ZERO) };
+            // rect() faces u x v = X x Z = -Y: down, onto the plane.
+            add_object(&mut scene, "emitter", rect(Vec3::new(0.0, 1.0, 0.0), Vec3::X, Vec3::Z, Vec2::ONE), emitter);
+        }
+        let settings = TraceSettings { material_model: MaterialModel::Lambertian, ..TraceSettings::new(w, h, 256, 17) };
+        let out = render(&scene, &camera, &settings, None).unwrap();
+        assert_eq!(out.discarded_samples, 0);
+        let prepared = PreparedScene::new(&scene);
+        let (mut relative_sum, mut count, mut worst) = (0.0f64, 0, 0.0f64);
+        for y in 0..h {
+            for x in 0..w {
+                // The exact value of a box-filtered pixel: average over a 4x4 grid in it.
+                let mut expected = 0.0f64;
+                let mut on_plane = true;
+                for sy in 0..4 {
+                    for sx in 0..4 {
+                        let ray = camera.ray(x as f32 + (sx as f32 + 0.5) / 4.0, y as f32 + (sy as f32 + 0.5) / 4.0, w, h);
+                        match prepared.intersect(&ray) {
+                            Some(hit) if matches!(hit.owner, glassbake_trace::geometry::Owner::Object { object, .. } if object as usize == plane) => {
+                                expected += polygon_irradiance(hit.position, Vec3::Y, &corners, radiance) * albedo as f64 / PI as f64 / 16.0;
+                            }
+                            _ => on_plane = false,
+                        }
+                    }
+                }
+                if !on_plane || expected < 1e-3 {
+                    continue;
+                }
+                let rendered = out.image.get(1, x, y) as f64;
+                let relative = rendered / expected - 1.0;
+                relative_sum += relative;
+                worst = worst.max(relative.abs());
+                count += 1;
+            }
+        }
+        assert!(count > 300, "{light_kind}: only {count} plane pixels");
+        let bias = relative_sum / count as f64;
+        eprintln!("{light_kind}: {count} pixels, mean relative error {bias:+.5}, worst {worst:.4}");
+        assert!(bias.abs() < 0.01, "{light_kind}: mean relative error {bias}");
+        assert!(worst < 0.2, "{light_kind}: worst pixel off by {worst}");
+    }
+}
+
+#[test]
+fn primary_rays_follow_the_camera_convention() {
+    let (w, h) = (40u32, 30u32);
+    let camera = Camera::look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, 60.0);
+    let mut scene = empty_scene("convention");
+    // A light in the upper left of the view, facing the camera.
+    let light = RectLight {
+        name: "panel".into(),
+        corner: Vec3::new(-1.8, 0.3, 0.0),
+        edge_u: Vec3::X * 1.2,
+        edge_v: Vec3::Y * 0.8,
+        radiance: Vec3::new(3.0, 2.0, 1.0),
+        two_sided: false,
+    };
+    scene.rect_lights.push(light.clone());
+    add_object(&mut scene, "backdrop", rect(Vec3::new(0.0, 0.0, -1.0), Vec3::X * 20.0, Vec3::Y * 20.0, Vec2::ONE), Material::diffuse("grey", Vec3::splat(0.5)));
+    let settings = TraceSettings { max_depth: 1, ..TraceSettings::new(w, h, 16, 1) };
+    let out = render(&scene, &camera, &settings, None).unwrap();
+
+    let inside_light = |p: Vec3| {
+        let d = p - light.corner;
+        let (u, v) = (d.x / 1.2, d.y / 0.8);
+        (0.0..=1.0).contains(&u) && (0.0..=1.0).contains(&v)
+    };
+    let on_light_plane = |px: f32, py: f32| {
+        let ray = camera.ray(px, py, w, h);
+        ray.at(-ray.origin.z / ray.direction.z)
+    };
+    let projected: Vec<(f32, f32)> = light.corners().iter().map(|&c| camera.project(c, w, h).unwrap()).collect();
+    let (mut lit, mut dark) = (0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let (fx, fy) = (x as f32, y as f32);
+            let corners_inside = [(fx, fy), (fx + 1.0, fy), (fx, fy + 1.0), (fx + 1.0, fy + 1.0)]
+                .iter()
+                .filter(|&&(px, py)| inside_light(on_light_plane(px, py)))
+                .count();
+            let light_corner_in_pixel = projected.iter().any(|&(px, py)| px >= fx && px <= fx + 1.0 && py >= fy && py <= fy + 1.0);
+            let value = [out.image.get(0, x, y), out.image.get(1, x, y), out.image.get(2, x, y)];
+            if corners_inside == 4 {
+                assert_eq!(value, [3.0, 2.0, 1.0], "pixel ({x}, {y}) is fully on the light");
+                lit += 1;
+            } else if corners_inside == 0 && !light_corner_in_pixel {
+                assert_eq!(value, [0.0, 0.0, 0.0], "pixel ({x}, {y}) does not see the light");
+                dark += 1;
+            }
+        }
+    }
+    assert!(lit > 20 && dark > 600, "lit {lit}, dark {dark}");
+    // Row 0 is the top and x grows to the camera's right: the light is in the upper left.
+    assert_eq!(out.image.get(0, 11, 10), 3.0);
+    assert_eq!(out.image.get(0, w - 8, h - 6), 0.0);
+
+    // The path tracer's primary hit at a pixel centre lies on Camera::pixel_center_ray and
+    // projects back onto that pixel centre.
+    let prepared = PreparedScene::new(&scene);
+    for &(x, y) in &[(0u32, 0u32), (8, 6), (39, 29), (20, 15), (3, 27)] {
+        let ray = camera.pixel_center_ray(x, y, w, h);
+        let hit = prepared.intersect(&ray).expect("the backdrop fills the view");
+        let off_ray = (hit.position - ray.origin).cross(ray.direction).length();
+        assert!(off_ray < 1e-5, "({x}, {y}): {off_ray}");
+        assert!((hit.position - ray.at(hit.distance)).length() < 1e-4);
+        let (px, py) = camera.project(hit.position, w, h).unwrap();
+        assert!((px - (x as f32 + 0.5)).abs() < 1e-3 && (py - (y as f32 + 0.5)).abs() < 1e-3, "({x}, {y}) -> ({px}, {py})");
+    }
+}
+
+fn bits(image: &glassbake_core::PlanarImage) -> Vec<u32> {
+    image.data().iter().map(|v| v.to_bits()).collect()
+}
+
+#[test]
+fn images_are_bit_identical_whatever_the_thread_count() {
+    let scene = glassbake_scene::builtin::builtin("cornell-glass").unwrap();
+    let camera = scene.sample(0, 0).camera;
+    // Not a multiple of the tile size, to include partial tiles.
+    let base = TraceSettings::new(24, 20, 2, 42);
+    let images: Vec<Vec<u32>> = [Some(1), Some(2), Some(3)]
+        .into_iter()
+        .map(|threads| bits(&render(&scene, &camera, &TraceSettings { threads, ..base.clone() }, None).unwrap().image))
+        .collect();
+    assert_eq!(images[0], images[1]);
+    assert_eq!(images[0], images[2]);
+    let other_seed = bits(&render(&scene, &camera, &TraceSettings { seed: 43, threads: Some(2), ..base.clone() }, None).unwrap().image);
+    assert_ne!(images[0], other_seed);
+}
+
+#[test]
+fn bad_input_is_refused() {
+    let scene = glassbake_scene::builtin::builtin("cornell-glass").unwrap();
+    let camera = scene.camera.middle();
+    for settings in [TraceSettings::new(0, 8, 4, 0), TraceSettings::new(8, 0, 4, 0), TraceSettings::new(8, 8, 0, 0)] {
+        match render(&scene, &camera, &settings, None) {
+            Err(e @ Error::BadInput { .. }) => assert!(e.is_user_error()),
+            Err(e) => panic!("expected bad input, got {e}"),
+            Ok(_) => panic!("{settings:?} was accepted"),
+        }
+    }
+    let degenerate = Camera { target: camera.position, ..camera };
+    assert!(matches!(render(&scene, &degenerate, &TraceSettings::new(4, 4, 1, 0), None), Err(Error::BadInput { .. })));
+}
+
+#[test]
+fn a_scene_without_lights_renders_black_with_a_warning() {
+    let mut scene = empty_scene("dark");
+    add_object(&mut scene, "plane", rect(Vec3::ZERO, Vec3::X, Vec3::NEG_Z, Vec2::ONE), Material::diffuse("grey", Vec3::splat(0.5)));
+    let camera = Camera::look_at(Vec3::new(0.0, 1.0, 1.0), Vec3::ZERO, 50.0);
+    let out = render(&scene, &camera, &TraceSettings::new(8, 8, 4, 0), None).unwrap();
+    assert!(out.image.data().iter().all(|&v| v == 0.0));
+    assert!(out.warnings.iter().any(|w| w.contains("no light")), "{:?}", out.warnings);
+}
+
+#[test]
+fn non_finite_samples_are_discarded_and_counted() {
+    let mut scene = empty_scene("nan sky");
+    scene.background = Vec3::new(f32::NAN, 1.0, 1.0);
+    // Half the view is a lit plane, half the NaN sky.
+    add_object(&mut scene, "plane", rect(Vec3::ZERO, Vec3::X * 50.0, Vec3::NEG_Z * 50.0, Vec2::ONE), Material::diffuse("grey", Vec3::splat(0.5)));
+    scene.rect_lights.push(RectLight {
+        name: "light".into(),
+        corner: Vec3::new(-0.5, 2.0, -0.5),
+        edge_u: Vec3::X,
+        edge_v: Vec3::Z,
+        radiance: Vec3::ONE,
+        two_sided: false,
+    });
+    let camera = Camera::look_at(Vec3::new(0.0, 1.0, 3.0), Vec3::new(0.0, 1.0, 0.0), 60.0);
+    let settings = TraceSettings { max_depth: 1, ..TraceSettings::new(8, 8, 4, 0) };
+    let out = render(&scene, &camera, &settings, None).unwrap();
+    assert!(out.image.data().iter().all(|v| v.is_finite()));
+    // With max depth 1, exactly the camera rays that miss everything are NaN: the upper half.
+    assert!(out.discarded_samples >= 4 * 8 * 3 && out.discarded_samples <= 4 * 8 * 5, "{}", out.discarded_samples);
+    assert!(out.warnings.iter().any(|w| w.contains("discarded")));
+}
+
+#[test]
+fn builtin_scenes_render_finite_and_lit() {
+    for name in glassbake_scene::builtin::BUILTIN_NAMES {
+        let scene = glassbake_scene::builtin::builtin(name).unwrap();
+        let sample = scene.sample(7, 0);
+        let instance = scene.instantiate(&sample.values).unwrap();
+        let out = render(&instance, &sample.camera, &TraceSettings::new(8, 8, 2, 1), None).unwrap();
+        assert_eq!(out.discarded_samples, 0, "{name}");
+        let mean: f32 = out.image.data().iter().sum::<f32>() / out.image.data().len() as f32;
+        assert!(mean > 0.01 && mean.is_finite(), "{name}: mean {mean}");
+    }
+}
+
+/// Direct light through a smooth thin pane: shadow rays cross it (attenuated by the slab's
+/// transmittance T'(theta) and the tint) and BSDF samples cross it too; MIS must weigh the
+/// two consistently for the sum to be unbiased. The exact answer integrates the plane's own
+/// BSDF times the light's radiance times T' over the light, by quadrature.
+#[test]
+fn direct_light_through_a_thin_pane_matches_quadrature() {
+    use glassbake_trace::microfacet::thin_slab_reflectance;
+    use glassbake_trace::{Bsdf, SurfaceMaterial};
+    let radiance = 3.0f32;
+    let tint = Vec3::new(0.9, 0.6, 0.3);
+    let mut scene = empty_scene("pane");
+    let plane_material = Material { roughness: 0.6, ..Material::diffuse("plane", Vec3::splat(0.5)) };
+    add_object(&mut scene, "plane", rect(Vec3::ZERO, Vec3::X * 20.0, Vec3::NEG_Z * 20.0, Vec2::ONE), plane_material.clone());
+    add_object(&mut scene, "pane", rect(Vec3::new(0.0, 0.8, 0.0), Vec3::X * 10.0, Vec3::NEG_Z * 10.0, Vec2::ONE), Material::glass("pane", tint, 0.0, 1.5, true));
+    let light = RectLight { name: "light".into(), corner: Vec3::new(-0.5, 1.5, -0.5), edge_u: Vec3::X, edge_v: Vec3::Z, radiance: Vec3::splat(radiance), two_sided: false };
+    scene.rect_lights.push(light.clone());
+    // Below the pane, so camera rays reach the plane directly.
+    let camera = Camera::look_at(Vec3::new(1.2, 0.6, 1.4), Vec3::new(0.0, 0.0, 0.0), 60.0);
+    let (w, h) = (16u32, 16u32);
+    // Direct light only: camera -> plane -> (pane crossings) -> light.
+    let settings = TraceSettings { max_depth: 2, ..TraceSettings::new(w, h, 4096, 6) };
+    let out = render(&scene, &camera, &settings, None).unwrap();
+    let surface = SurfaceMaterial { base_color: Vec3::splat(0.5), roughness: 0.6, metallic: 0.0, transmission: None };
+    let bsdf = Bsdf::new(&surface, Vec3::Y, MaterialModel::Gltf);
+    // The exact value of a box-filtered pixel: the average over a 4x4 grid of points in it,
+    // each integrated over a 32x32 grid on the light.
+    let n = 32;
+    let exact = |px: f32, py: f32| -> Option<Vec3> {
+        let ray = camera.ray(px, py, w, h);
+        let t = -ray.origin.y / ray.direction.y;
+        if t <= 0.0 {
+            return None;
+        }
+        let (p, wo) = (ray.at(t), -ray.direction);
+        let mut sum = Vec3::ZERO;
+        for i in 0..n {
+            for j in 0..n {
+                let q = light.corner + light.edge_u * ((i as f32 + 0.5) / n as f32) + light.edge_v * ((j as f32 + 0.5) / n as f32);
+                let d = q - p;
+                let distance2 = d.length_squared();
+                let wi = d / distance2.sqrt();
+                let pane_transmittance = tint * (1.0 - thin_slab_reflectance(wi.y, 1.5));
+                // cos at the plane (normal +y) times cos at the light (normal -y), dA = 1/n^2.
+                let geometry = wi.y * wi.y / distance2 / (n * n) as f32;
+                sum += bsdf.eval(wo, wi) * pane_transmittance * radiance * geometry;
+            }
+        }
+        Some(sum)
+    };
+    let (mut relative_sum, mut count, mut worst) = (0.0f64, 0, 0.0f64);
+    for y in (0..h).step_by(2) {
+        for x in (0..w).step_by(2) {
+            let mut expected = Vec3::ZERO;
+            let mut on_plane = true;
+            for sy in 0..4 {
+                for sx in 0..4 {
+                    match exact(x as f32 + (sx as f32 + 0.5) / 4.0, y as f32 + (sy as f32 + 0.5) / 4.0) {
+                        Some(v) => expected += v / 16.0,
+                        None => on_plane = false,
+                    }
+                }
+            }
+            // Near the horizon a pixel spans metres of floor; leave those out.
+            if !on_plane || expected.min_element() < 0.01 {
+                continue;
+            }
+            for channel in 0..3 {
+                let relative = out.image.get(channel, x, y) as f64 / expected[channel] as f64 - 1.0;
+                relative_sum += relative;
+                worst = worst.max(relative.abs());
+                count += 1;
+            }
+        }
+    }
+    let bias = relative_sum / count as f64;
+    eprintln!("thin pane: {count} pixel channels, mean relative error {bias:+.5}, worst {worst:.4}");
+    assert!(count > 100, "{count}");
+    // 4096 spp leave ~0.1% noise on the mean; a pass-through MIS that BSDF sampling cannot
+    // follow at the depth limit showed up here as -0.5%.
+    assert!(bias.abs() < 0.003, "mean relative error {bias}");
+    assert!(worst < 0.05, "worst pixel off by {worst}");
+}
