@@ -18,6 +18,8 @@ enum Command {
     /// Inspect, validate and export scenes.
     #[command(subcommand)]
     Scene(commands::scene::SceneCommand),
+    /// Rasterize one frame's buffers (opaque, naive, transparency) into a multi-layer EXR.
+    Buffers(commands::buffers::BuffersArgs),
 }
 
 fn main() {
@@ -33,6 +35,7 @@ fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Scene(cmd) => commands::scene::run(cmd),
+        Command::Buffers(args) => commands::buffers::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {}", one_line(&e));
