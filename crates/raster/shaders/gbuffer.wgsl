@@ -39,11 +39,10 @@ struct Light {
     p3: vec4<f32>,
     // rgb: radiance, w: two-sided (1/0)
     radiance: vec4<f32>,
-    // Light-space view-projection of the front (emitting) side's shadow map and of the
-    // back side's (two-sided lights only).
-    shadow_front: mat4x4<f32>,
-    shadow_back: mat4x4<f32>,
-    // x: shadow-map layer of the front side, y: of the back side (-1: none);
+    // Shadow hemicube of each side: 5 layers (and view-projections in `shadow_matrices`)
+    // looking from the light's centre along s, t, -t, b, -b, where s is the side's normal,
+    // t = normalize(edge_u) and b = s x t.
+    // x: first layer of the front (emitting) side, y: of the back side (-1: none);
     // z: normal offset (world units per unit distance to the light) against shadow acne.
     shadow: vec4<f32>,
 };
@@ -65,6 +64,7 @@ struct Light {
 @group(2) @binding(4) var ltc_amplitude: texture_2d<f32>;
 // Target 1 of the opaque pass (position, depth), read by the transparency pass.
 @group(2) @binding(5) var opaque_position_depth: texture_2d<f32>;
+@group(2) @binding(6) var<storage, read> shadow_matrices: array<mat4x4<f32>>;
 
 struct VsOut {
     @builtin(position) clip: vec4<f32>,
@@ -211,25 +211,43 @@ fn ltc_lookup(tex: texture_2d<f32>, uv: vec2<f32>) -> vec4<f32> {
 }
 
 fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, back: bool) -> f32 {
-    var layer = light.shadow.x;
-    var m = light.shadow_front;
+    var first = light.shadow.x;
     if back {
-        layer = light.shadow.y;
-        m = light.shadow_back;
+        first = light.shadow.y;
     }
-    if view.params.y == 0u || layer < 0.0 {
+    if view.params.y == 0u || first < 0.0 {
         return 1.0;
     }
     let centre = 0.25 * (light.p0.xyz + light.p1.xyz + light.p2.xyz + light.p3.xyz);
+    let t = normalize(light.p1.xyz - light.p0.xyz);
+    var side = normalize(cross(light.p1.xyz - light.p0.xyz, light.p3.xyz - light.p0.xyz));
+    if back {
+        side = -side;
+    }
+    let b = cross(side, t);
     // Normal offset proportional to the shadow texel footprint at this distance.
-    let offset_p = p + n * (light.shadow.z * length(centre - p));
-    let clip = m * vec4<f32>(offset_p, 1.0);
+    let q = p + n * (light.shadow.z * length(centre - p));
+    let d = q - centre;
+    let local = vec3<f32>(dot(d, t), dot(d, b), dot(d, side));
+    if local.z <= 0.0 && abs(local.z) >= max(abs(local.x), abs(local.y)) {
+        return 1.0;
+    }
+    // The hemicube face of the dominant axis.
+    var face = 0;
+    if local.z < max(abs(local.x), abs(local.y)) {
+        if abs(local.x) >= abs(local.y) {
+            face = select(2, 1, local.x > 0.0);
+        } else {
+            face = select(4, 3, local.y > 0.0);
+        }
+    }
+    let layer = i32(first) + face;
+    let clip = shadow_matrices[layer] * vec4<f32>(q, 1.0);
     if clip.w <= 0.0 {
         return 1.0;
     }
     let ndc = clip.xyz / clip.w;
-    if abs(ndc.x) > 1.0 || abs(ndc.y) > 1.0 || ndc.z > 1.0 || ndc.z < 0.0 {
-        // Outside the shadow frustum: treated as lit.
+    if ndc.z > 1.0 || ndc.z < 0.0 {
         return 1.0;
     }
     let uv = vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5);
@@ -239,7 +257,7 @@ fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, back: bool) -> f3
     for (var dy = -1; dy <= 1; dy = dy + 1) {
         for (var dx = -1; dx <= 1; dx = dx + 1) {
             let o = vec2<f32>(f32(dx), f32(dy)) * texel;
-            sum = sum + textureSampleCompareLevel(shadow_maps, shadow_sampler, uv + o, i32(layer), ndc.z);
+            sum = sum + textureSampleCompareLevel(shadow_maps, shadow_sampler, uv + o, layer, ndc.z);
         }
     }
     return sum / 9.0;

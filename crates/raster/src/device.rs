@@ -25,7 +25,7 @@ pub struct RasterizerOptions {
     /// `WGPU_ADAPTER_NAME` environment variable; if that is unset too, the power preference
     /// decides.
     pub adapter_name: Option<String>,
-    /// Side of each rectangle light's shadow map, in texels.
+    /// Side of each face of a rectangle light's shadow hemicube (5 faces per emitting side), in texels.
     pub shadow_map_size: u32,
     /// Shadow the rectangle lights' direct light (L_d) with shadow maps.
     pub shadows: bool,
@@ -39,7 +39,7 @@ impl Default for RasterizerOptions {
         RasterizerOptions {
             power_preference: PowerPreference::HighPerformance,
             adapter_name: None,
-            shadow_map_size: 1024,
+            shadow_map_size: 512,
             shadows: true,
             draw_lights: true,
         }

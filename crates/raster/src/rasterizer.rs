@@ -18,8 +18,9 @@ const TRANSPARENCY_TARGETS: u32 = 4;
 /// Bytes reserved per object in the per-frame uniform buffer (>= every device's
 /// `min_uniform_buffer_offset_alignment`).
 const OBJECT_STRIDE: u64 = 256;
-/// Half field of view of the rectangle lights' shadow maps (80 degrees: tan = 5.67).
-const SHADOW_HALF_FOV_DEG: f32 = 80.0;
+/// Half field of view of each face of a light's shadow hemicube: a little over 45 degrees so
+/// that the 3x3 PCF taps near a face's border stay inside the face.
+const SHADOW_HALF_FOV_DEG: f32 = 47.5;
 
 /// Where each channel of a buffer lives in the render targets: (first channel in the layout,
 /// channel count, target, first component).
@@ -69,8 +70,6 @@ struct ObjectUniform {
 struct LightUniform {
     corners: [[f32; 4]; 4],
     radiance: [f32; 4],
-    shadow_front: [[f32; 4]; 4],
-    shadow_back: [[f32; 4]; 4],
     shadow: [f32; 4],
 }
 
@@ -391,6 +390,16 @@ impl Rasterizer {
                 texture_entry(3, float_plain, d2),
                 texture_entry(4, float_plain, d2),
                 texture_entry(5, float_plain, d2),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 6,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
             ],
         });
         let shading_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -623,7 +632,7 @@ impl Rasterizer {
         })
     }
 
-    fn shading_bind_group(&self, lights: &wgpu::Buffer, opaque_ref: &wgpu::TextureView) -> wgpu::BindGroup {
+    fn shading_bind_group(&self, lights: &wgpu::Buffer, matrices: &wgpu::Buffer, opaque_ref: &wgpu::TextureView) -> wgpu::BindGroup {
         let shadows = self.shadows.as_ref().expect("shadow maps exist during a frame");
         self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("shading"),
@@ -635,6 +644,7 @@ impl Rasterizer {
                 wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&self.ltc_matrix) },
                 wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&self.ltc_amplitude) },
                 wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(opaque_ref) },
+                wgpu::BindGroupEntry { binding: 6, resource: matrices.as_entire_binding() },
             ],
         })
     }
@@ -660,26 +670,27 @@ impl Rasterizer {
         for light in &scene.rect_lights {
             let centre = light.center();
             let n = light.normal();
-            let mut side_matrix = |dir: Vec3| -> (Mat4, f32) {
+            let t = light.edge_u.normalize_or(n.any_orthonormal_vector());
+            let far = 2.0 * extent + (centre - 0.5 * (bounds.0 + bounds.1)).length();
+            let proj = Mat4::perspective_rh(2.0 * SHADOW_HALF_FOV_DEG.to_radians(), 1.0, far * 1e-4, far);
+            // The hemicube of one side: faces along s, t, -t, b, -b (as the shader expects).
+            let mut hemicube = |s: Vec3| -> f32 {
                 if !self.options.shadows {
-                    return (Mat4::IDENTITY, -1.0);
+                    return -1.0;
                 }
-                let up = light.edge_u.normalize_or(Vec3::X);
-                let view = Mat4::look_at_rh(centre, centre + dir, up);
-                let far = 2.0 * extent + (centre - 0.5 * (bounds.0 + bounds.1)).length();
-                let proj = Mat4::perspective_rh(2.0 * SHADOW_HALF_FOV_DEG.to_radians(), 1.0, far * 1e-4, far);
-                let m = proj * view;
-                shadow_views.push(m);
-                (m, (shadow_views.len() - 1) as f32)
+                let first = shadow_views.len() as f32;
+                let b = s.cross(t);
+                for (dir, up) in [(s, t), (t, s), (-t, s), (b, s), (-b, s)] {
+                    shadow_views.push(proj * Mat4::look_at_rh(centre, centre + dir, up));
+                }
+                first
             };
-            let (front, front_layer) = side_matrix(n);
-            let (back, back_layer) = if light.two_sided { side_matrix(-n) } else { (Mat4::IDENTITY, -1.0) };
+            let front_layer = hemicube(n);
+            let back_layer = if light.two_sided { hemicube(-n) } else { -1.0 };
             let c = light.corners();
             light_data.push(LightUniform {
                 corners: c.map(|p| p.extend(1.0).to_array()),
                 radiance: light.radiance.extend(if light.two_sided { 1.0 } else { 0.0 }).to_array(),
-                shadow_front: mat4_cols(front),
-                shadow_back: mat4_cols(back),
                 shadow: [front_layer, back_layer, normal_offset, 0.0],
             });
         }
@@ -693,6 +704,15 @@ impl Rasterizer {
             usage: wgpu::BufferUsages::STORAGE,
         });
         self.ensure_shadow_maps(shadow_views.len() as u32);
+        let mut matrix_data: Vec<[[f32; 4]; 4]> = shadow_views.iter().map(|m| mat4_cols(*m)).collect();
+        if matrix_data.is_empty() {
+            matrix_data.push(mat4_cols(Mat4::IDENTITY));
+        }
+        let shadow_matrices = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("shadow matrices"),
+            contents: bytemuck::cast_slice(&matrix_data),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
 
         // Objects (opaque, transparent) and the lights' own quads.
         let mut uniforms: Vec<ObjectUniform> = Vec::new();
@@ -773,8 +793,8 @@ impl Rasterizer {
             .map(|m| self.view_bind_group(&ViewUniform { view_proj: mat4_cols(*m), camera_pos: [0.0; 4], params: [0; 4] }))
             .collect();
         let targets = self.targets.as_ref().expect("ensured");
-        let shading_opaque = self.shading_bind_group(&lights, &self.no_opaque);
-        let shading_transparency = self.shading_bind_group(&lights, &targets.opaque.views[1]);
+        let shading_opaque = self.shading_bind_group(&lights, &shadow_matrices, &self.no_opaque);
+        let shading_transparency = self.shading_bind_group(&lights, &shadow_matrices, &targets.opaque.views[1]);
 
         let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
         // Shadow maps: opaque geometry only (glass and the lights' quads cast no shadow).
