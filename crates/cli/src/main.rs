@@ -20,6 +20,8 @@ enum Command {
     Scene(commands::scene::SceneCommand),
     /// Path trace one frame (ground truth) to EXR + PNG preview.
     Trace(commands::trace::TraceArgs),
+    /// Rasterize one frame's buffers (opaque, naive, transparency) into a multi-layer EXR.
+    Buffers(commands::buffers::BuffersArgs),
 }
 
 fn main() {
@@ -36,6 +38,7 @@ fn main() {
     let result = match cli.command {
         Command::Scene(cmd) => commands::scene::run(cmd),
         Command::Trace(args) => commands::trace::run(args),
+        Command::Buffers(args) => commands::buffers::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {}", one_line(&e));

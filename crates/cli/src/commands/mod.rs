@@ -1,2 +1,3 @@
+pub mod buffers;
 pub mod scene;
 pub mod trace;

@@ -1,0 +1,107 @@
+//! Picking a Vulkan adapter and opening a device on it (DESIGN.md §3: pin the Vulkan backend,
+//! request the adapter's own limits, choose by power preference or `WGPU_ADAPTER_NAME`).
+
+use glassbake_core::{Error, Result};
+
+/// Colour bytes per sample the G-buffer pass writes: 5 Rgba32Float targets.
+pub(crate) const GBUFFER_TARGETS: u32 = 5;
+const REQUIRED_COLOR_BYTES: u32 = GBUFFER_TARGETS * 16;
+
+/// Which adapter to prefer when several are usable.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum PowerPreference {
+    /// Discrete GPU first, then integrated, virtual, and the CPU (lavapipe) last.
+    #[default]
+    HighPerformance,
+    /// Integrated GPU first, then discrete, virtual, CPU.
+    LowPower,
+}
+
+/// How a [`crate::Rasterizer`] is created.
+#[derive(Clone, Debug)]
+pub struct RasterizerOptions {
+    pub power_preference: PowerPreference,
+    /// Pick the first adapter whose name contains this (case-insensitive). `None` reads the
+    /// `WGPU_ADAPTER_NAME` environment variable; if that is unset too, the power preference
+    /// decides.
+    pub adapter_name: Option<String>,
+    /// Side of each face of a rectangle light's shadow hemicube (5 faces per emitting side), in texels.
+    pub shadow_map_size: u32,
+    /// Shadow the rectangle lights' direct light (L_d) with shadow maps.
+    pub shadows: bool,
+    /// Draw rectangle lights' own quads into the opaque and naive G-buffers (they show their
+    /// radiance in L_d, as the path tracer sees them).
+    pub draw_lights: bool,
+}
+
+impl Default for RasterizerOptions {
+    fn default() -> Self {
+        RasterizerOptions {
+            power_preference: PowerPreference::HighPerformance,
+            adapter_name: None,
+            shadow_map_size: 512,
+            shadows: true,
+            draw_lights: true,
+        }
+    }
+}
+
+pub(crate) const NO_ADAPTER_HELP: &str = "no usable Vulkan adapter found (glassbake-raster needs Vulkan with 5 Rgba32Float \
+     render targets); on a machine without a GPU install Mesa's software driver lavapipe: \
+     `apt-get install -y --no-install-recommends mesa-vulkan-drivers libvulkan1`";
+
+fn rank(device_type: wgpu::DeviceType, preference: PowerPreference) -> u32 {
+    use wgpu::DeviceType::*;
+    match (preference, device_type) {
+        (PowerPreference::HighPerformance, DiscreteGpu) => 0,
+        (PowerPreference::HighPerformance, IntegratedGpu) => 1,
+        (PowerPreference::LowPower, IntegratedGpu) => 0,
+        (PowerPreference::LowPower, DiscreteGpu) => 1,
+        (_, VirtualGpu) => 2,
+        (_, Other) => 3,
+        (_, Cpu) => 4,
+    }
+}
+
+fn usable(adapter: &wgpu::Adapter) -> bool {
+    let limits = adapter.limits();
+    let format = adapter.get_texture_format_features(wgpu::TextureFormat::Rgba32Float);
+    limits.max_color_attachments >= GBUFFER_TARGETS
+        && limits.max_color_attachment_bytes_per_sample >= REQUIRED_COLOR_BYTES
+        && format.allowed_usages.contains(wgpu::TextureUsages::RENDER_ATTACHMENT)
+}
+
+/// Open a device on the chosen Vulkan adapter, with the adapter's own limits.
+pub(crate) fn open(options: &RasterizerOptions) -> Result<(wgpu::Adapter, wgpu::Device, wgpu::Queue)> {
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+        backends: wgpu::Backends::VULKAN,
+        ..wgpu::InstanceDescriptor::new_without_display_handle()
+    });
+    let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
+    let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
+    let mut candidates: Vec<wgpu::Adapter> = adapters.into_iter().filter(usable).collect();
+    let wanted = options.adapter_name.clone().or_else(|| std::env::var("WGPU_ADAPTER_NAME").ok());
+    if let Some(wanted) = wanted.filter(|w| !w.trim().is_empty()) {
+        let w = wanted.to_lowercase();
+        candidates.retain(|a| a.get_info().name.to_lowercase().contains(&w));
+        if candidates.is_empty() {
+            return Err(Error::Internal(format!(
+                "no usable Vulkan adapter named like {wanted:?} (WGPU_ADAPTER_NAME / adapter_name); found: [{}]",
+                names.join(", ")
+            )));
+        }
+    }
+    candidates.sort_by_key(|a| rank(a.get_info().device_type, options.power_preference));
+    let adapter = candidates.into_iter().next().ok_or_else(|| {
+        let found = if names.is_empty() { "none".to_string() } else { names.join(", ") };
+        Error::Internal(format!("{NO_ADAPTER_HELP} (Vulkan adapters found: {found})"))
+    })?;
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("glassbake-raster"),
+        required_features: wgpu::Features::empty(),
+        required_limits: adapter.limits(),
+        ..Default::default()
+    }))
+    .map_err(|e| Error::Internal(format!("opening the Vulkan device {:?}: {e}", adapter.get_info().name)))?;
+    Ok((adapter, device, queue))
+}

@@ -1,0 +1,1054 @@
+//! The headless renderer: pipelines, render targets, per-frame passes and readback.
+
+use glam::{Mat4, Vec3};
+use glassbake_core::layout::{self, opaque, transparent};
+use glassbake_core::{Camera, Error, PlanarImage, Result};
+use glassbake_scene::{Mesh, Scene};
+
+use crate::device::{self, RasterizerOptions, GBUFFER_TARGETS};
+use crate::ltc;
+use crate::resources::{self, Cache, GpuMesh};
+
+/// Largest accepted image side.
+pub const MAX_RESOLUTION: u32 = 8192;
+
+const TARGET_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+const TRANSPARENCY_TARGETS: u32 = 4;
+/// Bytes reserved per object in the per-frame uniform buffer (>= every device's
+/// `min_uniform_buffer_offset_alignment`).
+const OBJECT_STRIDE: u64 = 256;
+/// Half field of view of each face of a light's shadow hemicube: a little over 45 degrees so
+/// that the 3x3 PCF taps near a face's border stay inside the face.
+const SHADOW_HALF_FOV_DEG: f32 = 47.5;
+
+/// Where each channel of a buffer lives in the render targets: (first channel in the layout,
+/// channel count, target, first component).
+type ChannelMap = [(usize, usize, u32, u32)];
+
+const OPAQUE_MAP: [(usize, usize, u32, u32); 7] = [
+    (opaque::NORMAL, 3, 0, 0),
+    (opaque::ROUGHNESS, 1, 0, 3),
+    (opaque::POSITION, 3, 1, 0),
+    (opaque::DEPTH, 1, 1, 3),
+    (opaque::ALBEDO, 3, 2, 0),
+    (opaque::WO, 3, 3, 0),
+    (opaque::LD, 3, 4, 0),
+];
+
+const TRANSPARENT_MAP: [(usize, usize, u32, u32); 8] = [
+    (transparent::NORMAL, 3, 0, 0),
+    (transparent::ROUGHNESS, 1, 0, 3),
+    (transparent::POSITION, 3, 1, 0),
+    (transparent::DEPTH, 1, 1, 3),
+    (transparent::ALBEDO, 3, 2, 0),
+    (transparent::COVERAGE, 1, 2, 3),
+    (transparent::WO, 3, 3, 0),
+    (transparent::RELATIVE_DEPTH, 1, 3, 3),
+];
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct ViewUniform {
+    view_proj: [[f32; 4]; 4],
+    camera_pos: [f32; 4],
+    params: [u32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct ObjectUniform {
+    model: [[f32; 4]; 4],
+    normal_matrix: [[f32; 4]; 4],
+    base_color: [f32; 4],
+    emission: [f32; 4],
+    params: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct LightUniform {
+    corners: [[f32; 4]; 4],
+    radiance: [f32; 4],
+    shadow: [f32; 4],
+}
+
+/// One set of same-sized Rgba32Float render targets and the buffer they are read back
+/// through (rows padded to 256 bytes).
+struct TargetSet {
+    textures: Vec<wgpu::Texture>,
+    views: Vec<wgpu::TextureView>,
+    readback: wgpu::Buffer,
+    padded_row: u64,
+}
+
+impl TargetSet {
+    fn new(device: &wgpu::Device, count: u32, width: u32, height: u32, label: &str) -> TargetSet {
+        let textures: Vec<wgpu::Texture> = (0..count)
+            .map(|_| {
+                device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: TARGET_FORMAT,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                        | wgpu::TextureUsages::COPY_SRC
+                        | wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                })
+            })
+            .collect();
+        let views = textures.iter().map(|t| t.create_view(&wgpu::TextureViewDescriptor::default())).collect();
+        let padded_row = padded_row_bytes(width);
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: padded_row * height as u64 * count as u64,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        TargetSet { textures, views, readback, padded_row }
+    }
+
+    fn color_attachments(&self) -> Vec<Option<wgpu::RenderPassColorAttachment<'_>>> {
+        self.views
+            .iter()
+            .map(|view| {
+                Some(wgpu::RenderPassColorAttachment {
+                    view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT), store: wgpu::StoreOp::Store },
+                })
+            })
+            .collect()
+    }
+
+    /// Copy the targets to the host and scatter their components into `out`'s planes.
+    fn read_into(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        map: &ChannelMap,
+        width: u32,
+        height: u32,
+        data: &mut [f32],
+    ) -> Result<()> {
+        let plane_bytes = self.padded_row * height as u64;
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+        for (t, texture) in self.textures.iter().enumerate() {
+            encoder.copy_texture_to_buffer(
+                wgpu::TexelCopyTextureInfo {
+                    texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d::ZERO,
+                    aspect: wgpu::TextureAspect::All,
+                },
+                wgpu::TexelCopyBufferInfo {
+                    buffer: &self.readback,
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset: t as u64 * plane_bytes,
+                        bytes_per_row: Some(self.padded_row as u32),
+                        rows_per_image: Some(height),
+                    },
+                },
+                wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+            );
+        }
+        queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        self.readback.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| Error::Internal(format!("waiting for the GPU: {e}")))?;
+        rx.recv()
+            .map_err(|_| Error::Internal("readback callback dropped".into()))?
+            .map_err(|e| Error::Internal(format!("mapping the readback buffer: {e}")))?;
+        {
+            let view = self
+                .readback
+                .get_mapped_range(..)
+                .map_err(|e| Error::Internal(format!("reading the readback buffer: {e}")))?;
+            let bytes: &[u8] = &view;
+            let n = (width * height) as usize;
+            for &(first, count, target, component) in map {
+                for c in 0..count {
+                    let plane = &mut data[(first + c) * n..(first + c + 1) * n];
+                    let base = target as u64 * plane_bytes;
+                    for y in 0..height as usize {
+                        let row = base as usize + y * self.padded_row as usize;
+                        for x in 0..width as usize {
+                            let at = row + x * 16 + (component as usize + c) * 4;
+                            plane[y * width as usize + x] =
+                                f32::from_le_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]);
+                        }
+                    }
+                }
+            }
+        }
+        self.readback.unmap();
+        Ok(())
+    }
+}
+
+/// Bytes per readback row: 16 bytes per texel, padded to wgpu's 256-byte copy alignment.
+pub(crate) fn padded_row_bytes(width: u32) -> u64 {
+    let unpadded = width as u64 * 16;
+    let align = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64;
+    unpadded.div_ceil(align) * align
+}
+
+struct Targets {
+    width: u32,
+    height: u32,
+    depth: wgpu::TextureView,
+    opaque: TargetSet,
+    transparency: TargetSet,
+    naive: Option<TargetSet>,
+}
+
+struct ShadowMaps {
+    size: u32,
+    layers: u32,
+    array_view: wgpu::TextureView,
+    layer_views: Vec<wgpu::TextureView>,
+}
+
+impl ShadowMaps {
+    fn new(device: &wgpu::Device, size: u32, layers: u32) -> ShadowMaps {
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("shadow maps"),
+            size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: layers },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: DEPTH_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let array_view = texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let layer_views = (0..layers)
+            .map(|l| {
+                texture.create_view(&wgpu::TextureViewDescriptor {
+                    dimension: Some(wgpu::TextureViewDimension::D2),
+                    base_array_layer: l,
+                    array_layer_count: Some(1),
+                    ..Default::default()
+                })
+            })
+            .collect();
+        ShadowMaps { size, layers, array_view, layer_views }
+    }
+}
+
+/// The headless rasterizer. Create it once (opening the device is slow), then render frames
+/// with [`Rasterizer::begin_frame`] (streaming) or [`Rasterizer::render`] (all at once).
+pub struct Rasterizer {
+    options: RasterizerOptions,
+    adapter_info: wgpu::AdapterInfo,
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    view_layout: wgpu::BindGroupLayout,
+    object_layout: wgpu::BindGroupLayout,
+    shading_layout: wgpu::BindGroupLayout,
+    gbuffer_pipeline: wgpu::RenderPipeline,
+    transparency_pipeline: wgpu::RenderPipeline,
+    shadow_pipeline: wgpu::RenderPipeline,
+    material_sampler: wgpu::Sampler,
+    shadow_sampler: wgpu::Sampler,
+    white: wgpu::TextureView,
+    no_opaque: wgpu::TextureView,
+    ltc_matrix: wgpu::TextureView,
+    ltc_amplitude: wgpu::TextureView,
+    cache: Cache,
+    targets: Option<Targets>,
+    shadows: Option<ShadowMaps>,
+}
+
+/// All buffers of one frame.
+#[derive(Clone, Debug)]
+pub struct FrameBuffers {
+    /// Opaque G-buffer (layer `opaque`).
+    pub opaque: PlanarImage,
+    /// Naive G-buffer: glass drawn over what is behind it (layer `naive`).
+    pub naive: PlanarImage,
+    /// Transparency buffer k belongs to `scene.transparent_objects()[k]` (layer `transparent.k`).
+    pub transparent: Vec<PlanarImage>,
+}
+
+impl FrameBuffers {
+    /// Every layer in one image (opaque, naive, transparent.0, ...), e.g. for one EXR file.
+    pub fn combined(&self) -> Result<PlanarImage> {
+        let mut all: Vec<&PlanarImage> = vec![&self.opaque, &self.naive];
+        all.extend(self.transparent.iter());
+        PlanarImage::concat(&all)
+    }
+}
+
+fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
+        count: None,
+    }
+}
+
+fn texture_entry(binding: u32, sample_type: wgpu::TextureSampleType, dimension: wgpu::TextureViewDimension) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture { sample_type, view_dimension: dimension, multisampled: false },
+        count: None,
+    }
+}
+
+fn small_texture(device: &wgpu::Device, queue: &wgpu::Queue, format: wgpu::TextureFormat, size: u32, data: &[u8]) -> wgpu::TextureView {
+    use wgpu::util::DeviceExt;
+    device
+        .create_texture_with_data(
+            queue,
+            &wgpu::TextureDescriptor {
+                label: None,
+                size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            },
+            wgpu::util::TextureDataOrder::LayerMajor,
+            data,
+        )
+        .create_view(&wgpu::TextureViewDescriptor::default())
+}
+
+fn mat4_cols(m: Mat4) -> [[f32; 4]; 4] {
+    m.to_cols_array_2d()
+}
+
+impl Rasterizer {
+    /// Open a Vulkan device (see [`RasterizerOptions`]) and build the pipelines.
+    pub fn new(options: RasterizerOptions) -> Result<Rasterizer> {
+        let (adapter, device, queue) = device::open(&options)?;
+        let adapter_info = adapter.get_info();
+        tracing::info!("rasterizer on {} ({:?}, {})", adapter_info.name, adapter_info.device_type, adapter_info.driver);
+
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("gbuffer.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("../shaders/gbuffer.wgsl").into()),
+        });
+        let both = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+        let view_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("view"),
+            entries: &[uniform_entry(0, both)],
+        });
+        let float_filterable = wgpu::TextureSampleType::Float { filterable: true };
+        let float_plain = wgpu::TextureSampleType::Float { filterable: false };
+        let d2 = wgpu::TextureViewDimension::D2;
+        let object_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("object"),
+            entries: &[
+                uniform_entry(0, both),
+                texture_entry(1, float_filterable, d2),
+                texture_entry(2, float_filterable, d2),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 3,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let shading_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("shading"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                texture_entry(1, wgpu::TextureSampleType::Depth, wgpu::TextureViewDimension::D2Array),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
+                    count: None,
+                },
+                texture_entry(3, float_plain, d2),
+                texture_entry(4, float_plain, d2),
+                texture_entry(5, float_plain, d2),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 6,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let shading_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("shading"),
+            bind_group_layouts: &[Some(&view_layout), Some(&object_layout), Some(&shading_layout)],
+            immediate_size: 0,
+        });
+        let shadow_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("shadow"),
+            bind_group_layouts: &[Some(&view_layout), Some(&object_layout)],
+            immediate_size: 0,
+        });
+        let primitive = wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            cull_mode: None,
+            ..Default::default()
+        };
+        let depth_state = |bias: wgpu::DepthBiasState| wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Less),
+            stencil: wgpu::StencilState::default(),
+            bias,
+        };
+        let vertex_layouts = [Some(resources::vertex_layout())];
+        let target = Some(wgpu::ColorTargetState { format: TARGET_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL });
+        let gbuffer_targets = vec![target.clone(); GBUFFER_TARGETS as usize];
+        let transparency_targets = vec![target; TRANSPARENCY_TARGETS as usize];
+        let make_pipeline = |label: &str, fragment: &str, targets: &[Option<wgpu::ColorTargetState>]| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&shading_pipeline_layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &vertex_layouts,
+                },
+                primitive,
+                depth_stencil: Some(depth_state(wgpu::DepthBiasState::default())),
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(fragment),
+                    compilation_options: Default::default(),
+                    targets,
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let gbuffer_pipeline = make_pipeline("gbuffer", "fs_gbuffer", &gbuffer_targets);
+        let transparency_pipeline = make_pipeline("transparency", "fs_transparency", &transparency_targets);
+        let shadow_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("shadow"),
+            layout: Some(&shadow_pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_shadow"),
+                compilation_options: Default::default(),
+                buffers: &vertex_layouts,
+            },
+            primitive,
+            depth_stencil: Some(depth_state(wgpu::DepthBiasState { constant: 2, slope_scale: 2.0, clamp: 0.0 })),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: None,
+            multiview_mask: None,
+            cache: None,
+        });
+
+        let material_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("material"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::Repeat,
+            address_mode_w: wgpu::AddressMode::Repeat,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            mipmap_filter: wgpu::MipmapFilterMode::Linear,
+            ..Default::default()
+        });
+        let shadow_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("shadow"),
+            address_mode_u: wgpu::AddressMode::ClampToEdge,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            compare: Some(wgpu::CompareFunction::LessEqual),
+            ..Default::default()
+        });
+        let one = half::f16::ONE.to_bits();
+        let white = small_texture(&device, &queue, wgpu::TextureFormat::Rgba16Float, 1, bytemuck::cast_slice(&[one; 4]));
+        let no_opaque = small_texture(&device, &queue, TARGET_FORMAT, 1, bytemuck::cast_slice(&[0.0f32; 4]));
+        let table = ltc::table();
+        let size = ltc::LTC_SIZE as u32;
+        let matrix: Vec<f32> = table.iter().flat_map(|c| c.minv).collect();
+        let amplitude: Vec<f32> = table.iter().flat_map(|c| [c.amplitude[0], c.amplitude[1], 0.0, 0.0]).collect();
+        let ltc_matrix = small_texture(&device, &queue, TARGET_FORMAT, size, bytemuck::cast_slice(&matrix));
+        let ltc_amplitude = small_texture(&device, &queue, TARGET_FORMAT, size, bytemuck::cast_slice(&amplitude));
+
+        Ok(Rasterizer {
+            options,
+            adapter_info,
+            device,
+            queue,
+            view_layout,
+            object_layout,
+            shading_layout,
+            gbuffer_pipeline,
+            transparency_pipeline,
+            shadow_pipeline,
+            material_sampler,
+            shadow_sampler,
+            white,
+            no_opaque,
+            ltc_matrix,
+            ltc_amplitude,
+            cache: Cache::default(),
+            targets: None,
+            shadows: None,
+        })
+    }
+
+    /// The adapter the rasterizer runs on.
+    pub fn adapter_info(&self) -> &wgpu::AdapterInfo {
+        &self.adapter_info
+    }
+
+    /// The wgpu device, for sharing with other GPU work (e.g. the network's wgpu backend).
+    pub fn device(&self) -> &wgpu::Device {
+        &self.device
+    }
+
+    pub fn queue(&self) -> &wgpu::Queue {
+        &self.queue
+    }
+
+    /// Forget cached meshes and textures (they are kept across frames, keyed by the scene's
+    /// shared `Arc`s; call this when switching to another scene for good).
+    pub fn clear_cache(&mut self) {
+        self.cache.clear();
+    }
+
+    /// Render everything of a frame at once: opaque and naive G-buffers and every
+    /// transparency buffer.
+    pub fn render(&mut self, scene: &Scene, camera: &Camera, width: u32, height: u32) -> Result<FrameBuffers> {
+        let mut frame = self.begin_frame(scene, camera, width, height)?;
+        let opaque = frame.opaque()?;
+        let naive = frame.naive()?;
+        let transparent = (0..frame.transparent_count()).map(|k| frame.transparent(k)).collect::<Result<Vec<_>>>()?;
+        Ok(FrameBuffers { opaque, naive, transparent })
+    }
+
+    fn check_resolution(&self, scene: &Scene, width: u32, height: u32) -> Result<()> {
+        let max = MAX_RESOLUTION.min(self.device.limits().max_texture_dimension_2d);
+        for (name, v) in [("width", width), ("height", height)] {
+            if v == 0 || v > max {
+                return Err(Error::bad_input(&scene.name, format!("resolution {name}"), format!("{v} is outside [1, {max}]")));
+            }
+        }
+        Ok(())
+    }
+
+    fn ensure_targets(&mut self, width: u32, height: u32) {
+        if self.targets.as_ref().is_some_and(|t| t.width == width && t.height == height) {
+            return;
+        }
+        let depth = self
+            .device
+            .create_texture(&wgpu::TextureDescriptor {
+                label: Some("depth"),
+                size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: DEPTH_FORMAT,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                view_formats: &[],
+            })
+            .create_view(&wgpu::TextureViewDescriptor::default());
+        self.targets = Some(Targets {
+            width,
+            height,
+            depth,
+            opaque: TargetSet::new(&self.device, GBUFFER_TARGETS, width, height, "opaque"),
+            transparency: TargetSet::new(&self.device, TRANSPARENCY_TARGETS, width, height, "transparency"),
+            naive: None,
+        });
+    }
+
+    fn ensure_shadow_maps(&mut self, layers: u32) {
+        let size = if layers == 0 { 1 } else { self.options.shadow_map_size.max(16) };
+        let layers = layers.max(1);
+        if self.shadows.as_ref().is_some_and(|s| s.size == size && s.layers == layers) {
+            return;
+        }
+        self.shadows = Some(ShadowMaps::new(&self.device, size, layers));
+    }
+
+    fn object_bind_group(&self, buffer: &wgpu::Buffer, slot: u64, base: &wgpu::TextureView, rough: &wgpu::TextureView) -> wgpu::BindGroup {
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("object"),
+            layout: &self.object_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer,
+                        offset: slot * OBJECT_STRIDE,
+                        size: wgpu::BufferSize::new(std::mem::size_of::<ObjectUniform>() as u64),
+                    }),
+                },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(base) },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(rough) },
+                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::Sampler(&self.material_sampler) },
+            ],
+        })
+    }
+
+    fn view_bind_group(&self, uniform: &ViewUniform) -> wgpu::BindGroup {
+        use wgpu::util::DeviceExt;
+        let buffer = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("view"),
+            contents: bytemuck::bytes_of(uniform),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("view"),
+            layout: &self.view_layout,
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() }],
+        })
+    }
+
+    fn shading_bind_group(&self, lights: &wgpu::Buffer, matrices: &wgpu::Buffer, opaque_ref: &wgpu::TextureView) -> wgpu::BindGroup {
+        let shadows = self.shadows.as_ref().expect("shadow maps exist during a frame");
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("shading"),
+            layout: &self.shading_layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: lights.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&shadows.array_view) },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&self.shadow_sampler) },
+                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&self.ltc_matrix) },
+                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&self.ltc_amplitude) },
+                wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(opaque_ref) },
+                wgpu::BindGroupEntry { binding: 6, resource: matrices.as_entire_binding() },
+            ],
+        })
+    }
+
+    /// Upload a frame (scene instance + camera), render the shadow maps and the opaque
+    /// G-buffer on the GPU, and return a handle that produces the buffers on request. The
+    /// transparency buffers are rendered one at a time into one reused set of targets.
+    pub fn begin_frame(&mut self, scene: &Scene, camera: &Camera, width: u32, height: u32) -> Result<Frame<'_>> {
+        use wgpu::util::DeviceExt;
+        self.check_resolution(scene, width, height)?;
+        if scene.rect_lights.is_empty() {
+            tracing::warn!("scene {:?} has no rectangle light: L_d holds only emission", scene.name);
+        }
+        self.ensure_targets(width, height);
+
+        // Lights and their shadow-map layers.
+        let bounds = scene.bounds().unwrap_or((Vec3::splat(-1.0), Vec3::splat(1.0)));
+        let extent = (bounds.1 - bounds.0).length().max(1e-3);
+        let mut light_data = Vec::with_capacity(scene.rect_lights.len());
+        let mut shadow_views: Vec<Mat4> = Vec::new();
+        let tan_half = SHADOW_HALF_FOV_DEG.to_radians().tan();
+        let normal_offset = 1.5 * 2.0 * tan_half / self.options.shadow_map_size.max(16) as f32;
+        for light in &scene.rect_lights {
+            let centre = light.center();
+            let n = light.normal();
+            let t = light.edge_u.normalize_or(n.any_orthonormal_vector());
+            let far = 2.0 * extent + (centre - 0.5 * (bounds.0 + bounds.1)).length();
+            let proj = Mat4::perspective_rh(2.0 * SHADOW_HALF_FOV_DEG.to_radians(), 1.0, far * 1e-4, far);
+            // The hemicube of one side: faces along s, t, -t, b, -b (as the shader expects).
+            let mut hemicube = |s: Vec3| -> f32 {
+                if !self.options.shadows {
+                    return -1.0;
+                }
+                let first = shadow_views.len() as f32;
+                let b = s.cross(t);
+                for (dir, up) in [(s, t), (t, s), (-t, s), (b, s), (-b, s)] {
+                    shadow_views.push(proj * Mat4::look_at_rh(centre, centre + dir, up));
+                }
+                first
+            };
+            let front_layer = hemicube(n);
+            let back_layer = if light.two_sided { hemicube(-n) } else { -1.0 };
+            let c = light.corners();
+            light_data.push(LightUniform {
+                corners: c.map(|p| p.extend(1.0).to_array()),
+                radiance: light.radiance.extend(if light.two_sided { 1.0 } else { 0.0 }).to_array(),
+                shadow: [front_layer, back_layer, normal_offset, 0.0],
+            });
+        }
+        let light_count = light_data.len() as u32;
+        if light_data.is_empty() {
+            light_data.push(LightUniform::zeroed_light());
+        }
+        let lights = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("lights"),
+            contents: bytemuck::cast_slice(&light_data),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        self.ensure_shadow_maps(shadow_views.len() as u32);
+        let mut matrix_data: Vec<[[f32; 4]; 4]> = shadow_views.iter().map(|m| mat4_cols(*m)).collect();
+        if matrix_data.is_empty() {
+            matrix_data.push(mat4_cols(Mat4::IDENTITY));
+        }
+        let shadow_matrices = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("shadow matrices"),
+            contents: bytemuck::cast_slice(&matrix_data),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+
+        // Objects (opaque, transparent) and the lights' own quads.
+        let mut uniforms: Vec<ObjectUniform> = Vec::new();
+        let mut draws: Vec<Draw> = Vec::new();
+        let mut transparent_slot = vec![usize::MAX; scene.transparent_count()];
+        let transparent_index: Vec<usize> = scene.transparent_objects();
+        let mut meshes_to_draw: Vec<(wgpu::Buffer, wgpu::Buffer, u32)> = Vec::new();
+        let mut textures: Vec<(wgpu::TextureView, wgpu::TextureView)> = Vec::new();
+        for (oi, object) in scene.objects.iter().enumerate() {
+            let Some(mesh) = scene.meshes.get(object.mesh) else {
+                return Err(Error::bad_input(&scene.name, format!("objects.{}.mesh", object.name), "index out of range"));
+            };
+            let Some(material) = scene.materials.get(object.material) else {
+                return Err(Error::bad_input(&scene.name, format!("objects.{}.material", object.name), "index out of range"));
+            };
+            let Some(gpu) = self.cache.mesh(&self.device, mesh) else { continue };
+            meshes_to_draw.push((gpu.vertices.clone(), gpu.indices.clone(), gpu.index_count));
+            let mut texture = |index: Option<usize>| match index.and_then(|i| scene.textures.get(i)) {
+                Some(t) => self.cache.texture(&self.device, &self.queue, t),
+                None => self.white.clone(),
+            };
+            textures.push((texture(material.base_color_texture), texture(material.roughness_texture)));
+            let model = Mat4::from(object.transform);
+            let normal_matrix = Mat4::from_mat3(glam::Mat3::from(object.transform.matrix3).inverse().transpose());
+            uniforms.push(ObjectUniform {
+                model: mat4_cols(model),
+                normal_matrix: mat4_cols(normal_matrix),
+                base_color: material.base_color.extend(material.roughness).to_array(),
+                emission: material.emission.extend(material.metallic).to_array(),
+                params: [material.transmission.map_or(0.0, |t| t.weight.clamp(0.0, 1.0)), 0.0, 0.0, 0.0],
+            });
+            let class = if object.transparent {
+                let k = transparent_index.iter().position(|&i| i == oi).expect("transparent objects are listed");
+                transparent_slot[k] = draws.len();
+                DrawClass::Transparent
+            } else {
+                DrawClass::Opaque
+            };
+            draws.push(Draw { slot: uniforms.len() - 1, class, mesh: meshes_to_draw.len() - 1 });
+        }
+        if self.options.draw_lights {
+            for light in &scene.rect_lights {
+                let mesh: Mesh = light.to_mesh();
+                let Some(gpu) = GpuMesh::upload(&self.device, &mesh, "light quad") else { continue };
+                meshes_to_draw.push((gpu.vertices, gpu.indices, gpu.index_count));
+                textures.push((self.white.clone(), self.white.clone()));
+                uniforms.push(ObjectUniform {
+                    model: mat4_cols(Mat4::IDENTITY),
+                    normal_matrix: mat4_cols(Mat4::IDENTITY),
+                    base_color: [0.0, 0.0, 0.0, 1.0],
+                    emission: light.radiance.extend(0.0).to_array(),
+                    params: [0.0, 1.0, if light.two_sided { 1.0 } else { 0.0 }, 0.0],
+                });
+                draws.push(Draw { slot: uniforms.len() - 1, class: DrawClass::Light, mesh: meshes_to_draw.len() - 1 });
+            }
+        }
+        let mut object_bytes = vec![0u8; (uniforms.len().max(1) as u64 * OBJECT_STRIDE) as usize];
+        for (i, u) in uniforms.iter().enumerate() {
+            let at = i * OBJECT_STRIDE as usize;
+            object_bytes[at..at + std::mem::size_of::<ObjectUniform>()].copy_from_slice(bytemuck::bytes_of(u));
+        }
+        let object_buffer = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("objects"),
+            contents: &object_bytes,
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let object_groups: Vec<wgpu::BindGroup> = (0..uniforms.len())
+            .map(|i| self.object_bind_group(&object_buffer, i as u64, &textures[i].0, &textures[i].1))
+            .collect();
+
+        let view = self.view_bind_group(&ViewUniform {
+            view_proj: mat4_cols(camera.view_projection(width, height)),
+            camera_pos: camera.position.extend(1.0).to_array(),
+            params: [light_count, u32::from(self.options.shadows), 0, 0],
+        });
+        let shadow_view_groups: Vec<wgpu::BindGroup> = shadow_views
+            .iter()
+            .map(|m| self.view_bind_group(&ViewUniform { view_proj: mat4_cols(*m), camera_pos: [0.0; 4], params: [0; 4] }))
+            .collect();
+        let targets = self.targets.as_ref().expect("ensured");
+        let shading_opaque = self.shading_bind_group(&lights, &shadow_matrices, &self.no_opaque);
+        let shading_transparency = self.shading_bind_group(&lights, &shadow_matrices, &targets.opaque.views[1]);
+
+        let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+        // Shadow maps: opaque geometry only (glass and the lights' quads cast no shadow).
+        let shadows = self.shadows.as_ref().expect("ensured");
+        for (layer, group) in shadow_view_groups.iter().enumerate() {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("shadow"),
+                color_attachments: &[],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &shadows.layer_views[layer],
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.shadow_pipeline);
+            pass.set_bind_group(0, group, &[]);
+            for d in draws.iter().filter(|d| d.class == DrawClass::Opaque) {
+                let (v, i, n) = &meshes_to_draw[d.mesh];
+                pass.set_bind_group(1, &object_groups[d.slot], &[]);
+                pass.set_vertex_buffer(0, v.slice(..));
+                pass.set_index_buffer(i.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..*n, 0, 0..1);
+            }
+        }
+        let frame = Frame {
+            width,
+            height,
+            view,
+            shading_opaque,
+            shading_transparency,
+            object_groups,
+            meshes: meshes_to_draw,
+            draws,
+            transparent_slot,
+            rasterizer: self,
+        };
+        frame.encode_pass(&mut encoder, PassKind::Opaque);
+        frame.rasterizer.queue.submit([encoder.finish()]);
+        Ok(frame)
+    }
+}
+
+impl LightUniform {
+    fn zeroed_light() -> LightUniform {
+        bytemuck::Zeroable::zeroed()
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum DrawClass {
+    Opaque,
+    Transparent,
+    Light,
+}
+
+struct Draw {
+    slot: usize,
+    class: DrawClass,
+    mesh: usize,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum PassKind {
+    Opaque,
+    Naive,
+    Transparency(usize),
+}
+
+/// One frame in flight: the opaque G-buffer is rendered; the naive G-buffer and the
+/// transparency buffers are rendered on request, each transparency buffer into the same
+/// reused targets and readback buffer (memory does not grow with the object count).
+pub struct Frame<'r> {
+    rasterizer: &'r mut Rasterizer,
+    width: u32,
+    height: u32,
+    view: wgpu::BindGroup,
+    shading_opaque: wgpu::BindGroup,
+    shading_transparency: wgpu::BindGroup,
+    object_groups: Vec<wgpu::BindGroup>,
+    meshes: Vec<(wgpu::Buffer, wgpu::Buffer, u32)>,
+    draws: Vec<Draw>,
+    /// Draw index of transparency buffer k.
+    transparent_slot: Vec<usize>,
+}
+
+impl Frame<'_> {
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+    /// Number of transparency buffers (the scene's transparent objects).
+    pub fn transparent_count(&self) -> usize {
+        self.transparent_slot.len()
+    }
+
+    fn encode_pass(&self, encoder: &mut wgpu::CommandEncoder, kind: PassKind) {
+        let r = &*self.rasterizer;
+        let targets = r.targets.as_ref().expect("frame has targets");
+        let (set, pipeline, shading) = match kind {
+            PassKind::Opaque => (&targets.opaque, &r.gbuffer_pipeline, &self.shading_opaque),
+            PassKind::Naive => (targets.naive.as_ref().expect("created"), &r.gbuffer_pipeline, &self.shading_opaque),
+            PassKind::Transparency(_) => (&targets.transparency, &r.transparency_pipeline, &self.shading_transparency),
+        };
+        let attachments = set.color_attachments();
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("gbuffer"),
+            color_attachments: &attachments,
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &targets.depth,
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &self.view, &[]);
+        pass.set_bind_group(2, shading, &[]);
+        let mut draw = |d: &Draw| {
+            let (v, i, n) = &self.meshes[d.mesh];
+            pass.set_bind_group(1, &self.object_groups[d.slot], &[]);
+            pass.set_vertex_buffer(0, v.slice(..));
+            pass.set_index_buffer(i.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..*n, 0, 0..1);
+        };
+        match kind {
+            PassKind::Opaque => self.draws.iter().filter(|d| d.class != DrawClass::Transparent).for_each(&mut draw),
+            PassKind::Naive => self.draws.iter().for_each(&mut draw),
+            PassKind::Transparency(k) => draw(&self.draws[self.transparent_slot[k]]),
+        }
+    }
+
+    /// Read back the opaque G-buffer (17 channels, `layout::opaque_channel_names()`).
+    pub fn opaque(&mut self) -> Result<PlanarImage> {
+        let mut out = PlanarImage::new(self.width, self.height, layout::opaque_channel_names());
+        let r = &*self.rasterizer;
+        r.targets.as_ref().expect("targets").opaque.read_into(&r.device, &r.queue, &OPAQUE_MAP, self.width, self.height, out.data_mut())?;
+        Ok(out)
+    }
+
+    /// Render and read back the naive G-buffer (glass overwrites what is behind it; same 17
+    /// channels, `layout::naive_channel_names()`).
+    pub fn naive(&mut self) -> Result<PlanarImage> {
+        {
+            let r = &mut *self.rasterizer;
+            let targets = r.targets.as_mut().expect("targets");
+            if targets.naive.is_none() {
+                targets.naive = Some(TargetSet::new(&r.device, GBUFFER_TARGETS, self.width, self.height, "naive"));
+            }
+        }
+        let r = &*self.rasterizer;
+        let mut encoder = r.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("naive") });
+        self.encode_pass(&mut encoder, PassKind::Naive);
+        r.queue.submit([encoder.finish()]);
+        let mut out = PlanarImage::new(self.width, self.height, layout::naive_channel_names());
+        r.targets.as_ref().expect("targets").naive.as_ref().expect("created").read_into(
+            &r.device,
+            &r.queue,
+            &OPAQUE_MAP,
+            self.width,
+            self.height,
+            out.data_mut(),
+        )?;
+        Ok(out)
+    }
+
+    /// Render transparency buffer `k` into the reused transparency targets, on the GPU only
+    /// (for consumers that read the targets in place; see [`Frame::transparency_textures`]).
+    pub fn render_transparent(&mut self, k: usize) -> Result<()> {
+        if k >= self.transparent_count() {
+            return Err(Error::Internal(format!("transparency buffer {k} of {}", self.transparent_count())));
+        }
+        let r = &*self.rasterizer;
+        let mut encoder = r.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("transparency") });
+        self.encode_pass(&mut encoder, PassKind::Transparency(k));
+        r.queue.submit([encoder.finish()]);
+        Ok(())
+    }
+
+    /// Render transparency buffer `k` and read it back into `planes`: 16 planes of
+    /// width x height f32 in the channel order of `layout::transparent_channel_names`
+    /// (planar, row 0 at the top). The streaming path for the network: the caller keeps one
+    /// buffer and the GPU one set of targets, whatever the number of objects.
+    pub fn transparent_into(&mut self, k: usize, planes: &mut [f32]) -> Result<()> {
+        let expected = layout::TRANSPARENT_CHANNELS * (self.width * self.height) as usize;
+        if planes.len() != expected {
+            return Err(Error::Internal(format!("transparency planes: got {} floats, expected {expected}", planes.len())));
+        }
+        self.render_transparent(k)?;
+        let r = &*self.rasterizer;
+        r.targets.as_ref().expect("targets").transparency.read_into(&r.device, &r.queue, &TRANSPARENT_MAP, self.width, self.height, planes)
+    }
+
+    /// Render and read back transparency buffer `k`.
+    pub fn transparent(&mut self, k: usize) -> Result<PlanarImage> {
+        let mut out = PlanarImage::new(self.width, self.height, layout::transparent_channel_names(k));
+        self.transparent_into(k, out.data_mut())?;
+        Ok(out)
+    }
+
+    /// Block until the GPU has finished all submitted work (for timing).
+    pub fn wait(&self) -> Result<()> {
+        self.rasterizer
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map(|_| ())
+            .map_err(|e| Error::Internal(format!("waiting for the GPU: {e}")))
+    }
+
+    /// The opaque G-buffer's render targets (see `shaders/gbuffer.wgsl` for their packing).
+    pub fn opaque_textures(&self) -> &[wgpu::Texture] {
+        &self.rasterizer.targets.as_ref().expect("targets").opaque.textures
+    }
+
+    /// The reused transparency targets, holding the buffer last rendered.
+    pub fn transparency_textures(&self) -> &[wgpu::Texture] {
+        &self.rasterizer.targets.as_ref().expect("targets").transparency.textures
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn covers_each_channel_once(map: &ChannelMap, channels: usize, targets: u32) {
+        let mut seen = vec![0; channels];
+        let mut slots = std::collections::HashSet::new();
+        for &(first, count, target, component) in map {
+            assert!(target < targets && component as usize + count <= 4);
+            for c in 0..count {
+                seen[first + c] += 1;
+                assert!(slots.insert((target, component as usize + c)), "slot used twice");
+            }
+        }
+        assert!(seen.iter().all(|&n| n == 1), "{seen:?}");
+    }
+
+    #[test]
+    fn channel_maps_cover_the_layout() {
+        covers_each_channel_once(&OPAQUE_MAP, layout::OPAQUE_CHANNELS, GBUFFER_TARGETS);
+        covers_each_channel_once(&TRANSPARENT_MAP, layout::TRANSPARENT_CHANNELS, TRANSPARENCY_TARGETS);
+    }
+
+    #[test]
+    fn readback_rows_are_padded_to_256_bytes() {
+        assert_eq!(padded_row_bytes(16), 256);
+        assert_eq!(padded_row_bytes(17), 512);
+        assert_eq!(padded_row_bytes(256), 4096);
+        assert_eq!(padded_row_bytes(1), 256);
+    }
+}
