@@ -18,6 +18,8 @@ enum Command {
     /// Inspect, validate and export scenes.
     #[command(subcommand)]
     Scene(commands::scene::SceneCommand),
+    /// Make a dataset of sampled frames (buffers + path-traced ground truth); merge shards; info.
+    Dataset(commands::dataset::DatasetArgs),
 }
 
 fn main() {
@@ -33,6 +35,7 @@ fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Scene(cmd) => commands::scene::run(cmd),
+        Command::Dataset(args) => commands::dataset::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {}", one_line(&e));
