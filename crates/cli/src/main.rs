@@ -22,6 +22,8 @@ enum Command {
     Trace(commands::trace::TraceArgs),
     /// Rasterize one frame's buffers (opaque, naive, transparency) into a multi-layer EXR.
     Buffers(commands::buffers::BuffersArgs),
+    /// Make a dataset of sampled frames (buffers + path-traced ground truth); merge shards; info.
+    Dataset(commands::dataset::DatasetArgs),
 }
 
 fn main() {
@@ -39,6 +41,7 @@ fn main() {
         Command::Scene(cmd) => commands::scene::run(cmd),
         Command::Trace(args) => commands::trace::run(args),
         Command::Buffers(args) => commands::buffers::run(args),
+        Command::Dataset(args) => commands::dataset::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {}", one_line(&e));

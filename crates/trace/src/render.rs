@@ -91,8 +91,8 @@ impl TraceOutput {
 
 /// The image seed of a dataset sample: `glassbake dataset` and `glassbake trace --sample`
 /// both use it, so the two render the same ground truth.
-pub fn sample_trace_seed(sample: &glassbake_scene::Sample) -> u64 {
-    glassbake_core::seed::purpose_seed(sample.seed, "trace")
+pub fn sample_trace_seed(sample_seed: u64) -> u64 {
+    glassbake_core::seed::purpose_seed(sample_seed, "trace")
 }
 
 /// Progress callback: (pixels done, pixels in all). Called from worker threads.

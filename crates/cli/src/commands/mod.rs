@@ -1,3 +1,4 @@
 pub mod buffers;
 pub mod scene;
 pub mod trace;
+pub mod dataset;

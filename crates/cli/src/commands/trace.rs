@@ -76,7 +76,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
     let (camera, values, image_seed) = match args.sample {
         Some(index) => {
             let sample = scene.sample(args.seed, index);
-            let seed = sample_trace_seed(&sample);
+            let seed = sample_trace_seed(sample.seed);
             (sample.camera, sample.values, seed)
         }
         None => {

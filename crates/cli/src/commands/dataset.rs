@@ -1,0 +1,157 @@
+//! `glassbake dataset`: make a dataset (resumable, shardable), merge shards, describe one.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::Result;
+use clap::{Args, Subcommand};
+use glassbake_dataset::{generate, merge, DatasetSpec, DatasetStore, GenerateOptions, ShardSpec};
+use glassbake_scene::load_scene;
+use indicatif::{ProgressBar, ProgressStyle};
+
+#[derive(Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub struct DatasetArgs {
+    #[command(subcommand)]
+    command: Option<DatasetCommand>,
+    #[command(flatten)]
+    make: Option<MakeArgs>,
+}
+
+#[derive(Subcommand)]
+enum DatasetCommand {
+    /// Merge complete shard directories into one dataset (identical to a one-machine run).
+    Merge {
+        /// The merged dataset directory.
+        #[arg(long)]
+        out: PathBuf,
+        /// Shard directories made with --shard i/n.
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+    },
+    /// Counts per split, resolution, spp, disk use, scene hash.
+    Info { dir: PathBuf },
+}
+
+#[derive(Args)]
+struct MakeArgs {
+    /// A built-in name or a path to a manifest, glTF or OBJ file.
+    scene: String,
+    /// Dataset directory; re-running the same command there completes it.
+    #[arg(long)]
+    out: PathBuf,
+    #[arg(long, default_value_t = 1800)]
+    train: u64,
+    #[arg(long, default_value_t = 200)]
+    val: u64,
+    #[arg(long, default_value_t = 128)]
+    test: u64,
+    /// Square resolution of every frame.
+    #[arg(long, default_value_t = 256)]
+    res: u32,
+    /// Path-tracing samples per pixel of the ground truth.
+    #[arg(long, default_value_t = 256)]
+    spp: u32,
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Also store the rasterized buffers (f16 EXR); otherwise they are rasterized again when
+    /// needed, deterministically.
+    #[arg(long)]
+    cache_buffers: bool,
+    /// Make only the frames whose index mod n is i, e.g. `--shard 3/16`.
+    #[arg(long)]
+    shard: Option<String>,
+    /// Path-tracer threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+}
+
+fn human_bytes(bytes: u64) -> String {
+    let mut value = bytes as f64;
+    for unit in ["B", "KiB", "MiB", "GiB"] {
+        if value < 1024.0 {
+            return format!("{value:.1} {unit}");
+        }
+        value /= 1024.0;
+    }
+    format!("{value:.1} TiB")
+}
+
+pub fn run(args: DatasetArgs) -> Result<()> {
+    match (args.command, args.make) {
+        (Some(DatasetCommand::Info { dir }), _) => {
+            let info = DatasetStore::open(&dir)?.info();
+            println!("dataset {}", dir.display());
+            println!("  scene {} (hash {})", info.scene_name, info.scene_hash);
+            println!("  {}x{} px, {} spp, seed {}, {} transparent objects", info.resolution, info.resolution, info.spp, info.seed, info.transparent_objects);
+            println!("  buffers {}", if info.cache_buffers { "cached (f16 EXR)" } else { "rasterized on demand" });
+            for (split, planned, done) in info.splits {
+                println!("  {:<6} {done}/{planned} frames complete", format!("{split:?}").to_lowercase());
+            }
+            println!("  disk {}", human_bytes(info.disk_bytes));
+        }
+        (Some(DatasetCommand::Merge { out, shards }), _) => {
+            let shard_paths: Vec<&std::path::Path> = shards.iter().map(|p| p.as_path()).collect();
+            let copied = merge(&out, &shard_paths)?;
+            println!("merged {} shard(s) into {} ({copied} frames copied)", shards.len(), out.display());
+        }
+        (None, Some(make)) => make_dataset(make)?,
+        (None, None) => anyhow::bail!("give a scene and --out, or a subcommand (see glassbake dataset --help)"),
+    }
+    Ok(())
+}
+
+fn make_dataset(args: MakeArgs) -> Result<()> {
+    let scene = load_scene(&args.scene)?;
+    let shard = match &args.shard {
+        Some(text) => ShardSpec::parse(text)?,
+        None => ShardSpec::ALL,
+    };
+    let spec = DatasetSpec {
+        scene: args.scene.clone(),
+        resolution: args.res,
+        spp: args.spp,
+        seed: args.seed,
+        train: args.train,
+        val: args.val,
+        test: args.test,
+        cache_buffers: args.cache_buffers,
+    };
+    let options = GenerateOptions { shard, threads: args.threads, ..Default::default() };
+    let bar = ProgressBar::new(0);
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} frames {pos}/{len} [{elapsed_precise}] {wide_bar} ETA {eta}")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    bar.enable_steady_tick(Duration::from_millis(250));
+    let progress = |done: u64, total: u64| {
+        bar.set_length(total);
+        if bar.position() == 0 && done > 0 {
+            // Frames already complete do not count towards the ETA.
+            bar.reset_eta();
+        }
+        bar.set_position(done);
+    };
+    let summary = generate(&scene, &spec, &args.out, &options, &progress);
+    bar.finish_and_clear();
+    let summary = summary?;
+    let secs = summary.elapsed.as_secs_f64();
+    println!(
+        "dataset {}: {} frame(s) made, {} already complete{}, in {:.1} s{}",
+        args.out.display(),
+        summary.generated,
+        summary.skipped,
+        if summary.redone > 0 { format!(" ({} corrupt, redone)", summary.redone) } else { String::new() },
+        secs,
+        if summary.generated > 0 { format!(" ({:.0} frames/hour)", summary.generated as f64 * 3600.0 / secs) } else { String::new() },
+    );
+    if shard != ShardSpec::ALL {
+        println!("  shard {}/{}: {} frame(s) of this shard", shard.index, shard.count, summary.frames_in_shard);
+    }
+    if summary.discarded_samples > 0 {
+        println!("  {} NaN/inf path sample(s) discarded", summary.discarded_samples);
+    }
+    println!("  disk {} ({} per frame)", human_bytes(summary.disk_bytes), human_bytes(summary.disk_bytes / summary.frames_in_shard.max(1)));
+    Ok(())
+}

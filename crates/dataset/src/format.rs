@@ -1,0 +1,188 @@
+//! `manifest.json`: what a dataset is (scene, resolution, spp, seed, splits) and every
+//! sample's camera and variable values. Written once, before any frame, from inputs alone, so
+//! every shard of a dataset writes the same manifest and a resumed run can check it is
+//! continuing the same dataset.
+
+use glassbake_core::layout;
+use glassbake_core::{Camera, Error, Result};
+use glassbake_scene::Scene;
+use serde::{Deserialize, Serialize};
+
+pub const FORMAT_VERSION: u32 = 1;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Split {
+    Train,
+    Val,
+    Test,
+}
+
+impl Split {
+    pub fn parse(s: &str) -> Result<Split> {
+        match s {
+            "train" => Ok(Split::Train),
+            "val" => Ok(Split::Val),
+            "test" => Ok(Split::Test),
+            other => Err(Error::bad_input("--split", other, "expected train, val or test")),
+        }
+    }
+}
+
+/// What the user asked for: everything that defines a dataset's content.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DatasetSpec {
+    /// The scene argument as given (built-in name or path); informational.
+    pub scene: String,
+    pub resolution: u32,
+    pub spp: u32,
+    pub seed: u64,
+    pub train: u64,
+    pub val: u64,
+    pub test: u64,
+    pub cache_buffers: bool,
+}
+
+impl DatasetSpec {
+    pub fn total(&self) -> u64 {
+        self.train + self.val + self.test
+    }
+
+    /// Split of frame `index`: train frames come first, then validation, then test.
+    pub fn split_of(&self, index: u64) -> Split {
+        if index < self.train {
+            Split::Train
+        } else if index < self.train + self.val {
+            Split::Val
+        } else {
+            Split::Test
+        }
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        if self.resolution == 0 || self.resolution > 8192 {
+            return Err(Error::bad_input("dataset", "--res", format!("{} is outside 1..=8192", self.resolution)));
+        }
+        if self.spp == 0 {
+            return Err(Error::bad_input("dataset", "--spp", "must be at least 1"));
+        }
+        if self.total() == 0 {
+            return Err(Error::bad_input("dataset", "--train/--val/--test", "the dataset would have no frames"));
+        }
+        Ok(())
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SceneRecord {
+    pub name: String,
+    /// `Scene::content_hash` of the scene the frames were made from.
+    pub hash: String,
+    /// Names of the transparent objects; transparency buffer k belongs to the k-th.
+    pub transparent_objects: Vec<String>,
+    pub variables: Vec<VariableRecord>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct VariableRecord {
+    pub name: String,
+    pub min: f32,
+    pub max: f32,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ChannelLayout {
+    pub opaque: Vec<String>,
+    pub naive: Vec<String>,
+    /// Transparency buffer k's channel names are these with `transparent.0` replaced by
+    /// `transparent.k`.
+    pub transparent: Vec<String>,
+    pub ground_truth: Vec<String>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SampleRecord {
+    pub index: u64,
+    pub split: Split,
+    /// Per-sample seed (`core::seed::sample_seed(dataset seed, index)`).
+    pub seed: u64,
+    pub camera: Camera,
+    /// One value per variable, in the scene's variable order.
+    pub values: Vec<f32>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DatasetManifest {
+    pub format_version: u32,
+    pub spec: DatasetSpec,
+    pub scene: SceneRecord,
+    /// Ground truth is stored as f32 EXR; cached buffers as f16 EXR.
+    pub ground_truth_precision: String,
+    pub buffer_precision: String,
+    pub channel_layout: ChannelLayout,
+    pub samples: Vec<SampleRecord>,
+}
+
+impl DatasetManifest {
+    /// The manifest of `spec` over `scene`: a pure function of its inputs.
+    pub fn plan(spec: &DatasetSpec, scene: &Scene) -> DatasetManifest {
+        let samples = (0..spec.total())
+            .map(|index| {
+                let s = scene.sample(spec.seed, index);
+                SampleRecord { index, split: spec.split_of(index), seed: s.seed, camera: s.camera, values: s.values }
+            })
+            .collect();
+        DatasetManifest {
+            format_version: FORMAT_VERSION,
+            spec: spec.clone(),
+            scene: SceneRecord {
+                name: scene.name.clone(),
+                hash: scene.content_hash(),
+                transparent_objects: scene.transparent_objects().iter().map(|&i| scene.objects[i].name.clone()).collect(),
+                variables: scene.variables.iter().map(|v| VariableRecord { name: v.name.clone(), min: v.min, max: v.max }).collect(),
+            },
+            ground_truth_precision: "f32".into(),
+            buffer_precision: "f16".into(),
+            channel_layout: ChannelLayout {
+                opaque: layout::opaque_channel_names(),
+                naive: layout::naive_channel_names(),
+                transparent: layout::transparent_channel_names(0),
+                ground_truth: layout::GROUND_TRUTH_CHANNELS.iter().map(|s| s.to_string()).collect(),
+            },
+            samples,
+        }
+    }
+
+    /// Why `self` (on disk) and `other` (asked for now) are not the same dataset, if they
+    /// are not. The scene argument may differ (a moved file) as long as the scene hash agrees.
+    pub fn mismatch(&self, other: &DatasetManifest) -> Option<String> {
+        let (a, b) = (&self.spec, &other.spec);
+        if self.format_version != other.format_version {
+            return Some(format!("format version {} vs {}", self.format_version, other.format_version));
+        }
+        if self.scene.hash != other.scene.hash {
+            return Some(format!("it was made from a different scene ({} {}, now {} {})", self.scene.name, &self.scene.hash[..12], other.scene.name, &other.scene.hash[..12]));
+        }
+        let fields: [(&str, String, String); 6] = [
+            ("--res", a.resolution.to_string(), b.resolution.to_string()),
+            ("--spp", a.spp.to_string(), b.spp.to_string()),
+            ("--seed", a.seed.to_string(), b.seed.to_string()),
+            ("--train/--val/--test", format!("{}/{}/{}", a.train, a.val, a.test), format!("{}/{}/{}", b.train, b.val, b.test)),
+            ("--cache-buffers", a.cache_buffers.to_string(), b.cache_buffers.to_string()),
+            ("samples", format!("{}", self.samples.len()), format!("{}", other.samples.len())),
+        ];
+        for (name, was, now) in fields {
+            if was != now {
+                return Some(format!("it was made with {name} {was}, not {now}"));
+            }
+        }
+        if self.samples != other.samples {
+            return Some("its sampled cameras and values differ (a different glassbake version?)".into());
+        }
+        None
+    }
+
+    pub fn indices_of(&self, split: Split) -> Vec<u64> {
+        self.samples.iter().filter(|s| s.split == split).map(|s| s.index).collect()
+    }
+}

@@ -1,0 +1,209 @@
+//! The dataset directory: paths, opening/creating with the same-dataset check, per-frame
+//! completeness checks (missing, truncated or corrupt files are redone), and `dataset info`.
+
+use std::path::{Path, PathBuf};
+
+use glassbake_core::image::write_bytes_atomically;
+use glassbake_core::layout;
+use glassbake_core::{Error, PlanarImage, Result};
+
+use crate::format::{DatasetManifest, Split};
+
+pub const MANIFEST_FILE: &str = "manifest.json";
+
+pub struct DatasetStore {
+    pub dir: PathBuf,
+    pub manifest: DatasetManifest,
+}
+
+/// Whether a frame's files are all present and readable.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FrameStatus {
+    Done,
+    Missing,
+    Corrupt(String),
+}
+
+/// The summary `glassbake dataset info` prints.
+#[derive(Clone, Debug)]
+pub struct DatasetInfo {
+    pub scene_name: String,
+    pub scene_hash: String,
+    pub resolution: u32,
+    pub spp: u32,
+    pub seed: u64,
+    pub cache_buffers: bool,
+    pub transparent_objects: usize,
+    /// (split, frames planned, frames complete)
+    pub splits: Vec<(Split, usize, usize)>,
+    pub disk_bytes: u64,
+}
+
+fn manifest_bytes(manifest: &DatasetManifest) -> Result<Vec<u8>> {
+    let mut bytes = serde_json::to_vec_pretty(manifest).map_err(|e| Error::Internal(e.to_string()))?;
+    bytes.push(b'\n');
+    Ok(bytes)
+}
+
+pub fn read_manifest(dir: &Path) -> Result<DatasetManifest> {
+    let path = dir.join(MANIFEST_FILE);
+    if !path.is_file() {
+        return Err(Error::bad_input(path.display(), "file", "not a glassbake dataset (no manifest.json)"));
+    }
+    let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
+    serde_json::from_slice(&bytes).map_err(|e| Error::bad_input(path.display(), format!("line {}", e.line()), e.to_string()))
+}
+
+impl DatasetStore {
+    /// Open an existing dataset.
+    pub fn open(dir: &Path) -> Result<DatasetStore> {
+        Ok(DatasetStore { dir: dir.to_path_buf(), manifest: read_manifest(dir)? })
+    }
+
+    /// Open `dir` to continue `planned`, or create it. Refuses a directory holding a
+    /// different dataset, or anything else.
+    pub fn create_or_resume(dir: &Path, planned: &DatasetManifest) -> Result<DatasetStore> {
+        let path = dir.join(MANIFEST_FILE);
+        if path.exists() {
+            let existing = read_manifest(dir)?;
+            if let Some(why) = existing.mismatch(planned) {
+                return Err(Error::bad_input(
+                    path.display(),
+                    "dataset",
+                    format!("refusing to add to this dataset: {why}; choose another --out or delete it"),
+                ));
+            }
+        } else {
+            if dir.exists() && std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?.next().is_some() {
+                return Err(Error::bad_input(dir.display(), "--out", "exists, is not empty and holds no manifest.json: not overwriting it"));
+            }
+            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+            write_bytes_atomically(&path, &manifest_bytes(planned)?)?;
+        }
+        for sub in ["gt", "buffers", "preview"] {
+            let d = dir.join(sub);
+            std::fs::create_dir_all(&d).map_err(|e| Error::io(&d, e))?;
+        }
+        let store = DatasetStore { dir: dir.to_path_buf(), manifest: planned.clone() };
+        store.remove_stale_temp_files()?;
+        Ok(store)
+    }
+
+    /// Write the manifest (used by merge, which assembles a dataset from shards).
+    pub fn write_manifest(&self) -> Result<()> {
+        write_bytes_atomically(&self.dir.join(MANIFEST_FILE), &manifest_bytes(&self.manifest)?)
+    }
+
+    pub fn gt_path(&self, index: u64) -> PathBuf {
+        self.dir.join("gt").join(format!("{index:06}.exr"))
+    }
+    pub fn buffers_path(&self, index: u64) -> PathBuf {
+        self.dir.join("buffers").join(format!("{index:06}.exr"))
+    }
+    pub fn preview_path(&self, index: u64) -> PathBuf {
+        self.dir.join("preview").join(format!("{index:06}.png"))
+    }
+
+    /// Temp files of writes a kill interrupted (`.NAME.tmpPID`).
+    fn remove_stale_temp_files(&self) -> Result<()> {
+        for sub in ["gt", "buffers", "preview"] {
+            let d = self.dir.join(sub);
+            for entry in std::fs::read_dir(&d).map_err(|e| Error::io(&d, e))? {
+                let entry = entry.map_err(|e| Error::io(&d, e))?;
+                let name = entry.file_name().to_string_lossy().to_string();
+                if name.starts_with('.') && name.contains(".tmp") {
+                    let _ = std::fs::remove_file(entry.path());
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn check_image(&self, path: &Path, channels: &[String]) -> FrameStatus {
+        if !path.exists() {
+            return FrameStatus::Missing;
+        }
+        let image = match PlanarImage::read_exr(path) {
+            Ok(image) => image,
+            Err(e) => return FrameStatus::Corrupt(e.to_string()),
+        };
+        let res = self.manifest.spec.resolution;
+        if (image.width(), image.height()) != (res, res) {
+            return FrameStatus::Corrupt(format!("{}x{} instead of {res}x{res}", image.width(), image.height()));
+        }
+        for name in channels {
+            match image.plane_by_name(name) {
+                None => return FrameStatus::Corrupt(format!("no channel {name}")),
+                Some(plane) if plane.iter().any(|v| !v.is_finite()) => {
+                    return FrameStatus::Corrupt(format!("channel {name} holds NaN or infinity"))
+                }
+                Some(_) => {}
+            }
+        }
+        FrameStatus::Done
+    }
+
+    /// Channel names of a cached buffers file.
+    pub fn buffer_channels(&self) -> Vec<String> {
+        let mut names = layout::opaque_channel_names();
+        names.extend(layout::naive_channel_names());
+        for k in 0..self.manifest.scene.transparent_objects.len() {
+            names.extend(layout::transparent_channel_names(k));
+        }
+        names
+    }
+
+    /// Whether frame `index` is complete: ground truth, and cached buffers when asked for.
+    pub fn frame_status(&self, index: u64) -> FrameStatus {
+        let gt_channels = &self.manifest.channel_layout.ground_truth;
+        match self.check_image(&self.gt_path(index), gt_channels) {
+            FrameStatus::Done => {}
+            other => return other,
+        }
+        if self.manifest.spec.cache_buffers {
+            return self.check_image(&self.buffers_path(index), &self.buffer_channels());
+        }
+        FrameStatus::Done
+    }
+
+    pub fn disk_bytes(&self) -> u64 {
+        fn walk(dir: &Path) -> u64 {
+            std::fs::read_dir(dir)
+                .map(|entries| {
+                    entries
+                        .flatten()
+                        .map(|e| match e.metadata() {
+                            Ok(m) if m.is_dir() => walk(&e.path()),
+                            Ok(m) => m.len(),
+                            Err(_) => 0,
+                        })
+                        .sum()
+                })
+                .unwrap_or(0)
+        }
+        walk(&self.dir)
+    }
+
+    pub fn info(&self) -> DatasetInfo {
+        let m = &self.manifest;
+        let splits = [Split::Train, Split::Val, Split::Test]
+            .into_iter()
+            .map(|split| {
+                let indices = m.indices_of(split);
+                let done = indices.iter().filter(|&&i| self.frame_status(i) == FrameStatus::Done).count();
+                (split, indices.len(), done)
+            })
+            .collect();
+        DatasetInfo {
+            scene_name: m.scene.name.clone(),
+            scene_hash: m.scene.hash.clone(),
+            resolution: m.spec.resolution,
+            spp: m.spec.spp,
+            seed: m.spec.seed,
+            cache_buffers: m.spec.cache_buffers,
+            transparent_objects: m.scene.transparent_objects.len(),
+            splits,
+            disk_bytes: self.disk_bytes(),
+        }
+    }
+}
