@@ -92,7 +92,7 @@ pub fn write_mitsuba(scene: &Scene, camera: &Camera, out: &Path) -> Result<()> {
     let mut xml = String::new();
     let _ = writeln!(xml, "<!-- glassbake scene {} exported for Mitsuba 3 -->", scene.name);
     let _ = writeln!(xml, "<scene version=\"3.0.0\">");
-    let _ = writeln!(xml, "  <default name=\"spp\" value=\"256\"/>\n  <default name=\"res\" value=\"256\"/>\n  <default name=\"max_depth\" value=\"16\"/>");
+    let _ = writeln!(xml, "  <default name=\"spp\" value=\"256\"/>\n  <default name=\"res\" value=\"256\"/>\n  <default name=\"max_depth\" value=\"64\"/>");
     let _ = writeln!(xml, "  <integrator type=\"path\"><integer name=\"max_depth\" value=\"$max_depth\"/></integrator>");
     let (p, t, u) = (camera.position, camera.target, camera.up);
     let _ = writeln!(
