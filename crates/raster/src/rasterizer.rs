@@ -251,8 +251,8 @@ impl ShadowMaps {
 /// with [`Rasterizer::begin_frame`] (streaming) or [`Rasterizer::render`] (all at once).
 ///
 /// Channel semantics (docs/raster.md has the full list): normals are world-space, unit and
-/// flipped to face the camera; positions world-space; albedo linear and textured (trilinear
-/// mipmaps; the tint for glass); depth is the Euclidean distance to the camera; w_o points to
+/// flipped to face the camera; positions world-space; albedo linear and textured (mipmapped,
+/// anisotropic; the tint for glass); depth is the Euclidean distance to the camera; w_o points to
 /// the camera; L_d is direct light from the rectangle lights (exact polygon form factor for
 /// diffuse, LTC for GGX, hemicube shadow maps) plus emission. Background is 0. A transparency
 /// buffer holds its object's front-most surface in front of the opaque surface (hidden glass
@@ -487,6 +487,8 @@ impl Rasterizer {
             mag_filter: wgpu::FilterMode::Linear,
             min_filter: wgpu::FilterMode::Linear,
             mipmap_filter: wgpu::MipmapFilterMode::Linear,
+            // 16x anisotropic where the device supports it (wgpu falls back to trilinear).
+            anisotropy_clamp: 16,
             ..Default::default()
         });
         let shadow_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
