@@ -63,6 +63,11 @@ fn rank(device_type: wgpu::DeviceType, preference: PowerPreference) -> u32 {
     }
 }
 
+/// Whether a device opened with these limits can run the G-buffer pass.
+pub(crate) fn limits_suffice(limits: &wgpu::Limits) -> bool {
+    limits.max_color_attachments >= GBUFFER_TARGETS && limits.max_color_attachment_bytes_per_sample >= REQUIRED_COLOR_BYTES
+}
+
 fn usable(adapter: &wgpu::Adapter) -> bool {
     let limits = adapter.limits();
     let format = adapter.get_texture_format_features(wgpu::TextureFormat::Rgba32Float);
@@ -72,7 +77,7 @@ fn usable(adapter: &wgpu::Adapter) -> bool {
 }
 
 /// Open a device on the chosen Vulkan adapter, with the adapter's own limits.
-pub(crate) fn open(options: &RasterizerOptions) -> Result<(wgpu::Adapter, wgpu::Device, wgpu::Queue)> {
+pub(crate) fn open(options: &RasterizerOptions) -> Result<(wgpu::Instance, wgpu::Adapter, wgpu::Device, wgpu::Queue)> {
     let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
         backends: wgpu::Backends::VULKAN,
         ..wgpu::InstanceDescriptor::new_without_display_handle()
@@ -106,7 +111,7 @@ pub(crate) fn open(options: &RasterizerOptions) -> Result<(wgpu::Adapter, wgpu::
         ..Default::default()
     }))
     .map_err(|e| Error::Internal(format!("opening the Vulkan device {:?}: {e}", adapter.get_info().name)))?;
-    Ok((adapter, device, queue))
+    Ok((instance, adapter, device, queue))
 }
 
 #[cfg(test)]

@@ -260,6 +260,8 @@ impl ShadowMaps {
 /// and coverage. Rectangle lights' quads are drawn into the opaque and naive G-buffers.
 pub struct Rasterizer {
     options: RasterizerOptions,
+    instance: wgpu::Instance,
+    adapter: wgpu::Adapter,
     adapter_info: wgpu::AdapterInfo,
     device: wgpu::Device,
     queue: wgpu::Queue,
@@ -346,7 +348,31 @@ fn mat4_cols(m: Mat4) -> [[f32; 4]; 4] {
 impl Rasterizer {
     /// Open a Vulkan device (see [`RasterizerOptions`]) and build the pipelines.
     pub fn new(options: RasterizerOptions) -> Result<Rasterizer> {
-        let (adapter, device, queue) = device::open(&options)?;
+        let (instance, adapter, device, queue) = device::open(&options)?;
+        Rasterizer::from_device(instance, adapter, device, queue, options)
+    }
+
+    /// Build the rasterizer on a device opened elsewhere (e.g. by the network's wgpu backend,
+    /// to share one device). The device must allow 5 colour targets and 80 colour bytes per
+    /// sample (`adapter.limits()` does on Vulkan; wgpu's default limits do not).
+    /// `options.adapter_name` and `power_preference` are ignored.
+    pub fn from_device(
+        instance: wgpu::Instance,
+        adapter: wgpu::Adapter,
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        options: RasterizerOptions,
+    ) -> Result<Rasterizer> {
+        if !device::limits_suffice(&device.limits()) {
+            return Err(Error::Internal(format!(
+                "the device allows {} colour targets / {} colour bytes per sample; the rasterizer needs {} / {} \
+                 (open it with required_limits: adapter.limits())",
+                device.limits().max_color_attachments,
+                device.limits().max_color_attachment_bytes_per_sample,
+                GBUFFER_TARGETS,
+                GBUFFER_TARGETS * 16
+            )));
+        }
         let adapter_info = adapter.get_info();
         tracing::info!("rasterizer on {} ({:?}, {})", adapter_info.name, adapter_info.device_type, adapter_info.driver);
 
@@ -512,6 +538,8 @@ impl Rasterizer {
 
         Ok(Rasterizer {
             options,
+            instance,
+            adapter,
             adapter_info,
             device,
             queue,
@@ -538,7 +566,16 @@ impl Rasterizer {
         &self.adapter_info
     }
 
-    /// The wgpu device, for sharing with other GPU work (e.g. the network's wgpu backend).
+    /// The wgpu instance, adapter, device and queue, for sharing with other GPU work (e.g. the
+    /// network's wgpu backend).
+    pub fn instance(&self) -> &wgpu::Instance {
+        &self.instance
+    }
+
+    pub fn adapter(&self) -> &wgpu::Adapter {
+        &self.adapter
+    }
+
     pub fn device(&self) -> &wgpu::Device {
         &self.device
     }
