@@ -63,6 +63,11 @@ fn rank(device_type: wgpu::DeviceType, preference: PowerPreference) -> u32 {
     }
 }
 
+/// Whether a device opened with these limits can run the G-buffer pass.
+pub(crate) fn limits_suffice(limits: &wgpu::Limits) -> bool {
+    limits.max_color_attachments >= GBUFFER_TARGETS && limits.max_color_attachment_bytes_per_sample >= REQUIRED_COLOR_BYTES
+}
+
 fn usable(adapter: &wgpu::Adapter) -> bool {
     let limits = adapter.limits();
     let format = adapter.get_texture_format_features(wgpu::TextureFormat::Rgba32Float);
@@ -72,13 +77,16 @@ fn usable(adapter: &wgpu::Adapter) -> bool {
 }
 
 /// Open a device on the chosen Vulkan adapter, with the adapter's own limits.
-pub(crate) fn open(options: &RasterizerOptions) -> Result<(wgpu::Adapter, wgpu::Device, wgpu::Queue)> {
+pub(crate) fn open(options: &RasterizerOptions) -> Result<(wgpu::Instance, wgpu::Adapter, wgpu::Device, wgpu::Queue)> {
     let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
         backends: wgpu::Backends::VULKAN,
         ..wgpu::InstanceDescriptor::new_without_display_handle()
     });
     let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
     let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
+    if names.is_empty() {
+        return Err(Error::Internal(format!("{NO_ADAPTER_HELP} (no Vulkan adapter found)")));
+    }
     let mut candidates: Vec<wgpu::Adapter> = adapters.into_iter().filter(usable).collect();
     let wanted = options.adapter_name.clone().or_else(|| std::env::var("WGPU_ADAPTER_NAME").ok());
     if let Some(wanted) = wanted.filter(|w| !w.trim().is_empty()) {
@@ -92,10 +100,10 @@ pub(crate) fn open(options: &RasterizerOptions) -> Result<(wgpu::Adapter, wgpu::
         }
     }
     candidates.sort_by_key(|a| rank(a.get_info().device_type, options.power_preference));
-    let adapter = candidates.into_iter().next().ok_or_else(|| {
-        let found = if names.is_empty() { "none".to_string() } else { names.join(", ") };
-        Error::Internal(format!("{NO_ADAPTER_HELP} (Vulkan adapters found: {found})"))
-    })?;
+    let adapter = candidates
+        .into_iter()
+        .next()
+        .ok_or_else(|| Error::Internal(format!("{NO_ADAPTER_HELP} (Vulkan adapters found: {})", names.join(", "))))?;
     let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
         label: Some("glassbake-raster"),
         required_features: wgpu::Features::empty(),
@@ -103,5 +111,33 @@ pub(crate) fn open(options: &RasterizerOptions) -> Result<(wgpu::Adapter, wgpu::
         ..Default::default()
     }))
     .map_err(|e| Error::Internal(format!("opening the Vulkan device {:?}: {e}", adapter.get_info().name)))?;
-    Ok((adapter, device, queue))
+    Ok((instance, adapter, device, queue))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn preference_ranks_gpus_before_the_cpu() {
+        use wgpu::DeviceType::*;
+        let order = |p| {
+            let mut types = vec![Cpu, Other, VirtualGpu, IntegratedGpu, DiscreteGpu];
+            types.sort_by_key(|&t| rank(t, p));
+            types
+        };
+        assert_eq!(order(PowerPreference::HighPerformance), vec![DiscreteGpu, IntegratedGpu, VirtualGpu, Other, Cpu]);
+        assert_eq!(order(PowerPreference::LowPower), vec![IntegratedGpu, DiscreteGpu, VirtualGpu, Other, Cpu]);
+    }
+
+    #[test]
+    fn missing_adapters_are_reported_with_the_package_to_install() {
+        assert!(NO_ADAPTER_HELP.contains("mesa-vulkan-drivers"));
+        let options = RasterizerOptions { adapter_name: Some("no adapter is called this".into()), ..Default::default() };
+        let err = match open(&options) {
+            Ok(_) => panic!("an adapter matched a name no adapter has"),
+            Err(e) => e.to_string(),
+        };
+        assert!(err.contains("no adapter is called this"), "{err}");
+    }
 }

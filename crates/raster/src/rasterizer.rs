@@ -249,8 +249,19 @@ impl ShadowMaps {
 
 /// The headless rasterizer. Create it once (opening the device is slow), then render frames
 /// with [`Rasterizer::begin_frame`] (streaming) or [`Rasterizer::render`] (all at once).
+///
+/// Channel semantics (docs/raster.md has the full list): normals are world-space, unit and
+/// flipped to face the camera; positions world-space; albedo linear and textured (mipmapped,
+/// anisotropic; the tint for glass); depth is the Euclidean distance to the camera; w_o points to
+/// the camera; L_d is direct light from the rectangle lights (exact polygon form factor for
+/// diffuse, LTC for GGX, hemicube shadow maps) plus emission. Background is 0. A transparency
+/// buffer holds its object's front-most surface in front of the opaque surface (hidden glass
+/// is not drawn), relative depth = opaque depth - depth (0 where no opaque surface is behind)
+/// and coverage. Rectangle lights' quads are drawn into the opaque and naive G-buffers.
 pub struct Rasterizer {
     options: RasterizerOptions,
+    instance: wgpu::Instance,
+    adapter: wgpu::Adapter,
     adapter_info: wgpu::AdapterInfo,
     device: wgpu::Device,
     queue: wgpu::Queue,
@@ -337,7 +348,31 @@ fn mat4_cols(m: Mat4) -> [[f32; 4]; 4] {
 impl Rasterizer {
     /// Open a Vulkan device (see [`RasterizerOptions`]) and build the pipelines.
     pub fn new(options: RasterizerOptions) -> Result<Rasterizer> {
-        let (adapter, device, queue) = device::open(&options)?;
+        let (instance, adapter, device, queue) = device::open(&options)?;
+        Rasterizer::from_device(instance, adapter, device, queue, options)
+    }
+
+    /// Build the rasterizer on a device opened elsewhere (e.g. by the network's wgpu backend,
+    /// to share one device). The device must allow 5 colour targets and 80 colour bytes per
+    /// sample (`adapter.limits()` does on Vulkan; wgpu's default limits do not).
+    /// `options.adapter_name` and `power_preference` are ignored.
+    pub fn from_device(
+        instance: wgpu::Instance,
+        adapter: wgpu::Adapter,
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        options: RasterizerOptions,
+    ) -> Result<Rasterizer> {
+        if !device::limits_suffice(&device.limits()) {
+            return Err(Error::Internal(format!(
+                "the device allows {} colour targets / {} colour bytes per sample; the rasterizer needs {} / {} \
+                 (open it with required_limits: adapter.limits())",
+                device.limits().max_color_attachments,
+                device.limits().max_color_attachment_bytes_per_sample,
+                GBUFFER_TARGETS,
+                GBUFFER_TARGETS * 16
+            )));
+        }
         let adapter_info = adapter.get_info();
         tracing::info!("rasterizer on {} ({:?}, {})", adapter_info.name, adapter_info.device_type, adapter_info.driver);
 
@@ -478,6 +513,8 @@ impl Rasterizer {
             mag_filter: wgpu::FilterMode::Linear,
             min_filter: wgpu::FilterMode::Linear,
             mipmap_filter: wgpu::MipmapFilterMode::Linear,
+            // 16x anisotropic where the device supports it (wgpu falls back to trilinear).
+            anisotropy_clamp: 16,
             ..Default::default()
         });
         let shadow_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
@@ -501,6 +538,8 @@ impl Rasterizer {
 
         Ok(Rasterizer {
             options,
+            instance,
+            adapter,
             adapter_info,
             device,
             queue,
@@ -527,7 +566,16 @@ impl Rasterizer {
         &self.adapter_info
     }
 
-    /// The wgpu device, for sharing with other GPU work (e.g. the network's wgpu backend).
+    /// The wgpu instance, adapter, device and queue, for sharing with other GPU work (e.g. the
+    /// network's wgpu backend).
+    pub fn instance(&self) -> &wgpu::Instance {
+        &self.instance
+    }
+
+    pub fn adapter(&self) -> &wgpu::Adapter {
+        &self.adapter
+    }
+
     pub fn device(&self) -> &wgpu::Device {
         &self.device
     }

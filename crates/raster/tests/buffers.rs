@@ -334,3 +334,21 @@ fn textures_are_sampled_with_mipmaps() {
     }
     assert!(n > 10, "{n}");
 }
+
+#[test]
+fn a_device_with_default_limits_is_refused_and_a_shared_one_renders() {
+    let r = rasterizer();
+    let (instance, adapter) = (r.instance().clone(), r.adapter().clone());
+    let open = |limits: glassbake_raster::wgpu::Limits| {
+        pollster::block_on(adapter.request_device(&glassbake_raster::wgpu::DeviceDescriptor { required_limits: limits, ..Default::default() }))
+            .unwrap()
+    };
+    let (device, queue) = open(glassbake_raster::wgpu::Limits::default());
+    let err = glassbake_raster::Rasterizer::from_device(instance.clone(), adapter.clone(), device, queue, Default::default());
+    assert!(err.is_err());
+    let (device, queue) = open(adapter.limits());
+    let mut shared = glassbake_raster::Rasterizer::from_device(instance, adapter.clone(), device, queue, Default::default()).unwrap();
+    let (scene, _, cam) = known_scene();
+    let mut own = rasterizer();
+    assert_eq!(shared.render(&scene, &cam, W, H).unwrap().opaque, own.render(&scene, &cam, W, H).unwrap().opaque);
+}

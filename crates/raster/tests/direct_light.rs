@@ -81,7 +81,7 @@ fn compare_on(
     on_surface: impl Fn(Vec3) -> bool,
 ) -> (usize, f32, f32, f32) {
     let mut r = rasterizer();
-    let b = r.render(&scene, &cam, RES, RES).unwrap();
+    let b = r.render(scene, cam, RES, RES).unwrap();
     let diffuse = albedo * (1.0 - metallic);
     let f0 = 0.04 * (1.0 - metallic) + albedo * metallic;
     let mut rows = Vec::new();
