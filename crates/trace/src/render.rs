@@ -102,7 +102,9 @@ pub type Progress<'a> = &'a (dyn Fn(u64, u64) + Sync);
 pub fn render(scene: &Scene, camera: &Camera, settings: &TraceSettings, progress: Option<Progress>) -> Result<TraceOutput> {
     settings.validate()?;
     let finite_camera = camera.position.is_finite() && camera.target.is_finite() && camera.up.is_finite();
-    if !finite_camera || camera.position == camera.target || !(camera.fov_x_deg > 0.0 && camera.fov_x_deg < 180.0) {
+    // The look direction must not be parallel to `up`, or the camera has no right vector.
+    let has_frame = (camera.target - camera.position).cross(camera.up).length_squared() > 0.0;
+    if !finite_camera || !has_frame || !(camera.fov_x_deg > 0.0 && camera.fov_x_deg < 180.0) {
         return Err(Error::bad_input("camera", "camera", format!("degenerate camera {camera:?}")));
     }
     match settings.threads {

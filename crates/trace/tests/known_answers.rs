@@ -297,8 +297,10 @@ fn bad_input_is_refused() {
             Ok(_) => panic!("{settings:?} was accepted"),
         }
     }
-    let degenerate = Camera { target: camera.position, ..camera };
-    assert!(matches!(render(&scene, &degenerate, &TraceSettings::new(4, 4, 1, 0), None), Err(Error::BadInput { .. })));
+    let looking_up = Camera { target: camera.position + Vec3::Y, ..camera };
+    for degenerate in [Camera { target: camera.position, ..camera }, looking_up, Camera { fov_x_deg: 0.0, ..camera }] {
+        assert!(matches!(render(&scene, &degenerate, &TraceSettings::new(4, 4, 1, 0), None), Err(Error::BadInput { .. })), "{degenerate:?}");
+    }
 }
 
 #[test]
