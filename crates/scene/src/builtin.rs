@@ -181,28 +181,35 @@ fn cornellbox(eight: bool) -> Scene {
     let frosted = b.material(Material::glass("frosted_glass", Vec3::new(0.9, 0.97, 0.95), 0.15, 1.5, false));
     let pane = b.material(Material::glass("pane_glass", Vec3::new(0.95, 0.95, 1.0), 0.0, 1.5, true));
 
+    // Placed, with their variable ranges, so that no two objects ever intersect.
     let sphere = b.object("glass_sphere", uv_sphere(0.25, 64, 32), smooth, at(-0.4, 0.25, 0.45));
-    let cube = b.object("glass_cube", cuboid(Vec3::splat(0.17)), smooth, at_rotated_y(0.45, 0.17, 0.5, 25.0));
-    b.object("glass_pane", rect(Vec3::ZERO, Vec3::X * 0.7, Vec3::Y * 0.9, Vec2::ONE), pane, at_rotated_y(-0.2, 0.45, -0.05, -12.0));
+    let cube = b.object("glass_cube", cuboid(Vec3::splat(0.17)), smooth, at_rotated_y(0.5, 0.17, 0.72, 25.0));
+    b.object("glass_pane", rect(Vec3::ZERO, Vec3::X * 0.66, Vec3::Y * 0.9, Vec2::ONE), pane, at(-0.42, 0.45, 0.12));
     b.object("frosted_cylinder", cylinder(0.12, 0.55, 48), frosted, at(0.05, 0.0, 0.7));
 
-    b.variable("sphere_x", -0.3, 0.3, 0.0, VariableTarget::Translation { object: sphere, axis: Vec3::X });
-    b.variable("cube_z", -0.4, 0.2, 0.0, VariableTarget::Translation { object: cube, axis: Vec3::Z });
+    b.variable("sphere_x", -0.3, 0.1, 0.0, VariableTarget::Translation { object: sphere, axis: Vec3::X });
+    b.variable("cube_z", -0.08, 0.2, 0.0, VariableTarget::Translation { object: cube, axis: Vec3::Z });
     b.variable("light_x", -0.5, 0.5, 0.0, VariableTarget::LightTranslation { light, axis: Vec3::X });
     b.variable("light_intensity", 0.5, 1.5, 1.0, VariableTarget::LightIntensity { light });
 
     if eight {
-        let bunny = b.object("glass_bunny", blob_bunny(), smooth, at_rotated_y(0.55, 0.6, -0.3, -30.0));
-        let small = b.object("small_sphere", uv_sphere(0.1, 48, 24), smooth, at(-0.7, 0.1, 0.8));
+        // The bunny sits on the short box, the block on the tall one.
+        let bunny = b.object(
+            "glass_bunny",
+            blob_bunny(),
+            smooth,
+            Affine3A::from_scale_rotation_translation(Vec3::splat(0.7), Quat::from_rotation_y(-0.5), Vec3::new(0.35, 0.601, 0.0)),
+        );
+        let small = b.object("small_sphere", uv_sphere(0.1, 48, 24), smooth, at(-0.8, 0.1, 0.88));
         let pane2 = b.object(
             "glass_pane_2",
             rect(Vec3::ZERO, Vec3::Z * 0.6, Vec3::Y * 0.7, Vec2::ONE),
             pane,
-            at(0.75, 0.35, 0.25),
+            at(0.86, 0.35, 0.25),
         );
-        b.object("frosted_block", cuboid(Vec3::new(0.15, 0.08, 0.1)), frosted, at_rotated_y(-0.55, 1.28, -0.4, 10.0));
-        b.variable("bunny_x", -0.3, 0.2, 0.0, VariableTarget::Translation { object: bunny, axis: Vec3::X });
-        b.variable("small_sphere_z", -0.5, 0.1, 0.0, VariableTarget::Translation { object: small, axis: Vec3::Z });
+        b.object("frosted_block", cuboid(Vec3::new(0.15, 0.08, 0.1)), frosted, at_rotated_y(-0.35, 1.282, -0.35, 10.0));
+        b.variable("bunny_x", -0.12, 0.12, 0.0, VariableTarget::Translation { object: bunny, axis: Vec3::X });
+        b.variable("small_sphere_z", -0.08, 0.1, 0.0, VariableTarget::Translation { object: small, axis: Vec3::Z });
         b.variable("pane2_z", -0.3, 0.3, 0.0, VariableTarget::Translation { object: pane2, axis: Vec3::Z });
     }
     b.finish()
@@ -251,15 +258,16 @@ fn desk() -> Scene {
     b.object("book", cuboid(Vec3::new(0.12, 0.03, 0.17)), book, at_rotated_y(0.45, top + 0.03, -0.2, -20.0));
     b.object("mug", cylinder(0.045, 0.1, 48), mug, at(-0.45, top, -0.3));
     b.object("figurine", blob_bunny(), figurine, Affine3A::from_scale_rotation_translation(Vec3::splat(0.35), Quat::from_rotation_y(0.5), Vec3::new(0.2, top, -0.35)));
-    b.object("pen", cylinder(0.006, 0.16, 16), brass, Affine3A::from_rotation_translation(Quat::from_rotation_z(PI / 2.0) * Quat::from_rotation_x(0.3), Vec3::new(0.1, top + 0.006, 0.12)));
+    b.object("pen", cylinder(0.006, 0.16, 16), brass, Affine3A::from_rotation_translation(Quat::from_rotation_z(PI / 2.0) * Quat::from_rotation_x(0.3), Vec3::new(0.1, top + 0.006, 0.2)));
 
     let tint = |name: &str| Material::glass(name, Vec3::new(0.6, 0.8, 0.95), 0.0, 1.5, false);
     let tumbler_glass = b.material(tint("tumbler_glass"));
     let vase_glass = b.material(tint("vase_glass"));
     let block_glass = b.material(tint("block_glass"));
-    b.object("tumbler", cylinder(0.045, 0.13, 48), tumbler_glass, at(-0.12, top, 0.03));
-    b.object("vase", uv_sphere(0.07, 48, 24), vase_glass, at(0.28, top + 0.07, -0.05));
-    b.object("paperweight", cuboid(Vec3::new(0.06, 0.03, 0.045)), block_glass, at_rotated_y(0.04, top + 0.03, 0.08, 30.0));
+    // Glass stands 2 mm above the desk so that the page never cuts through it.
+    b.object("tumbler", cylinder(0.045, 0.13, 48), tumbler_glass, at(-0.12, top + 0.002, 0.03));
+    b.object("vase", uv_sphere(0.07, 48, 24), vase_glass, at(0.2, top + 0.072, 0.1));
+    b.object("paperweight", cuboid(Vec3::new(0.06, 0.03, 0.045)), block_glass, at_rotated_y(0.04, top + 0.032, 0.08, 30.0));
 
     for (name, material) in [("tumbler_hue", tumbler_glass), ("vase_hue", vase_glass), ("paperweight_hue", block_glass)] {
         b.variable(name, 0.0, 360.0, 200.0, VariableTarget::Hue { material, saturation: 0.45, brightness: 0.95 });
@@ -329,12 +337,22 @@ fn bathroom() -> Scene {
         Affine3A::IDENTITY,
     );
     b.variable("glass_roughness", 0.0, 0.4, 0.1, VariableTarget::Roughness { material: glass });
+    // One light over the shower, so what is behind the glass is lit directly, one over the
+    // room.
     b.light(RectLight {
-        name: "ceiling_light".into(),
-        corner: Vec3::new(-0.4, h - 0.01, -0.4),
+        name: "shower_light".into(),
+        corner: Vec3::new(-1.0, h - 0.01, -1.3),
         edge_u: Vec3::X * 0.8,
-        edge_v: Vec3::Z * 0.8,
-        radiance: Vec3::splat(12.0),
+        edge_v: Vec3::Z * 0.7,
+        radiance: Vec3::splat(10.0),
+        two_sided: false,
+    });
+    b.light(RectLight {
+        name: "room_light".into(),
+        corner: Vec3::new(0.3, h - 0.01, 0.1),
+        edge_u: Vec3::X * 0.6,
+        edge_v: Vec3::Z * 0.6,
+        radiance: Vec3::splat(8.0),
         two_sided: false,
     });
     b.finish()
@@ -356,6 +374,76 @@ mod tests {
             crate::load::validate(&scene, name).unwrap();
         }
         assert!(builtin("nope").is_none());
+    }
+
+    /// Whether `p` lies inside the closed mesh (parity of crossings along a ray).
+    fn inside(mesh: &Mesh, p: Vec3) -> bool {
+        // An irrational-ish direction avoids rays grazing edges of axis-aligned boxes.
+        let d = Vec3::new(0.8017, 0.3209, 0.5041).normalize();
+        let mut crossings = 0;
+        for t in &mesh.indices {
+            let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+            let (e1, e2) = (b - a, c - a);
+            let h = d.cross(e2);
+            let det = e1.dot(h);
+            if det.abs() < 1e-12 {
+                continue;
+            }
+            let s = p - a;
+            let u = s.dot(h) / det;
+            let q = s.cross(e1);
+            let v = d.dot(q) / det;
+            if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && e2.dot(q) / det > 0.0 {
+                crossings += 1;
+            }
+        }
+        crossings % 2 == 1
+    }
+
+    #[test]
+    fn objects_never_intersect_over_the_variable_ranges() {
+        for name in BUILTIN_NAMES {
+            let scene = builtin(name).unwrap();
+            // Each variable at each end with the others at their defaults, plus all-min, all-max.
+            let n = scene.variables.len();
+            let mut settings = vec![scene.variables.iter().map(|v| v.min).collect::<Vec<_>>(), scene.variables.iter().map(|v| v.max).collect()];
+            for i in 0..n {
+                for end in [scene.variables[i].min, scene.variables[i].max] {
+                    let mut values = scene.default_values();
+                    values[i] = end;
+                    settings.push(values);
+                }
+            }
+            for values in settings {
+                let instance = scene.instantiate(&values).unwrap();
+                // Closed solids: everything but single quads (walls, pages, panes).
+                let solids: Vec<usize> = (0..instance.objects.len()).filter(|&i| instance.meshes[instance.objects[i].mesh].triangle_count() > 2).collect();
+                let world: Vec<Mesh> = (0..instance.objects.len()).map(|i| instance.world_mesh(i)).collect();
+                for a in instance.transparent_objects() {
+                    for &b in &solids {
+                        if a == b {
+                            continue;
+                        }
+                        let (lo, hi) = world[b].bounds().unwrap();
+                        let hit = world[a].positions.iter().find(|&&p| p.cmpge(lo).all() && p.cmple(hi).all() && inside(&world[b], p));
+                        assert!(hit.is_none(), "{name} {values:?}: {} reaches into {}", instance.objects[a].name, instance.objects[b].name);
+                    }
+                }
+                // Panes do not cut through solids either: their corners and centre stay outside.
+                for a in instance.transparent_objects().into_iter().filter(|&a| !solids.contains(&a)) {
+                    let corners = &world[a].positions;
+                    let centre = corners.iter().copied().sum::<Vec3>() / corners.len() as f32;
+                    let mut probes = corners.clone();
+                    probes.push(centre);
+                    for k in 0..corners.len() {
+                        probes.push(0.5 * (corners[k] + corners[(k + 1) % corners.len()]));
+                    }
+                    for &b in &solids {
+                        assert!(!probes.iter().any(|&p| inside(&world[b], p)), "{name} {values:?}: {} cuts into {}", instance.objects[a].name, instance.objects[b].name);
+                    }
+                }
+            }
+        }
     }
 
     #[test]
