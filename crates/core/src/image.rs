@@ -157,7 +157,10 @@ impl PlanarImage {
         let layer = Layer::new(
             (self.width as usize, self.height as usize),
             LayerAttributes::default(),
-            Encoding::FAST_LOSSLESS,
+            // Scan lines in increasing order: the bytes of a file then depend on the pixels
+            // alone, not on which compression thread finished first (resume and shard merge
+            // compare files byte for byte). ZIP suits float data; every EXR reader knows it.
+            Encoding { compression: Compression::ZIP16, blocks: Blocks::ScanLines, line_order: LineOrder::Increasing },
             AnyChannels::sort(channels.into()),
         );
         let image = Image::from_layer(layer);
@@ -302,6 +305,26 @@ mod tests {
         let bad = dir.path().join("bad.exr");
         std::fs::write(&bad, b"not an exr").unwrap();
         assert!(PlanarImage::read_exr(&bad).is_err());
+    }
+
+    #[test]
+    fn exr_bytes_depend_on_the_pixels_only() {
+        // Large enough for many compressed blocks, which are compressed in parallel.
+        let mut im = PlanarImage::new(320, 256, vec!["R".into(), "G".into(), "B".into()]);
+        let mut state = 1u64;
+        for v in im.data_mut() {
+            state = crate::seed::mix64(state);
+            *v = (state >> 40) as f32 / (1u64 << 24) as f32;
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let reference = dir.path().join("a.exr");
+        im.write_exr(&reference, ExrPrecision::F32).unwrap();
+        let expected = std::fs::read(&reference).unwrap();
+        for i in 0..8 {
+            let path = dir.path().join(format!("b{i}.exr"));
+            im.write_exr(&path, ExrPrecision::F32).unwrap();
+            assert_eq!(std::fs::read(&path).unwrap(), expected, "write {i} differs");
+        }
     }
 
     #[test]

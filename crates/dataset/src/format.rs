@@ -161,7 +161,14 @@ impl DatasetManifest {
             return Some(format!("format version {} vs {}", self.format_version, other.format_version));
         }
         if self.scene.hash != other.scene.hash {
-            return Some(format!("it was made from a different scene ({} {}, now {} {})", self.scene.name, &self.scene.hash[..12], other.scene.name, &other.scene.hash[..12]));
+            let short = |h: &str| h.get(..12).unwrap_or(h).to_string();
+            return Some(format!(
+                "it was made from a different scene ({} {}, now {} {})",
+                self.scene.name,
+                short(&self.scene.hash),
+                other.scene.name,
+                short(&other.scene.hash)
+            ));
         }
         let fields: [(&str, String, String); 6] = [
             ("--res", a.resolution.to_string(), b.resolution.to_string()),

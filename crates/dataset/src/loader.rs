@@ -107,7 +107,11 @@ fn union_mask(transparent_buffers: &[PlanarImage], width: u32, height: u32) -> P
 fn load_example(shared: &Shared, rasterizer: &mut Option<Rasterizer>, job: Job) -> Result<Example> {
     let store = &shared.store;
     let manifest = &store.manifest;
-    let sample = &manifest.samples[job.index as usize];
+    let sample = manifest
+        .samples
+        .get(job.index as usize)
+        .filter(|s| s.index == job.index)
+        .ok_or_else(|| Error::bad_input(store.dir.join("manifest.json").display(), "samples", format!("no sample {}", job.index)))?;
     let res = manifest.spec.resolution;
     let t = manifest.scene.transparent_objects.len();
     let (opaque, naive, transparent_buffers) = if manifest.spec.cache_buffers {
@@ -159,7 +163,13 @@ fn worker(shared: Arc<Shared>, jobs: Arc<Mutex<Receiver<Job>>>, results: SyncSen
             Err(_) => return,
         };
         let Ok(job) = job else { return };
-        let example = load_example(&shared, &mut rasterizer, job);
+        // A panic (say, in the GPU driver) must reach the consumer as an error, not leave it
+        // waiting forever for this frame.
+        let example = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load_example(&shared, &mut rasterizer, job)))
+            .unwrap_or_else(|_| {
+                rasterizer = None;
+                Err(Error::Internal(format!("loading frame {} panicked", job.index)))
+            });
         if results.send((job.sequence, example)).is_err() {
             return;
         }

@@ -51,7 +51,12 @@ pub fn read_manifest(dir: &Path) -> Result<DatasetManifest> {
         return Err(Error::bad_input(path.display(), "file", "not a glassbake dataset (no manifest.json)"));
     }
     let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
-    serde_json::from_slice(&bytes).map_err(|e| Error::bad_input(path.display(), format!("line {}", e.line()), e.to_string()))
+    let manifest: DatasetManifest =
+        serde_json::from_slice(&bytes).map_err(|e| Error::bad_input(path.display(), format!("line {}", e.line()), e.to_string()))?;
+    if let Some((i, _)) = manifest.samples.iter().enumerate().find(|(i, s)| s.index != *i as u64) {
+        return Err(Error::bad_input(path.display(), format!("samples[{i}].index"), "samples must be listed in index order from 0"));
+    }
+    Ok(manifest)
 }
 
 impl DatasetStore {

@@ -64,11 +64,19 @@ fn require_file(path: &Path) -> Result<()> {
 pub fn load_geometry(path: &Path) -> Result<Scene> {
     require_file(path)?;
     let extension = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
-    match extension.as_deref() {
-        Some("gltf" | "glb") => load_gltf(path),
-        Some("obj") => load_obj(path),
-        _ => Err(Error::bad_input(path.display(), "geometry", "expected a .gltf, .glb or .obj file")),
+    let mut scene = match extension.as_deref() {
+        Some("gltf" | "glb") => load_gltf(path)?,
+        Some("obj") => load_obj(path)?,
+        _ => return Err(Error::bad_input(path.display(), "geometry", "expected a .gltf, .glb or .obj file")),
+    };
+    // Objects left without triangles (all degenerate) have nothing to draw or export.
+    let empty: Vec<String> =
+        scene.objects.iter().filter(|o| scene.meshes[o.mesh].indices.is_empty()).map(|o| o.name.clone()).collect();
+    if !empty.is_empty() {
+        scene.objects.retain(|o| !scene.meshes[o.mesh].indices.is_empty());
+        scene.load_warnings.push(format!("objects without triangles are skipped: {}", empty.join(", ")));
     }
+    Ok(scene)
 }
 
 fn empty_scene(path: &Path) -> Scene {
@@ -103,6 +111,12 @@ fn unique_name(taken: &mut HashMap<String, usize>, base: &str) -> String {
 fn finish_mesh(mut mesh: Mesh, label: &str, warnings: &mut Vec<String>) -> Mesh {
     if mesh.uvs.len() != mesh.positions.len() {
         mesh.uvs = vec![Vec2::ZERO; mesh.positions.len()];
+    }
+    let vertex_count = mesh.positions.len();
+    let before = mesh.indices.len();
+    mesh.indices.retain(|t| t.iter().all(|&i| (i as usize) < vertex_count));
+    if mesh.indices.len() < before {
+        warnings.push(format!("{label}: dropped {} triangle(s) with a vertex index out of range", before - mesh.indices.len()));
     }
     if mesh.positions.iter().all(|p| p.is_finite()) {
         let dropped = mesh.drop_degenerate_triangles();
@@ -146,8 +160,15 @@ fn gltf_texture(
         .pixels
         .chunks_exact(channels)
         .map(|p| {
-            let c = |i: usize| p.get(i).map_or(if i == 3 { 1.0 } else { decode(p[0]) }, |&v| if i == 3 { v as f32 / 255.0 } else { decode(v) });
-            Vec4::new(c(0), c(1), c(2), c(3))
+            let alpha = |v: u8| v as f32 / 255.0;
+            match *p {
+                [l] => Vec4::new(decode(l), decode(l), decode(l), 1.0),
+                // Two channels are luminance + alpha (PNG grey-alpha).
+                [l, a] => Vec4::new(decode(l), decode(l), decode(l), alpha(a)),
+                [r, g, b] => Vec4::new(decode(r), decode(g), decode(b), 1.0),
+                [r, g, b, a, ..] => Vec4::new(decode(r), decode(g), decode(b), alpha(a)),
+                [] => Vec4::ZERO,
+            }
         })
         .collect();
     scene.textures.push(Arc::new(Texture {
@@ -217,8 +238,10 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
     }
     let mut texture_cache = HashMap::new();
     // Materials keep the file's order, so indices match the file's material indices.
+    let mut material_names = HashMap::new();
     for m in document.materials() {
-        let material = gltf_material(&m, &mut scene, &mut texture_cache, &images, &label)?;
+        let mut material = gltf_material(&m, &mut scene, &mut texture_cache, &images, &label)?;
+        material.name = unique_name(&mut material_names, &material.name);
         scene.materials.push(material);
     }
     let mut default_material = None;
@@ -266,7 +289,8 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
                     Some(i) => i,
                     None => {
                         let m = gltf_material(&primitive.material(), &mut scene, &mut texture_cache, &images, &label)?;
-                        scene.materials.push(Material { name: "default".into(), ..m });
+                        let name = unique_name(&mut material_names, "default");
+                        scene.materials.push(Material { name, ..m });
                         *default_material.insert(scene.materials.len() - 1)
                     }
                 },
@@ -364,6 +388,10 @@ pub fn load_obj(path: &Path) -> Result<Scene> {
         }
         scene.materials.push(material);
     }
+    let mut material_names = HashMap::new();
+    for m in &mut scene.materials {
+        m.name = unique_name(&mut material_names, &m.name);
+    }
     let mut default_material = None;
     let mut names = HashMap::new();
     for model in &models {
@@ -378,7 +406,7 @@ pub fn load_obj(path: &Path) -> Result<Scene> {
         let material = match m.material_id.filter(|&id| id < scene.materials.len()) {
             Some(id) => id,
             None => *default_material.get_or_insert_with(|| {
-                scene.materials.push(Material::diffuse("default", Vec3::splat(0.8)));
+                scene.materials.push(Material::diffuse(&unique_name(&mut material_names, "default"), Vec3::splat(0.8)));
                 scene.materials.len() - 1
             }),
         };
@@ -589,6 +617,15 @@ pub fn validate(scene: &Scene, file: &str) -> Result<()> {
                 return Err(Error::bad_input(file, field, "transmission needs ior > 0 and a weight in [0, 1]"));
             }
         }
+    }
+    check_finite(file, "background".into(), &scene.background.to_array())?;
+    for v in &scene.variables {
+        if let VariableTarget::Hue { saturation, brightness, .. } = v.target {
+            check_finite(file, format!("variable {:?} saturation/brightness", v.name), &[saturation, brightness])?;
+        }
+    }
+    if scene.camera.target_jitter.min_element() < 0.0 {
+        return Err(Error::bad_input(file, "camera.target_jitter", "half-extents must not be negative"));
     }
     for l in &scene.rect_lights {
         let v = [l.corner.to_array(), l.edge_u.to_array(), l.edge_v.to_array(), l.radiance.to_array()].concat();

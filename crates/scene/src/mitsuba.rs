@@ -45,6 +45,10 @@ fn bsdf_xml(m: &Material, texture_files: &[String]) -> String {
     let tint = format!("<rgb name=\"specular_transmittance\" value=\"{}\"/>", rgb(m.base_color));
     match m.dielectric_kind() {
         Some(DielectricKind::Thin) => {
+            if m.roughness >= crate::model::SMOOTH_ROUGHNESS {
+                // Mitsuba 3 has no rough thin dielectric; glassbake's tracer does (docs/trace.md).
+                tracing::warn!("material {}: Mitsuba has no rough thin dielectric; exported as a smooth pane (roughness {} dropped)", m.name, m.roughness);
+            }
             let ior = m.transmission.map_or(1.5, |t| t.ior);
             format!("<bsdf type=\"thindielectric\"><float name=\"int_ior\" value=\"{ior}\"/>{tint}</bsdf>")
         }
@@ -63,8 +67,8 @@ fn bsdf_xml(m: &Material, texture_files: &[String]) -> String {
         }
         None => {
             let base = match m.base_color_texture {
-                // Mitsuba's principled BSDF takes one texture; the constant factor is baked
-                // only when it is white (as in every built-in scene).
+                // Mitsuba's bitmap texture cannot be scaled here, so the base colour factor
+                // is dropped (it is white in every built-in scene).
                 Some(t) => format!(
                     "<texture type=\"bitmap\" name=\"base_color\"><string name=\"filename\" value=\"{}\"/></texture>",
                     texture_files[t]
@@ -82,6 +86,14 @@ fn bsdf_xml(m: &Material, texture_files: &[String]) -> String {
 /// Write `out` (XML) and, beside it, `meshes/*.ply` and `textures/*.png`. Resolution and
 /// samples per pixel are XML defaults (`-Dres=512 -Dspp=1024` on Mitsuba's command line).
 pub fn write_mitsuba(scene: &Scene, camera: &Camera, out: &Path) -> Result<()> {
+    for m in &scene.materials {
+        if m.base_color_texture.is_some() && m.base_color != glam::Vec3::ONE {
+            tracing::warn!("material {}: the base colour factor of a textured material is not exported to Mitsuba", m.name);
+        }
+        if m.transmission.is_some_and(|t| t.weight < 1.0) {
+            tracing::warn!("material {}: partial transmission exported as full transmission", m.name);
+        }
+    }
     let dir = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let mut texture_files = Vec::new();
     for (i, t) in scene.textures.iter().enumerate() {

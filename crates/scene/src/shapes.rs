@@ -65,11 +65,15 @@ pub fn cuboid(half: Vec3) -> Mesh {
 
 /// A UV sphere with `segments` around the equator and `rings` from pole to pole.
 pub fn uv_sphere(radius: f32, segments: u32, rings: u32) -> Mesh {
-    radial_surface(segments, rings, |_, _| radius)
+    let mut mesh = radial_surface(segments, rings, |_, _| radius);
+    // The exact normals: face averages are off at the poles and along the seam.
+    mesh.normals = mesh.positions.iter().map(|p| p.normalize()).collect();
+    mesh
 }
 
 /// A closed star-shaped surface: `radius(theta, phi)` with theta from the +y pole and phi
-/// the azimuth. Normals come from the faces, so any smooth radius function shades well.
+/// the azimuth. Normals are area-weighted face averages (approximate at the poles and the
+/// seam, where vertices are duplicated).
 pub fn radial_surface(segments: u32, rings: u32, radius: impl Fn(f32, f32) -> f32) -> Mesh {
     let mut mesh = Mesh::default();
     for r in 0..=rings {

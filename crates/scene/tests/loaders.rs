@@ -347,8 +347,8 @@ fn variable_application_is_exact_and_leaves_the_base_scene_untouched() {
 #[test]
 fn set_assignments_are_checked() {
     let scene = builtin("cornellbox").unwrap();
-    let v = scene.values_from_assignments(&["sphere_x=0.2".into(), "light_intensity = 1.5".into()]).unwrap();
-    assert_eq!(v, vec![0.2, 0.0, 0.0, 1.5]);
+    let v = scene.values_from_assignments(&["sphere_x=0.05".into(), "light_intensity = 1.5".into()]).unwrap();
+    assert_eq!(v, vec![0.05, 0.0, 0.0, 1.5]);
     for bad in ["sphere_x", "nope=1", "sphere_x=abc", "sphere_x=9"] {
         assert!(matches!(scene.values_from_assignments(&[bad.into()]), Err(Error::BadInput { .. })), "{bad}");
     }

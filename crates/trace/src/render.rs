@@ -104,7 +104,7 @@ pub fn render(scene: &Scene, camera: &Camera, settings: &TraceSettings, progress
     let finite_camera = camera.position.is_finite() && camera.target.is_finite() && camera.up.is_finite();
     // The look direction must not be parallel to `up`, or the camera has no right vector.
     let has_frame = (camera.target - camera.position).cross(camera.up).length_squared() > 0.0;
-    if !finite_camera || !has_frame || !(camera.fov_x_deg > 0.0 && camera.fov_x_deg < 180.0) {
+    if !(finite_camera && has_frame && camera.fov_x_deg > 0.0 && camera.fov_x_deg < 180.0) {
         return Err(Error::bad_input("camera", "camera", format!("degenerate camera {camera:?}")));
     }
     match settings.threads {

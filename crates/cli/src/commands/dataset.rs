@@ -96,7 +96,9 @@ pub fn run(args: DatasetArgs) -> Result<()> {
             println!("merged {} shard(s) into {} ({copied} frames copied)", shards.len(), out.display());
         }
         (None, Some(make)) => make_dataset(make)?,
-        (None, None) => anyhow::bail!("give a scene and --out, or a subcommand (see glassbake dataset --help)"),
+        (None, None) => {
+            return Err(glassbake_core::Error::bad_input("glassbake dataset", "arguments", "give a scene and --out, or a subcommand (see glassbake dataset --help)").into())
+        }
     }
     Ok(())
 }
