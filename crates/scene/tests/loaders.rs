@@ -513,3 +513,32 @@ fn mitsuba_export_writes_every_shape_and_the_camera() {
     let x = f32::from_le_bytes(bytes[header_end..header_end + 4].try_into().unwrap());
     assert_eq!(x, instance.world_mesh(pane).positions[0].x);
 }
+
+#[test]
+fn grey_alpha_textures_and_repeated_material_names() {
+    let dir = tempfile::tempdir().unwrap();
+    // A grey+alpha poster: luminance 255, alpha 128.
+    image::GrayAlphaImage::from_raw(1, 1, vec![255, 128]).unwrap().save(dir.path().join("poster.png")).unwrap();
+    write(&dir.path().join("quad.bin"), quad_buffer());
+    let mut doc = quad_gltf(Some("quad.bin"), false);
+    doc["materials"][1]["name"] = json!("poster");
+    let path = dir.path().join("quad.gltf");
+    write(&path, serde_json::to_vec(&doc).unwrap());
+    let scene = load_scene(path.to_str().unwrap()).unwrap();
+    let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names, vec!["poster", "poster#1"]);
+    let texture = &scene.textures[scene.materials[0].base_color_texture.unwrap()];
+    assert_eq!(texture.texels[0], Vec4::new(1.0, 1.0, 1.0, 128.0 / 255.0));
+}
+
+#[test]
+fn objects_left_without_triangles_are_skipped_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("thin.obj");
+    write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\no solid\nf 1 2 3\no flat\nf 1 2 1\n");
+    let scene = load_scene(obj.to_str().unwrap()).unwrap();
+    let names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(names, vec!["solid"]);
+    let warnings = scene.warnings().join("\n");
+    assert!(warnings.contains("without triangles are skipped: flat"), "{warnings}");
+}
