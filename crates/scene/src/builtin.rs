@@ -36,20 +36,7 @@ struct Builder {
 
 impl Builder {
     fn new(name: &str, camera: CameraSpec) -> Self {
-        Builder {
-            scene: Scene {
-                name: name.to_string(),
-                meshes: Vec::new(),
-                textures: Vec::new(),
-                materials: Vec::new(),
-                objects: Vec::new(),
-                rect_lights: Vec::new(),
-                camera,
-                variables: Vec::new(),
-                background: Vec3::ZERO,
-                load_warnings: Vec::new(),
-            },
-        }
+        Builder { scene: Scene { camera, ..Scene::empty(name) } }
     }
 
     fn texture(&mut self, texture: Texture) -> usize {

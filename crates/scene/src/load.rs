@@ -81,18 +81,7 @@ pub fn load_geometry(path: &Path) -> Result<Scene> {
 
 fn empty_scene(path: &Path) -> Scene {
     let name = path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_else(|| "scene".into());
-    Scene {
-        name,
-        meshes: Vec::new(),
-        textures: Vec::new(),
-        materials: Vec::new(),
-        objects: Vec::new(),
-        rect_lights: Vec::new(),
-        camera: CameraSpec::framing(Vec3::splat(-1.0), Vec3::ONE),
-        variables: Vec::new(),
-        background: Vec3::ZERO,
-        load_warnings: Vec::new(),
-    }
+    Scene::empty(&name)
 }
 
 /// Give each object a unique name (a `#n` suffix on repeats), since manifests refer to

@@ -290,6 +290,22 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// A scene with nothing in it, a camera framing the unit cube, and no variables.
+    pub fn empty(name: &str) -> Scene {
+        Scene {
+            name: name.to_string(),
+            meshes: Vec::new(),
+            textures: Vec::new(),
+            materials: Vec::new(),
+            objects: Vec::new(),
+            rect_lights: Vec::new(),
+            camera: CameraSpec::framing(Vec3::splat(-1.0), Vec3::ONE),
+            variables: Vec::new(),
+            background: Vec3::ZERO,
+            load_warnings: Vec::new(),
+        }
+    }
+
     /// Indices (into `objects`) of the transparent objects; transparency buffer `k` belongs
     /// to the `k`-th of them.
     pub fn transparent_objects(&self) -> Vec<usize> {

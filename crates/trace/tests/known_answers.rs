@@ -8,22 +8,11 @@ use std::sync::Arc;
 use glam::{Affine3A, Vec2, Vec3};
 use glassbake_core::{Camera, Error};
 use glassbake_scene::shapes::{rect, uv_sphere};
-use glassbake_scene::{CameraSpec, Material, Mesh, Object, RectLight, Scene};
+use glassbake_scene::{Material, Mesh, Object, RectLight, Scene};
 use glassbake_trace::{render, MaterialModel, PreparedScene, TraceSettings};
 
 fn empty_scene(name: &str) -> Scene {
-    Scene {
-        name: name.to_string(),
-        meshes: Vec::new(),
-        textures: Vec::new(),
-        materials: Vec::new(),
-        objects: Vec::new(),
-        rect_lights: Vec::new(),
-        camera: CameraSpec::framing(Vec3::splat(-1.0), Vec3::ONE),
-        variables: Vec::new(),
-        background: Vec3::ZERO,
-        load_warnings: Vec::new(),
-    }
+    Scene::empty(name)
 }
 
 fn add_object(scene: &mut Scene, name: &str, mesh: Mesh, material: Material) -> usize {

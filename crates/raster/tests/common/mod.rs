@@ -9,25 +9,14 @@ use glam::{Affine3A, Vec2, Vec3};
 use glassbake_core::Camera;
 use glassbake_raster::{Rasterizer, RasterizerOptions};
 use glassbake_scene::shapes::rect;
-use glassbake_scene::{CameraSpec, Material, Object, RectLight, Scene};
+use glassbake_scene::{Material, Object, RectLight, Scene};
 
 pub fn rasterizer() -> Rasterizer {
     Rasterizer::new(RasterizerOptions::default()).expect("a Vulkan adapter (lavapipe: apt-get install mesa-vulkan-drivers)")
 }
 
 pub fn empty_scene(name: &str) -> Scene {
-    Scene {
-        name: name.to_string(),
-        meshes: Vec::new(),
-        textures: Vec::new(),
-        materials: Vec::new(),
-        objects: Vec::new(),
-        rect_lights: Vec::new(),
-        camera: CameraSpec::framing(Vec3::splat(-1.0), Vec3::splat(1.0)),
-        variables: Vec::new(),
-        background: Vec3::ZERO,
-        load_warnings: Vec::new(),
-    }
+    Scene::empty(name)
 }
 
 /// A quad as the test knows it: centre, full edge vectors (facing u x v), material values.
