@@ -27,6 +27,17 @@ enum Command {
 }
 
 fn main() {
+    // Mesa's software Vulkan driver probes for a Wayland display and prints an error when
+    // XDG_RUNTIME_DIR is unset (headless machines, CI); a private directory silences it.
+    // Set before any thread exists.
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        // One directory per user, reused, so runs leave nothing new behind.
+        let user = std::env::var("USER").unwrap_or_else(|_| "user".into());
+        let dir = std::env::temp_dir().join(format!("glassbake-runtime-{user}"));
+        if std::fs::create_dir_all(&dir).is_ok() {
+            std::env::set_var("XDG_RUNTIME_DIR", &dir);
+        }
+    }
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_env("GLASSBAKE_LOG")

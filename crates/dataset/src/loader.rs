@@ -6,7 +6,9 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::mpsc::{channel, sync_channel, Receiver, Sender, SyncSender};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
+use std::time::Duration;
 use std::thread::JoinHandle;
 
 use glassbake_core::layout::{self, transparent};
@@ -83,6 +85,8 @@ struct Shared {
     store: DatasetStore,
     scene: Option<Scene>,
     options: LoaderOptions,
+    /// Set when the loader is dropped: workers stop instead of finishing queued frames.
+    cancelled: AtomicBool,
 }
 
 pub struct Loader {
@@ -163,6 +167,9 @@ fn worker(shared: Arc<Shared>, jobs: Arc<Mutex<Receiver<Job>>>, results: SyncSen
             Err(_) => return,
         };
         let Ok(job) = job else { return };
+        if shared.cancelled.load(Ordering::Relaxed) {
+            return;
+        }
         // A panic (say, in the GPU driver) must reach the consumer as an error, not leave it
         // waiting forever for this frame.
         let example = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load_example(&shared, &mut rasterizer, job)))
@@ -199,7 +206,7 @@ impl Loader {
         }
         let indices = store.manifest.indices_of(options.split);
         let workers_count = options.workers;
-        let shared = Arc::new(Shared { store, scene, options });
+        let shared = Arc::new(Shared { store, scene, options, cancelled: AtomicBool::new(false) });
         let (job_tx, job_rx) = channel::<Job>();
         let job_rx = Arc::new(Mutex::new(job_rx));
         // Bounded: workers stop reading ahead when the consumer falls behind.
@@ -273,13 +280,12 @@ impl Loader {
 
 impl Drop for Loader {
     fn drop(&mut self) {
+        self.shared.cancelled.store(true, Ordering::Relaxed);
         self.jobs.take();
-        // Unblock workers waiting to send, then wait for them.
-        while self.results.try_recv().is_ok() {}
+        // Workers finish at most the frame in hand; keep receiving so none blocks on a send.
         for w in self.workers.drain(..) {
             while !w.is_finished() {
-                while self.results.try_recv().is_ok() {}
-                std::thread::yield_now();
+                let _ = self.results.recv_timeout(Duration::from_millis(10));
             }
             let _ = w.join();
         }

@@ -14,6 +14,26 @@ pub const MANIFEST_FILE: &str = "manifest.json";
 pub struct DatasetStore {
     pub dir: PathBuf,
     pub manifest: DatasetManifest,
+    /// Held while this process writes into the directory (see [`DatasetStore::create_or_resume`]).
+    _writer_lock: Option<std::fs::File>,
+}
+
+pub const LOCK_FILE: &str = ".glassbake-writer.lock";
+
+/// An exclusive lock on `dir/.glassbake-writer.lock`, released when the process ends (even by
+/// a kill), so two runs never write into one dataset at once.
+fn lock_for_writing(dir: &Path) -> Result<std::fs::File> {
+    let path = dir.join(LOCK_FILE);
+    let file = std::fs::OpenOptions::new().create(true).truncate(false).write(true).open(&path).map_err(|e| Error::io(&path, e))?;
+    match file.try_lock() {
+        Ok(()) => Ok(file),
+        Err(std::fs::TryLockError::WouldBlock) => Err(Error::bad_input(
+            dir.display(),
+            "--out",
+            "another glassbake process is writing into this dataset; wait for it or choose another --out",
+        )),
+        Err(std::fs::TryLockError::Error(e)) => Err(Error::io(&path, e)),
+    }
 }
 
 /// Whether a frame's files are all present and readable.
@@ -62,7 +82,7 @@ pub fn read_manifest(dir: &Path) -> Result<DatasetManifest> {
 impl DatasetStore {
     /// Open an existing dataset.
     pub fn open(dir: &Path) -> Result<DatasetStore> {
-        Ok(DatasetStore { dir: dir.to_path_buf(), manifest: read_manifest(dir)? })
+        Ok(DatasetStore { dir: dir.to_path_buf(), manifest: read_manifest(dir)?, _writer_lock: None })
     }
 
     /// Open `dir` to continue `planned`, or create it. Refuses a directory holding a
@@ -83,13 +103,17 @@ impl DatasetStore {
                 return Err(Error::bad_input(dir.display(), "--out", "exists, is not empty and holds no manifest.json: not overwriting it"));
             }
             std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        }
+        let lock = lock_for_writing(dir)?;
+        if !path.exists() {
             write_bytes_atomically(&path, &manifest_bytes(planned)?)?;
         }
         for sub in ["gt", "buffers", "preview"] {
             let d = dir.join(sub);
             std::fs::create_dir_all(&d).map_err(|e| Error::io(&d, e))?;
         }
-        let store = DatasetStore { dir: dir.to_path_buf(), manifest: planned.clone() };
+        let store = DatasetStore { dir: dir.to_path_buf(), manifest: planned.clone(), _writer_lock: Some(lock) };
+        // Safe only under the lock: no other process can be mid-write here.
         store.remove_stale_temp_files()?;
         Ok(store)
     }

@@ -180,3 +180,20 @@ fn loader_batches_crops_and_matches_rasterizing_again() {
         }
     }
 }
+
+#[test]
+fn two_writers_never_share_a_dataset_directory() {
+    let scene = builtin("cornell-glass").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("set");
+    let tiny = DatasetSpec { train: 1, val: 0, test: 0, ..spec(6) };
+    let planned = glassbake_dataset::DatasetManifest::plan(&tiny, &scene);
+    let first_writer = DatasetStore::create_or_resume(&d, &planned).unwrap();
+    match generate(&scene, &tiny, &d, &GenerateOptions::default(), &no_progress) {
+        Err(Error::BadInput { message, .. }) => assert!(message.contains("another glassbake process"), "{message}"),
+        other => panic!("expected a refusal, got {:?}", other.map(|s| s.generated)),
+    }
+    drop(first_writer);
+    let summary = generate(&scene, &tiny, &d, &GenerateOptions::default(), &no_progress).unwrap();
+    assert_eq!(summary.generated, 1);
+}

@@ -438,13 +438,22 @@ mod tests {
         for name in BUILTIN_NAMES {
             let scene = builtin(name).unwrap();
             let (lo, hi) = scene.bounds().unwrap();
+            // Every transparent object's centre is in view: the glass is what the scene is about.
+            let glass_centres: Vec<Vec3> = scene
+                .transparent_objects()
+                .into_iter()
+                .map(|o| {
+                    let (a, b) = scene.world_mesh(o).bounds().unwrap();
+                    0.5 * (a + b)
+                })
+                .collect();
             for i in 0..16 {
                 let cam = scene.sample(1, i).camera;
-                let centre_ray = cam.ray(0.5, 0.5, 1, 1);
-                // The look direction points into the scene's bounds.
-                let to_target = (cam.target - cam.position).normalize();
-                assert!(centre_ray.direction.dot(to_target) > 0.999);
                 assert!(cam.target.cmpge(lo).all() && cam.target.cmple(hi).all(), "{name}");
+                for c in &glass_centres {
+                    let (x, y) = cam.project(*c, 64, 64).expect("glass in front of the camera");
+                    assert!((0.0..64.0).contains(&x) && (0.0..64.0).contains(&y), "{name} sample {i}: glass at ({x}, {y})");
+                }
             }
         }
     }
