@@ -44,6 +44,20 @@ impl Camera {
         Camera { position, target, up: Vec3::Y, fov_x_deg, near: 0.01, far: 100.0 }
     }
 
+    /// An error unless the camera has a well-defined frame and field of view: finite values,
+    /// a look direction not parallel to `up`, 0 < fov_x < 180 and 0 < near < far.
+    pub fn check(&self) -> crate::Result<()> {
+        let finite = self.position.is_finite() && self.target.is_finite() && self.up.is_finite();
+        let has_frame = (self.target - self.position).cross(self.up).length_squared() > 0.0;
+        let fov_ok = self.fov_x_deg > 0.0 && self.fov_x_deg < 180.0;
+        let clip_ok = self.near > 0.0 && self.far > self.near;
+        if finite && has_frame && fov_ok && clip_ok {
+            Ok(())
+        } else {
+            Err(crate::Error::bad_input("camera", "camera", format!("degenerate camera {self:?}")))
+        }
+    }
+
     pub fn frame(&self) -> CameraFrame {
         let forward = (self.target - self.position).normalize();
         let right = forward.cross(self.up).normalize();
@@ -120,6 +134,19 @@ mod tests {
             let (px, py) = cam.project(p, w, h).unwrap();
             assert!((px - (x as f32 + 0.5)).abs() < 1e-3, "x {x}: {px}");
             assert!((py - (y as f32 + 0.5)).abs() < 1e-3, "y {y}: {py}");
+        }
+    }
+
+    #[test]
+    fn degenerate_cameras_are_refused() {
+        let good = Camera::look_at(Vec3::new(0.0, 1.0, 5.0), Vec3::ZERO, 45.0);
+        assert!(good.check().is_ok());
+        let straight_down = Camera { target: Vec3::new(0.0, -3.0, 5.0), ..good };
+        let nan = Camera { position: Vec3::new(f32::NAN, 0.0, 0.0), ..good };
+        let wide = Camera { fov_x_deg: 180.0, ..good };
+        let clip = Camera { near: 2.0, far: 1.0, ..good };
+        for bad in [straight_down, nan, wide, clip] {
+            assert!(matches!(bad.check(), Err(crate::Error::BadInput { .. })), "{bad:?}");
         }
     }
 

@@ -168,10 +168,14 @@ impl TargetSet {
             .map_err(|_| Error::Internal("readback callback dropped".into()))?
             .map_err(|e| Error::Internal(format!("mapping the readback buffer: {e}")))?;
         {
-            let view = self
-                .readback
-                .get_mapped_range(..)
-                .map_err(|e| Error::Internal(format!("reading the readback buffer: {e}")))?;
+            let view = match self.readback.get_mapped_range(..) {
+                Ok(view) => view,
+                Err(e) => {
+                    // Leave the buffer usable for the next frame.
+                    self.readback.unmap();
+                    return Err(Error::Internal(format!("reading the readback buffer: {e}")));
+                }
+            };
             let bytes: &[u8] = &view;
             let n = (width * height) as usize;
             for &(first, count, target, component) in map {
@@ -607,6 +611,16 @@ impl Rasterizer {
                 return Err(Error::bad_input(&scene.name, format!("resolution {name}"), format!("{v} is outside [1, {max}]")));
             }
         }
+        // All G-buffer targets are read back through one buffer, which the device must allow.
+        let readback_bytes = padded_row_bytes(width) * height as u64 * GBUFFER_TARGETS as u64;
+        let limit = self.device.limits().max_buffer_size;
+        if readback_bytes > limit {
+            return Err(Error::bad_input(
+                &scene.name,
+                "resolution",
+                format!("{width}x{height} needs a {readback_bytes}-byte readback buffer; this device allows {limit}"),
+            ));
+        }
         Ok(())
     }
 
@@ -703,6 +717,7 @@ impl Rasterizer {
     pub fn begin_frame(&mut self, scene: &Scene, camera: &Camera, width: u32, height: u32) -> Result<Frame<'_>> {
         use wgpu::util::DeviceExt;
         self.check_resolution(scene, width, height)?;
+        camera.check()?;
         if scene.rect_lights.is_empty() {
             tracing::warn!("scene {:?} has no rectangle light: L_d holds only emission", scene.name);
         }
@@ -977,7 +992,12 @@ impl Frame<'_> {
         match kind {
             PassKind::Opaque => self.draws.iter().filter(|d| d.class != DrawClass::Transparent).for_each(&mut draw),
             PassKind::Naive => self.draws.iter().for_each(&mut draw),
-            PassKind::Transparency(k) => draw(&self.draws[self.transparent_slot[k]]),
+            // An object without drawable geometry leaves its buffer cleared: coverage 0.
+            PassKind::Transparency(k) => {
+                if let Some(d) = self.draws.get(self.transparent_slot[k]) {
+                    draw(d)
+                }
+            }
         }
     }
 

@@ -352,3 +352,41 @@ fn a_device_with_default_limits_is_refused_and_a_shared_one_renders() {
     let mut own = rasterizer();
     assert_eq!(shared.render(&scene, &cam, W, H).unwrap().opaque, own.render(&scene, &cam, W, H).unwrap().opaque);
 }
+
+/// Shadows are tested from the light's centre (docs/raster.md): wall points whose segments to
+/// the light's centre region are blocked by the occluder get no direct light; points whose
+/// segments are all clear get light.
+#[test]
+fn the_occluder_shadows_the_wall_as_seen_from_the_lights_centre() {
+    let (scene, quads, cam) = known_scene();
+    let light = &scene.rect_lights[0];
+    let mut r = rasterizer();
+    let frame = r.render(&scene, &cam, W, H).unwrap();
+    // The centre and four points around it on the light (a margin against the shadow map's
+    // resolution and filtering at the shadow's edge).
+    let (du, dv) = (light.edge_u * 0.08, light.edge_v * 0.08);
+    let c = light.center();
+    let probes = [c, c + du, c - du, c + dv, c - dv];
+    let blocked = |p: Vec3, q: Vec3| quads[1].hit(p, (q - p).normalize()).is_some_and(|t| t < (q - p).length());
+    let (mut shadowed, mut lit) = (Vec::new(), Vec::new());
+    for y in 0..H {
+        for x in 0..W {
+            let ray = cam.pixel_center_ray(x, y, W, H);
+            if !unambiguous(&cam, &quads, &[2, 3], x, y) || nearest(&quads, ray.origin, ray.direction, |i| !quads[i].transparent).map(|h| h.0) != Some(0) {
+                continue;
+            }
+            let p = vec3_at(&frame.opaque, opaque::POSITION, x, y);
+            let ld = vec3_at(&frame.opaque, opaque::LD, x, y).x;
+            match probes.iter().filter(|&&q| blocked(p, q)).count() {
+                5 => shadowed.push(ld),
+                0 => lit.push(ld),
+                _ => {}
+            }
+        }
+    }
+    assert!(shadowed.len() >= 5 && lit.len() >= 100, "{} shadowed, {} lit pixels", shadowed.len(), lit.len());
+    let lit_min = lit.iter().copied().fold(f32::INFINITY, f32::min);
+    assert!(lit_min > 0.0, "every clear wall point receives light");
+    let shadow_max = shadowed.iter().copied().fold(0.0, f32::max);
+    assert!(shadow_max <= 0.02 * lit_min, "shadowed L_d up to {shadow_max}, lit at least {lit_min}");
+}

@@ -605,6 +605,11 @@ pub fn validate(scene: &Scene, file: &str) -> Result<()> {
             if !(t.ior.is_finite() && t.ior > 0.0 && (0.0..=1.0).contains(&t.weight)) {
                 return Err(Error::bad_input(file, field, "transmission needs ior > 0 and a weight in [0, 1]"));
             }
+            // An index-matched dielectric bends nothing and reflects nothing: it is invisible,
+            // and rough microfacet transmission is undefined for it.
+            if (t.ior - 1.0).abs() < 1e-3 {
+                return Err(Error::bad_input(file, field, format!("ior {} is 1: the object would be invisible; remove it or give it a real ior", t.ior)));
+            }
         }
     }
     check_finite(file, "background".into(), &scene.background.to_array())?;

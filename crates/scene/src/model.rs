@@ -115,6 +115,7 @@ impl Texture {
         Texture { name: name.to_string(), width, height, texels, is_color }
     }
 
+    /// The texel at integer coordinates, wrapping around (repeat).
     pub fn texel(&self, x: i64, y: i64) -> Vec4 {
         let x = x.rem_euclid(self.width as i64) as usize;
         let y = y.rem_euclid(self.height as i64) as usize;

@@ -542,3 +542,24 @@ fn objects_left_without_triangles_are_skipped_with_a_warning() {
     let warnings = scene.warnings().join("\n");
     assert!(warnings.contains("without triangles are skipped: flat"), "{warnings}");
 }
+
+#[test]
+fn texture_sampling_is_bilinear_top_down_and_repeats() {
+    let t = glassbake_scene::Texture {
+        name: "2x2".into(),
+        width: 2,
+        height: 2,
+        texels: vec![Vec4::splat(0.0), Vec4::splat(1.0), Vec4::splat(2.0), Vec4::splat(3.0)],
+        is_color: false,
+    };
+    // Texel centres give the texels exactly; v = 0 is the top row.
+    assert_eq!(t.sample(glam::Vec2::new(0.25, 0.25)), Vec4::splat(0.0));
+    assert_eq!(t.sample(glam::Vec2::new(0.75, 0.25)), Vec4::splat(1.0));
+    assert_eq!(t.sample(glam::Vec2::new(0.25, 0.75)), Vec4::splat(2.0));
+    // Halfway between all four: their mean.
+    assert_eq!(t.sample(glam::Vec2::new(0.5, 0.5)), Vec4::splat(1.5));
+    // Repeat wrapping: u = -0.25 is u = 0.75, and u = 0 blends the last and first columns.
+    assert_eq!(t.sample(glam::Vec2::new(-0.25, 0.25)), Vec4::splat(1.0));
+    assert_eq!(t.sample(glam::Vec2::new(1.25, 0.75)), Vec4::splat(2.0));
+    assert_eq!(t.sample(glam::Vec2::new(0.0, 0.25)), Vec4::splat(0.5));
+}

@@ -101,12 +101,7 @@ pub type Progress<'a> = &'a (dyn Fn(u64, u64) + Sync);
 /// Path trace `scene` as seen by `camera`.
 pub fn render(scene: &Scene, camera: &Camera, settings: &TraceSettings, progress: Option<Progress>) -> Result<TraceOutput> {
     settings.validate()?;
-    let finite_camera = camera.position.is_finite() && camera.target.is_finite() && camera.up.is_finite();
-    // The look direction must not be parallel to `up`, or the camera has no right vector.
-    let has_frame = (camera.target - camera.position).cross(camera.up).length_squared() > 0.0;
-    if !(finite_camera && has_frame && camera.fov_x_deg > 0.0 && camera.fov_x_deg < 180.0) {
-        return Err(Error::bad_input("camera", "camera", format!("degenerate camera {camera:?}")));
-    }
+    camera.check()?;
     match settings.threads {
         Some(threads) => {
             let pool = rayon::ThreadPoolBuilder::new()

@@ -69,6 +69,11 @@ fn parse_camera(text: &str, default: &Camera) -> Result<Camera, Error> {
 }
 
 pub fn run(args: TraceArgs) -> Result<()> {
+    // The PNG preview is written beside the EXR with the extension .png: any other extension
+    // would let one overwrite the other.
+    if !args.out.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+        return Err(glassbake_core::Error::bad_input("--out", args.out.display().to_string(), "must name an .exr file (the .png preview goes beside it)").into());
+    }
     let scene = load_scene(&args.scene)?;
     for w in scene.warnings() {
         eprintln!("warning: {w}");
