@@ -5,8 +5,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 use clap::{ArgGroup, Args};
+use super::camera_arg::parse_camera;
 use glassbake_core::image::ExrPrecision;
-use glassbake_core::{Camera, Error, PlanarImage};
+use glassbake_core::{Error, PlanarImage};
 use glassbake_raster::{Rasterizer, RasterizerOptions};
 use glassbake_scene::load_scene;
 
@@ -42,30 +43,6 @@ pub struct BuffersArgs {
     /// transparent.0.coverage), written next to the EXR as <out stem>.<LAYER.ATTRIBUTE>.png.
     #[arg(long, value_delimiter = ',')]
     pub png: Vec<String>,
-}
-
-fn parse_camera(text: &str, scene: &glassbake_scene::Scene) -> Result<Camera> {
-    let values: Vec<f32> = text
-        .split(',')
-        .map(|t| t.trim().parse::<f32>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| Error::bad_input("--camera", text, "expected numbers px,py,pz,tx,ty,tz[,fov]"))?;
-    if values.len() != 6 && values.len() != 7 {
-        return Err(Error::bad_input("--camera", text, format!("expected 6 or 7 numbers, got {}", values.len())).into());
-    }
-    if values.iter().any(|v| !v.is_finite()) {
-        return Err(Error::bad_input("--camera", text, "values must be finite").into());
-    }
-    let position = glam::Vec3::new(values[0], values[1], values[2]);
-    let target = glam::Vec3::new(values[3], values[4], values[5]);
-    if (target - position).length() < 1e-6 {
-        return Err(Error::bad_input("--camera", text, "position and target coincide").into());
-    }
-    let fov = values.get(6).copied().unwrap_or(scene.camera.fov_x_deg.mid());
-    if !(fov > 0.0 && fov < 180.0) {
-        return Err(Error::bad_input("--camera", text, format!("fov {fov} is outside (0, 180)")).into());
-    }
-    Ok(Camera { position, target, up: scene.camera.up, fov_x_deg: fov, near: scene.camera.near, far: scene.camera.far })
 }
 
 pub fn run(args: BuffersArgs) -> Result<()> {

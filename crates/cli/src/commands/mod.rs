@@ -1,3 +1,4 @@
+pub mod camera_arg;
 pub mod buffers;
 pub mod scene;
 pub mod trace;

@@ -5,11 +5,10 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use glassbake_core::glam::Vec3;
 use glassbake_core::image::ExrPrecision;
 use glassbake_core::seed::purpose_seed;
-use glassbake_core::{Camera, Error};
 use glassbake_scene::load_scene;
+use super::camera_arg::parse_camera;
 use glassbake_trace::{render, sample_trace_seed, TraceSettings};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -48,26 +47,6 @@ pub struct TraceArgs {
     out: PathBuf,
 }
 
-fn parse_camera(text: &str, default: &Camera) -> Result<Camera, Error> {
-    let values: Vec<f32> = text
-        .split(',')
-        .map(|v| v.trim().parse::<f32>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| Error::bad_input("--camera", text, "expected comma-separated numbers"))?;
-    if values.len() != 6 && values.len() != 7 {
-        return Err(Error::bad_input("--camera", text, format!("expected 6 or 7 numbers, got {}", values.len())));
-    }
-    if values.iter().any(|v| !v.is_finite()) {
-        return Err(Error::bad_input("--camera", text, "numbers must be finite"));
-    }
-    Ok(Camera {
-        position: Vec3::new(values[0], values[1], values[2]),
-        target: Vec3::new(values[3], values[4], values[5]),
-        fov_x_deg: values.get(6).copied().unwrap_or(default.fov_x_deg),
-        ..*default
-    })
-}
-
 pub fn run(args: TraceArgs) -> Result<()> {
     // The PNG preview is written beside the EXR with the extension .png: any other extension
     // would let one overwrite the other.
@@ -87,7 +66,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
         None => {
             let default_camera = scene.camera.middle();
             let camera = match &args.camera {
-                Some(text) => parse_camera(text, &default_camera)?,
+                Some(text) => parse_camera(text, &scene)?,
                 None => default_camera,
             };
             (camera, scene.values_from_assignments(&args.set)?, purpose_seed(args.seed, "trace"))
