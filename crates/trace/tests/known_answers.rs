@@ -420,3 +420,72 @@ fn direct_light_through_a_thin_pane_matches_quadrature() {
     assert!(bias.abs() < 0.003, "mean relative error {bias}");
     assert!(worst < 0.05, "worst pixel off by {worst}");
 }
+
+/// A rectangle light facing down lights a ceiling above it only when it is two-sided, and
+/// then exactly as its lower face lights a floor (direct light only: max depth 2).
+#[test]
+fn rectangle_lights_emit_from_their_back_only_when_two_sided() {
+    let albedo = 0.5f32;
+    let radiance = 2.0f32;
+    let corners = [Vec3::new(-0.5, 1.0, -0.5), Vec3::new(0.5, 1.0, -0.5), Vec3::new(0.5, 1.0, 0.5), Vec3::new(-0.5, 1.0, 0.5)];
+    // The mirror image of the floor test's camera, looking up at a ceiling at y = 2.
+    let camera = Camera::look_at(Vec3::new(2.2, 0.3, 2.6), Vec3::new(0.0, 2.0, 0.0), 55.0);
+    let (w, h) = (24u32, 24u32);
+    for two_sided in [false, true] {
+        let mut scene = empty_scene("ceiling");
+        // rect() faces u x v = X x Z = -Y: down, towards the camera.
+        let ceiling = add_object(&mut scene, "ceiling", rect(Vec3::Y * 2.0, Vec3::X * 20.0, Vec3::Z * 20.0, Vec2::ONE), Material::diffuse("ceiling", Vec3::splat(albedo)));
+        scene.rect_lights.push(RectLight {
+            name: "light".into(),
+            corner: corners[0],
+            edge_u: Vec3::X,
+            edge_v: Vec3::Z,
+            radiance: Vec3::splat(radiance),
+            two_sided,
+        });
+        assert!(scene.rect_lights[0].normal().y < 0.0, "the light's front faces down");
+        let settings = TraceSettings { material_model: MaterialModel::Lambertian, max_depth: 2, ..TraceSettings::new(w, h, 128, 5) };
+        let out = render(&scene, &camera, &settings, None).unwrap();
+        let prepared = PreparedScene::new(&scene);
+        let (mut relative_sum, mut count, mut largest) = (0.0f64, 0, 0.0f32);
+        for y in 0..h {
+            for x in 0..w {
+                let mut expected = 0.0f64;
+                let mut on_ceiling = true;
+                for sy in 0..4 {
+                    for sx in 0..4 {
+                        let ray = camera.ray(x as f32 + (sx as f32 + 0.5) / 4.0, y as f32 + (sy as f32 + 0.5) / 4.0, w, h);
+                        match prepared.intersect(&ray) {
+                            Some(hit) if matches!(hit.owner, glassbake_trace::geometry::Owner::Object { object, .. } if object as usize == ceiling) => {
+                                expected += polygon_irradiance(hit.position, Vec3::NEG_Y, &corners, radiance) * albedo as f64 / PI as f64 / 16.0;
+                            }
+                            _ => on_ceiling = false,
+                        }
+                    }
+                }
+                // Pixels whose edges or corners see the light itself (its front faces the
+                // camera) would mix in its radiance: keep pixels that see only the ceiling.
+                let edges_on_ceiling = (0..=4).all(|sy| {
+                    (0..=4).all(|sx| {
+                        let ray = camera.ray(x as f32 + sx as f32 / 4.0, y as f32 + sy as f32 / 4.0, w, h);
+                        prepared.intersect(&ray).is_some_and(|hit| matches!(hit.owner, glassbake_trace::geometry::Owner::Object { object, .. } if object as usize == ceiling))
+                    })
+                });
+                if !on_ceiling || !edges_on_ceiling || expected < 1e-3 {
+                    continue;
+                }
+                let rendered = out.image.get(1, x, y);
+                largest = largest.max(rendered);
+                relative_sum += rendered as f64 / expected - 1.0;
+                count += 1;
+            }
+        }
+        assert!(count > 100, "only {count} ceiling pixels");
+        if two_sided {
+            let bias = relative_sum / count as f64;
+            assert!(bias.abs() < 0.01, "two-sided light: mean relative error {bias}");
+        } else {
+            assert_eq!(largest, 0.0, "the back of a one-sided light emits nothing");
+        }
+    }
+}
