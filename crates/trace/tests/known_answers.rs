@@ -11,6 +11,39 @@ use glassbake_scene::shapes::{rect, uv_sphere};
 use glassbake_scene::{Material, Mesh, Object, RectLight, Scene};
 use glassbake_trace::{render, MaterialModel, PreparedScene, TraceSettings};
 
+/// The exact value of a box-filtered pixel of a Lambertian `object` (albedo `albedo`, facing
+/// `normal`) lit only by the polygon `corners` of radiance `radiance`: the mean over a 4x4
+/// grid in the pixel. `None` unless the whole pixel, edges and corners included, sees `object`.
+#[allow(clippy::too_many_arguments)]
+fn exact_pixel(
+    prepared: &PreparedScene,
+    camera: &Camera,
+    (x, y, w, h): (u32, u32, u32, u32),
+    object: usize,
+    normal: Vec3,
+    corners: &[Vec3],
+    radiance: f32,
+    albedo: f32,
+) -> Option<f64> {
+    let hits_object = |px: f32, py: f32| {
+        prepared
+            .intersect(&camera.ray(px, py, w, h))
+            .filter(|hit| matches!(hit.owner, glassbake_trace::geometry::Owner::Object { object: o, .. } if o as usize == object))
+    };
+    let whole_pixel = (0..=4).all(|sy| (0..=4).all(|sx| hits_object(x as f32 + sx as f32 / 4.0, y as f32 + sy as f32 / 4.0).is_some()));
+    if !whole_pixel {
+        return None;
+    }
+    let mut expected = 0.0f64;
+    for sy in 0..4 {
+        for sx in 0..4 {
+            let hit = hits_object(x as f32 + (sx as f32 + 0.5) / 4.0, y as f32 + (sy as f32 + 0.5) / 4.0)?;
+            expected += polygon_irradiance(hit.position, normal, corners, radiance) * albedo as f64 / PI as f64 / 16.0;
+        }
+    }
+    Some(expected)
+}
+
 fn empty_scene(name: &str) -> Scene {
     Scene::empty(name)
 }
@@ -156,21 +189,10 @@ fn diffuse_plane_under_a_rectangle_light_matches_exact_irradiance() {
         let (mut relative_sum, mut count, mut worst) = (0.0f64, 0, 0.0f64);
         for y in 0..h {
             for x in 0..w {
-                // The exact value of a box-filtered pixel: average over a 4x4 grid in it.
-                let mut expected = 0.0f64;
-                let mut on_plane = true;
-                for sy in 0..4 {
-                    for sx in 0..4 {
-                        let ray = camera.ray(x as f32 + (sx as f32 + 0.5) / 4.0, y as f32 + (sy as f32 + 0.5) / 4.0, w, h);
-                        match prepared.intersect(&ray) {
-                            Some(hit) if matches!(hit.owner, glassbake_trace::geometry::Owner::Object { object, .. } if object as usize == plane) => {
-                                expected += polygon_irradiance(hit.position, Vec3::Y, &corners, radiance) * albedo as f64 / PI as f64 / 16.0;
-                            }
-                            _ => on_plane = false,
-                        }
-                    }
-                }
-                if !on_plane || expected < 1e-3 {
+                let Some(expected) = exact_pixel(&prepared, &camera, (x, y, w, h), plane, Vec3::Y, &corners, radiance, albedo) else {
+                    continue;
+                };
+                if expected < 1e-3 {
                     continue;
                 }
                 let rendered = out.image.get(1, x, y) as f64;
@@ -450,28 +472,11 @@ fn rectangle_lights_emit_from_their_back_only_when_two_sided() {
         let (mut relative_sum, mut count, mut largest) = (0.0f64, 0, 0.0f32);
         for y in 0..h {
             for x in 0..w {
-                let mut expected = 0.0f64;
-                let mut on_ceiling = true;
-                for sy in 0..4 {
-                    for sx in 0..4 {
-                        let ray = camera.ray(x as f32 + (sx as f32 + 0.5) / 4.0, y as f32 + (sy as f32 + 0.5) / 4.0, w, h);
-                        match prepared.intersect(&ray) {
-                            Some(hit) if matches!(hit.owner, glassbake_trace::geometry::Owner::Object { object, .. } if object as usize == ceiling) => {
-                                expected += polygon_irradiance(hit.position, Vec3::NEG_Y, &corners, radiance) * albedo as f64 / PI as f64 / 16.0;
-                            }
-                            _ => on_ceiling = false,
-                        }
-                    }
-                }
-                // Pixels whose edges or corners see the light itself (its front faces the
-                // camera) would mix in its radiance: keep pixels that see only the ceiling.
-                let edges_on_ceiling = (0..=4).all(|sy| {
-                    (0..=4).all(|sx| {
-                        let ray = camera.ray(x as f32 + sx as f32 / 4.0, y as f32 + sy as f32 / 4.0, w, h);
-                        prepared.intersect(&ray).is_some_and(|hit| matches!(hit.owner, glassbake_trace::geometry::Owner::Object { object, .. } if object as usize == ceiling))
-                    })
-                });
-                if !on_ceiling || !edges_on_ceiling || expected < 1e-3 {
+                // Pixels that see any of the light itself (its front faces the camera) are left out.
+                let Some(expected) = exact_pixel(&prepared, &camera, (x, y, w, h), ceiling, Vec3::NEG_Y, &corners, radiance, albedo) else {
+                    continue;
+                };
+                if expected < 1e-3 {
                     continue;
                 }
                 let rendered = out.image.get(1, x, y);
