@@ -194,27 +194,25 @@ fn fit_error(p: &[f32; 4], alpha: f32, v: Vec3, norm: f32, samples: usize) -> f3
     let det_minv = 1.0 / det;
     let mut error = 0.0f64;
     let n = (samples * samples) as f64;
+    // One MIS-weighted term of the L3 error at direction w.
+    let term = |w: Vec3| {
+        let d_ltc = ltc_density(&minv, det_minv, w);
+        let target = ggx_cos(alpha, v, w).0 / norm;
+        let pdf_brdf = ggx_pdf(alpha, v, w);
+        let e = (d_ltc - target).abs() as f64;
+        if d_ltc + pdf_brdf > 0.0 {
+            e * e * e / (d_ltc + pdf_brdf) as f64 / n
+        } else {
+            0.0
+        }
+    };
     for (u1, u2) in grid(samples) {
         // From the LTC.
-        let w = (m * sample_cosine(u1, u2)).normalize();
-        let d_ltc = ltc_density(&minv, det_minv, w);
-        let target = ggx_cos(alpha, v, w).0 / norm;
-        let pdf_brdf = ggx_pdf(alpha, v, w);
-        let e = (d_ltc - target).abs() as f64;
-        if d_ltc + pdf_brdf > 0.0 {
-            error += e * e * e / (d_ltc + pdf_brdf) as f64 / n;
-        }
+        error += term((m * sample_cosine(u1, u2)).normalize());
         // From the BRDF.
         let w = sample_ggx(alpha, v, u1, u2);
-        if w.z <= 0.0 {
-            continue;
-        }
-        let d_ltc = ltc_density(&minv, det_minv, w);
-        let target = ggx_cos(alpha, v, w).0 / norm;
-        let pdf_brdf = ggx_pdf(alpha, v, w);
-        let e = (d_ltc - target).abs() as f64;
-        if d_ltc + pdf_brdf > 0.0 {
-            error += e * e * e / (d_ltc + pdf_brdf) as f64 / n;
+        if w.z > 0.0 {
+            error += term(w);
         }
     }
     error as f32

@@ -44,6 +44,33 @@ fn exact_pixel(
     Some(expected)
 }
 
+/// (exact, rendered green channel) for every pixel that sees only `object` and gets
+/// noticeable direct light (see [`exact_pixel`]).
+#[allow(clippy::too_many_arguments)]
+fn lit_pixels(
+    image: &glassbake_core::PlanarImage,
+    prepared: &PreparedScene,
+    camera: &Camera,
+    object: usize,
+    normal: Vec3,
+    corners: &[Vec3],
+    radiance: f32,
+    albedo: f32,
+) -> Vec<(f64, f32)> {
+    let (w, h) = (image.width(), image.height());
+    let mut pixels = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            if let Some(expected) = exact_pixel(prepared, camera, (x, y, w, h), object, normal, corners, radiance, albedo) {
+                if expected >= 1e-3 {
+                    pixels.push((expected, image.get(1, x, y)));
+                }
+            }
+        }
+    }
+    pixels
+}
+
 fn empty_scene(name: &str) -> Scene {
     Scene::empty(name)
 }
@@ -187,20 +214,11 @@ fn diffuse_plane_under_a_rectangle_light_matches_exact_irradiance() {
         assert_eq!(out.discarded_samples, 0);
         let prepared = PreparedScene::new(&scene);
         let (mut relative_sum, mut count, mut worst) = (0.0f64, 0, 0.0f64);
-        for y in 0..h {
-            for x in 0..w {
-                let Some(expected) = exact_pixel(&prepared, &camera, (x, y, w, h), plane, Vec3::Y, &corners, radiance, albedo) else {
-                    continue;
-                };
-                if expected < 1e-3 {
-                    continue;
-                }
-                let rendered = out.image.get(1, x, y) as f64;
-                let relative = rendered / expected - 1.0;
-                relative_sum += relative;
-                worst = worst.max(relative.abs());
-                count += 1;
-            }
+        for (expected, rendered) in lit_pixels(&out.image, &prepared, &camera, plane, Vec3::Y, &corners, radiance, albedo) {
+            let relative = rendered as f64 / expected - 1.0;
+            relative_sum += relative;
+            worst = worst.max(relative.abs());
+            count += 1;
         }
         assert!(count > 300, "{light_kind}: only {count} plane pixels");
         let bias = relative_sum / count as f64;
@@ -470,20 +488,11 @@ fn rectangle_lights_emit_from_their_back_only_when_two_sided() {
         let out = render(&scene, &camera, &settings, None).unwrap();
         let prepared = PreparedScene::new(&scene);
         let (mut relative_sum, mut count, mut largest) = (0.0f64, 0, 0.0f32);
-        for y in 0..h {
-            for x in 0..w {
-                // Pixels that see any of the light itself (its front faces the camera) are left out.
-                let Some(expected) = exact_pixel(&prepared, &camera, (x, y, w, h), ceiling, Vec3::NEG_Y, &corners, radiance, albedo) else {
-                    continue;
-                };
-                if expected < 1e-3 {
-                    continue;
-                }
-                let rendered = out.image.get(1, x, y);
-                largest = largest.max(rendered);
-                relative_sum += rendered as f64 / expected - 1.0;
-                count += 1;
-            }
+        // Pixels that see any of the light itself (its front faces the camera) are left out.
+        for (expected, rendered) in lit_pixels(&out.image, &prepared, &camera, ceiling, Vec3::NEG_Y, &corners, radiance, albedo) {
+            largest = largest.max(rendered);
+            relative_sum += rendered as f64 / expected - 1.0;
+            count += 1;
         }
         assert!(count > 100, "only {count} ceiling pixels");
         if two_sided {
