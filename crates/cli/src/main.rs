@@ -24,6 +24,10 @@ enum Command {
     Buffers(commands::buffers::BuffersArgs),
     /// Make a dataset of sampled frames (buffers + path-traced ground truth); merge shards; info.
     Dataset(commands::dataset::DatasetArgs),
+    /// Train GlassNet or a baseline (naive, concat) on a dataset; resumes after a kill.
+    Train(commands::train::TrainArgs),
+    /// Train the x2 super-sampler from a trained GlassNet's images to ground truth at 2x.
+    TrainSr(commands::train::TrainSrArgs),
 }
 
 fn main() {
@@ -34,7 +38,12 @@ fn main() {
         // One directory per user, reused, so runs leave nothing new behind.
         let user = std::env::var("USER").unwrap_or_else(|_| "user".into());
         let dir = std::env::temp_dir().join(format!("glassbake-runtime-{user}"));
-        if std::fs::create_dir_all(&dir).is_ok() {
+        // The Wayland client library rejects a runtime directory that is not private (0700).
+        let private = std::fs::create_dir_all(&dir).is_ok() && {
+            use std::os::unix::fs::PermissionsExt;
+            std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700)).is_ok()
+        };
+        if private {
             std::env::set_var("XDG_RUNTIME_DIR", &dir);
         }
     }
@@ -48,11 +57,19 @@ fn main() {
         .with_target(false)
         .init();
     let cli = Cli::parse();
+    // burn materialises some state (optimizer moments read from a checkpoint) on its default
+    // device, which prefers any GPU; glassbake always names its devices, so make the implicit
+    // one the CPU rather than start a second GPU runtime. Still single-threaded here.
+    if std::env::var_os("BURN_DEVICE").is_none() {
+        std::env::set_var("BURN_DEVICE", "flex");
+    }
     let result = match cli.command {
         Command::Scene(cmd) => commands::scene::run(cmd),
         Command::Trace(args) => commands::trace::run(args),
         Command::Buffers(args) => commands::buffers::run(args),
         Command::Dataset(args) => commands::dataset::run(args),
+        Command::Train(args) => commands::train::run(args),
+        Command::TrainSr(args) => commands::train::run_super_sampler(args),
     };
     if let Err(e) = result {
         eprintln!("error: {}", one_line(&e));

@@ -3,3 +3,4 @@ pub mod buffers;
 pub mod scene;
 pub mod trace;
 pub mod dataset;
+pub mod train;

@@ -1,0 +1,321 @@
+//! `glassbake train` and `glassbake train-sr`: connect the dataset loader to the network
+//! crate's training loop, with a progress bar and a summary.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::Result;
+use clap::Args;
+use glassbake_core::Error;
+use glassbake_dataset::{DatasetStore, Example, Loader, LoaderOptions, Split};
+use glassbake_net::model_dir::{DataSource, ModelConfig, ModelFiles, Network, FORMAT_VERSION};
+use glassbake_net::super_sampler::downsample_box2;
+use glassbake_net::{
+    select_device, train, DeviceChoice, FrameRef, GlassNet, HostBatch, ModelKind, NetConfig, RunOptions, SuperSampler, SuperSamplerConfig, TrainConfig,
+    TrainEvent, TrainedModel, TrainingData,
+};
+use glassbake_scene::load_scene;
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// Options shared by `train` and `train-sr`.
+#[derive(Args, Clone)]
+pub struct CommonTrainArgs {
+    /// Dataset directory (made by `glassbake dataset`).
+    pub dataset: PathBuf,
+    /// Model directory; re-running the same command there resumes from its checkpoint.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// tiny (tests), quick (a CPU bake at 64-128 px) or paper (GPU, 256 px).
+    #[arg(long, default_value = "quick")]
+    pub preset: String,
+    /// cpu (burn's flex backend) or wgpu (Vulkan).
+    #[arg(long, default_value = "cpu")]
+    pub device: String,
+    /// Override the preset's number of optimizer steps.
+    #[arg(long)]
+    pub steps: Option<u64>,
+    /// Override the preset's batch size.
+    #[arg(long)]
+    pub batch: Option<usize>,
+    /// Override the preset's learning rate.
+    #[arg(long)]
+    pub lr: Option<f64>,
+    /// Train on random square crops of this side (whole frames by default).
+    #[arg(long)]
+    pub crop: Option<u32>,
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Frame-reading/rasterizing worker threads.
+    #[arg(long, default_value_t = 2)]
+    pub workers: usize,
+}
+
+#[derive(Args)]
+pub struct TrainArgs {
+    #[command(flatten)]
+    pub common: CommonTrainArgs,
+    /// glassnet, naive (single G-buffer, glass overwrites) or concat (buffers concatenated).
+    #[arg(long, default_value = "glassnet")]
+    pub model: String,
+    /// Positional-encoding frequencies (0 = the paper's "without positional encoding" ablation).
+    #[arg(long)]
+    pub encoding_frequencies: Option<usize>,
+    /// Weight of the (1 - SSIM) term (0 = the paper's "L1 only" ablation).
+    #[arg(long)]
+    pub ssim_weight: Option<f64>,
+}
+
+#[derive(Args)]
+pub struct TrainSrArgs {
+    #[command(flatten)]
+    pub common: CommonTrainArgs,
+    /// The trained GlassNet whose images are super-sampled (trained at half this dataset's
+    /// resolution or on the same scene).
+    #[arg(long)]
+    pub glassnet: PathBuf,
+}
+
+fn train_config(args: &CommonTrainArgs) -> Result<TrainConfig> {
+    let mut config = TrainConfig::preset(&args.preset)?;
+    if let Some(v) = args.steps {
+        config.steps = v;
+    }
+    if let Some(v) = args.batch {
+        config.batch_size = v;
+    }
+    if let Some(v) = args.lr {
+        config.learning_rate = v;
+    }
+    if args.crop.is_some() {
+        config.crop = args.crop;
+    }
+    if let Some(v) = args.seed {
+        config.seed = v;
+    }
+    config.warmup_steps = config.warmup_steps.min(config.steps / 10);
+    config.check("command line")?;
+    Ok(config)
+}
+
+fn open_dataset(dir: &Path) -> Result<(DatasetStore, Option<glassbake_scene::Scene>)> {
+    let store = DatasetStore::open(dir)?;
+    let info = store.info();
+    for (split, planned, done) in &info.splits {
+        if matches!(split, Split::Train | Split::Val) && done < planned {
+            return Err(Error::bad_input(dir.display(), "frames", format!("{split:?} split is incomplete ({done}/{planned}); finish it by re-running `glassbake dataset`")).into());
+        }
+    }
+    let scene = if store.manifest.spec.cache_buffers { None } else { Some(load_scene(&store.manifest.spec.scene)?) };
+    Ok((store, scene))
+}
+
+fn data_source(dir: &Path, store: &DatasetStore) -> DataSource {
+    DataSource {
+        dataset: dir.display().to_string(),
+        scene: store.manifest.scene.name.clone(),
+        scene_hash: store.manifest.scene.hash.clone(),
+        resolution: store.manifest.spec.resolution,
+    }
+}
+
+fn progress_bar(steps: u64) -> ProgressBar {
+    let bar = ProgressBar::new(steps);
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} step {pos}/{len} [{elapsed_precise}] {wide_bar} ETA {eta} {msg}")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    bar.enable_steady_tick(Duration::from_millis(250));
+    bar
+}
+
+fn on_event(bar: &ProgressBar) -> impl FnMut(&TrainEvent) + '_ {
+    let mut last_validation = None;
+    let mut first = true;
+    move |e: &TrainEvent| {
+        if first {
+            // Steps done before a resume do not count towards the ETA.
+            bar.set_position(e.step.saturating_sub(1));
+            bar.reset_eta();
+            first = false;
+        }
+        if e.validation_loss.is_some() {
+            last_validation = e.validation_loss;
+        }
+        bar.set_position(e.step);
+        bar.set_message(format!(
+            "loss {:.4} lr {:.1e}{}",
+            e.loss,
+            e.learning_rate,
+            last_validation.map(|v| format!(" val {v:.4}")).unwrap_or_default()
+        ));
+    }
+}
+
+/// Frames of one dataset split as network batches.
+struct DatasetData {
+    train: Loader,
+    val: Loader,
+    validation_frames: Option<usize>,
+    batch_size: usize,
+    /// Feed the naive G-buffer instead of the opaque one.
+    naive: bool,
+    /// For the super-sampler: GlassNet renders the low-resolution image of each frame.
+    low_res: Option<TrainedModel>,
+}
+
+fn host_batch(examples: &[Example], naive: bool, low_res: Option<&TrainedModel>) -> glassbake_core::Result<HostBatch> {
+    let refs: Vec<FrameRef> = examples
+        .iter()
+        .map(|e| FrameRef {
+            gbuffer: if naive { e.naive.as_ref().expect("the loader was asked for naive buffers") } else { &e.opaque },
+            transparent: if naive { &[] } else { &e.transparent },
+            values: &e.values,
+            ground_truth: Some(&e.ground_truth),
+        })
+        .collect();
+    let mut batch = HostBatch::from_frames(&refs)?;
+    if let Some(model) = low_res {
+        let mut low = Vec::new();
+        for e in examples {
+            let gbuffer = downsample_box2(if model.kind() == ModelKind::Naive { e.naive.as_ref().expect("naive buffers") } else { &e.opaque })?;
+            let transparent = e.transparent.iter().map(downsample_box2).collect::<glassbake_core::Result<Vec<_>>>()?;
+            let transparent = if model.kind() == ModelKind::Naive { Vec::new() } else { transparent };
+            let image = model.render(FrameRef { gbuffer: &gbuffer, transparent: &transparent, values: &e.values, ground_truth: None })?;
+            for name in glassbake_core::layout::GROUND_TRUTH_CHANNELS {
+                low.extend_from_slice(image.plane_by_name(name).expect("render writes R, G, B"));
+            }
+        }
+        batch.low_res_image = Some(low);
+    }
+    Ok(batch)
+}
+
+impl TrainingData for DatasetData {
+    fn batches_per_epoch(&self) -> usize {
+        self.train.len().div_ceil(self.batch_size)
+    }
+
+    fn epoch(&mut self, epoch: u64, skip: usize) -> Box<dyn Iterator<Item = glassbake_core::Result<HostBatch>> + '_> {
+        let (naive, low_res) = (self.naive, self.low_res.as_ref());
+        Box::new(self.train.epoch_iter(epoch).skip(skip).map(move |examples| host_batch(&examples?, naive, low_res)))
+    }
+
+    fn validation(&mut self) -> glassbake_core::Result<Vec<HostBatch>> {
+        let limit = self.validation_frames.unwrap_or(usize::MAX).min(self.val.len());
+        let mut batches = Vec::new();
+        let mut taken = 0;
+        let (naive, low_res) = (self.naive, self.low_res.as_ref());
+        for examples in self.val.epoch_iter(0) {
+            let mut examples = examples?;
+            examples.truncate(limit - taken);
+            taken += examples.len();
+            batches.push(host_batch(&examples, naive, low_res)?);
+            if taken >= limit {
+                break;
+            }
+        }
+        Ok(batches)
+    }
+}
+
+fn loaders(dir: &Path, scene: Option<glassbake_scene::Scene>, config: &TrainConfig, workers: usize, naive: bool) -> Result<(Loader, Loader)> {
+    let train = Loader::new(
+        dir,
+        scene.clone(),
+        LoaderOptions { split: Split::Train, batch_size: config.batch_size, crop: config.crop, seed: config.seed, shuffle: true, workers, naive, ..Default::default() },
+    )?;
+    let val = Loader::new(dir, scene, LoaderOptions { split: Split::Val, batch_size: config.batch_size, crop: None, seed: config.seed, shuffle: false, workers, naive, ..Default::default() })?;
+    Ok((train, val))
+}
+
+pub fn run(args: TrainArgs) -> Result<()> {
+    let kind = ModelKind::parse(&args.model).ok_or_else(|| Error::bad_input("--model", "model", format!("{:?} is not glassnet, naive or concat", args.model)))?;
+    let device_choice = DeviceChoice::parse(&args.common.device)?;
+    let mut train_config = train_config(&args.common)?;
+    if let Some(w) = args.ssim_weight {
+        train_config.ssim_weight = w;
+        train_config.check("--ssim-weight")?;
+    }
+    let (store, scene) = open_dataset(&args.common.dataset)?;
+    let info = store.info();
+    let variables = store.manifest.samples.first().map_or(0, |s| s.values.len());
+    let mut net_config = NetConfig::preset(&args.common.preset, kind, variables, info.transparent_objects)?;
+    if let Some(f) = args.encoding_frequencies {
+        net_config.encoding_frequencies = f;
+        net_config.check("--encoding-frequencies")?;
+    }
+    let side = train_config.crop.unwrap_or(info.resolution) as usize;
+    if side % net_config.size_multiple() != 0 {
+        return Err(Error::bad_input("--crop", "resolution", format!("training frames of {side} px are not a multiple of {}", net_config.size_multiple())).into());
+    }
+    let files = ModelFiles::prepare(
+        &args.common.out,
+        ModelConfig { format_version: FORMAT_VERSION, network: Network::Glassnet(net_config.clone()), train: train_config.clone(), data: data_source(&args.common.dataset, &store) },
+    )?;
+    let naive = kind == ModelKind::Naive;
+    let (train_loader, val) = loaders(&args.common.dataset, scene, &train_config, args.common.workers, naive)?;
+    let mut data = DatasetData { train: train_loader, val, validation_frames: train_config.validation_frames, batch_size: train_config.batch_size, naive, low_res: None };
+    let device = select_device(device_choice, train_config.seed, true);
+    let model = GlassNet::new(&net_config, train_config.seed, &device)?;
+    println!(
+        "training {} ({} preset, {} parameters) on {} ({} train frames, {} px{}), {} steps on {}",
+        kind.name(),
+        args.common.preset,
+        glassbake_net::burn::module::Module::num_params(&model),
+        args.common.dataset.display(),
+        data.train.len(),
+        info.resolution,
+        train_config.crop.map(|c| format!(", {c} px crops")).unwrap_or_default(),
+        train_config.steps,
+        device_choice.name()
+    );
+    let bar = progress_bar(train_config.steps);
+    let summary = train(model, &files, &train_config, &device, &mut data, &RunOptions::default(), &mut on_event(&bar));
+    bar.finish_and_clear();
+    report(summary?, &files)
+}
+
+pub fn run_super_sampler(args: TrainSrArgs) -> Result<()> {
+    let device_choice = DeviceChoice::parse(&args.common.device)?;
+    let train_config = train_config(&args.common)?;
+    let (store, scene) = open_dataset(&args.common.dataset)?;
+    let inference_device = select_device(device_choice, train_config.seed, false);
+    let glassnet = TrainedModel::load(&args.glassnet, &inference_device)?;
+    let side = train_config.crop.unwrap_or(store.manifest.spec.resolution) as usize;
+    if side % (2 * glassnet.config().size_multiple()) != 0 {
+        return Err(Error::bad_input("--crop", "resolution", format!("{side} px frames halve to a size GlassNet cannot take (need a multiple of {})", 2 * glassnet.config().size_multiple())).into());
+    }
+    let sr_config = SuperSamplerConfig::preset(&args.common.preset)?;
+    let files = ModelFiles::prepare(
+        &args.common.out,
+        ModelConfig { format_version: FORMAT_VERSION, network: Network::SuperSampler(sr_config.clone()), train: train_config.clone(), data: data_source(&args.common.dataset, &store) },
+    )?;
+    let naive = glassnet.kind() == ModelKind::Naive;
+    let (train_loader, val) = loaders(&args.common.dataset, scene, &train_config, args.common.workers, naive)?;
+    let mut data = DatasetData { train: train_loader, val, validation_frames: train_config.validation_frames, batch_size: train_config.batch_size, naive: false, low_res: Some(glassnet) };
+    let device = select_device(device_choice, train_config.seed, true);
+    let model = SuperSampler::new(&sr_config, train_config.seed, &device);
+    println!("training the x2 super-sampler ({} preset) on {}, {} steps on {}", args.common.preset, args.common.dataset.display(), train_config.steps, device_choice.name());
+    let bar = progress_bar(train_config.steps);
+    let summary = train(model, &files, &train_config, &device, &mut data, &RunOptions::default(), &mut on_event(&bar));
+    bar.finish_and_clear();
+    report(summary?, &files)
+}
+
+fn report(summary: glassbake_net::TrainSummary, files: &ModelFiles) -> Result<()> {
+    if summary.already_done {
+        println!("{} is already trained ({} steps); nothing to do", files.dir.display(), summary.steps);
+    } else {
+        println!(
+            "trained {} steps{} in {:.1} s; validation loss {}",
+            summary.steps,
+            summary.resumed_from.map(|s| format!(" (resumed from step {s})")).unwrap_or_default(),
+            summary.elapsed_seconds,
+            summary.final_validation_loss.map(|v| format!("{v:.4}")).unwrap_or_else(|| "-".into())
+        );
+    }
+    println!("  weights {}", files.weights_path().display());
+    println!("  log     {}", files.dir.join("train_log.csv").display());
+    Ok(())
+}

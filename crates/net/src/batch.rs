@@ -1,0 +1,129 @@
+//! Host-side batches: frames as planar f32 images (the dataset's and rasterizer's format)
+//! stacked into NCHW arrays, moved to a device as [`NetInputs`], and images read back.
+
+use burn::prelude::*;
+use burn::tensor::TensorData;
+
+use glassbake_core::layout::{self, OPAQUE_CHANNELS, TRANSPARENT_CHANNELS};
+use glassbake_core::{Error, PlanarImage, Result};
+
+use crate::model::NetInputs;
+
+/// One frame, borrowed: the G-buffer the model reads (opaque, or naive for the naive
+/// baseline), its transparency buffers, normalised variable values and, for training and
+/// evaluation, the ground truth (linear RGB).
+#[derive(Clone, Copy, Debug)]
+pub struct FrameRef<'a> {
+    pub gbuffer: &'a PlanarImage,
+    pub transparent: &'a [PlanarImage],
+    pub values: &'a [f32],
+    pub ground_truth: Option<&'a PlanarImage>,
+}
+
+/// A stack of frames of one size in NCHW order.
+#[derive(Clone, Debug)]
+pub struct HostBatch {
+    pub frames: usize,
+    pub width: usize,
+    pub height: usize,
+    pub variables: usize,
+    pub gbuffer: Vec<f32>,
+    /// Per transparent object: that object's buffer for every frame.
+    pub transparent: Vec<Vec<f32>>,
+    pub values: Vec<f32>,
+    /// Linear RGB; the loss tone-maps it.
+    pub ground_truth: Option<Vec<f32>>,
+    /// For the super-sampler: GlassNet's tone-mapped image at half this batch's resolution.
+    pub low_res_image: Option<Vec<f32>>,
+}
+
+impl HostBatch {
+    pub fn from_frames(frames: &[FrameRef]) -> Result<HostBatch> {
+        let first = frames.first().ok_or_else(|| Error::Internal("an empty batch".into()))?;
+        let (width, height) = (first.gbuffer.width() as usize, first.gbuffer.height() as usize);
+        let (objects, variables) = (first.transparent.len(), first.values.len());
+        let with_truth = first.ground_truth.is_some();
+        let mut batch = HostBatch {
+            frames: frames.len(),
+            width,
+            height,
+            variables,
+            gbuffer: Vec::with_capacity(frames.len() * OPAQUE_CHANNELS * width * height),
+            transparent: vec![Vec::with_capacity(frames.len() * TRANSPARENT_CHANNELS * width * height); objects],
+            values: Vec::with_capacity(frames.len() * variables),
+            ground_truth: with_truth.then(Vec::new),
+            low_res_image: None,
+        };
+        let check = |image: &PlanarImage, channels: usize, what: &str| -> Result<()> {
+            if image.width() as usize != width || image.height() as usize != height || image.channels().len() != channels {
+                return Err(Error::Internal(format!(
+                    "batch frame {what} is {}x{}x{}, expected {width}x{height}x{channels}",
+                    image.width(),
+                    image.height(),
+                    image.channels().len()
+                )));
+            }
+            Ok(())
+        };
+        for frame in frames {
+            check(frame.gbuffer, OPAQUE_CHANNELS, "G-buffer")?;
+            if frame.transparent.len() != objects || frame.values.len() != variables || frame.ground_truth.is_some() != with_truth {
+                return Err(Error::Internal("batch frames differ in objects, variables or ground truth".into()));
+            }
+            batch.gbuffer.extend_from_slice(frame.gbuffer.data());
+            for (k, buffer) in frame.transparent.iter().enumerate() {
+                check(buffer, TRANSPARENT_CHANNELS, "transparency buffer")?;
+                batch.transparent[k].extend_from_slice(buffer.data());
+            }
+            batch.values.extend_from_slice(frame.values);
+            if let (Some(truth), Some(out)) = (frame.ground_truth, batch.ground_truth.as_mut()) {
+                check(truth, 3, "ground truth")?;
+                for name in layout::GROUND_TRUTH_CHANNELS {
+                    let plane = truth.plane_by_name(name).ok_or_else(|| Error::Internal(format!("ground truth has no channel {name}")))?;
+                    out.extend_from_slice(plane);
+                }
+            }
+        }
+        Ok(batch)
+    }
+
+    pub fn objects(&self) -> usize {
+        self.transparent.len()
+    }
+
+    fn tensor(&self, data: &[f32], channels: usize, device: &Device) -> Tensor<4> {
+        Tensor::from_data(TensorData::new(data.to_vec(), [self.frames, channels, self.height, self.width]), device)
+    }
+
+    pub fn gbuffer_tensor(&self, device: &Device) -> Tensor<4> {
+        self.tensor(&self.gbuffer, OPAQUE_CHANNELS, device)
+    }
+
+    /// The network inputs on `device`.
+    pub fn inputs(&self, device: &Device) -> NetInputs {
+        NetInputs {
+            gbuffer: self.tensor(&self.gbuffer, OPAQUE_CHANNELS, device),
+            transparent: self.transparent.iter().map(|b| self.tensor(b, TRANSPARENT_CHANNELS, device)).collect(),
+            values: Tensor::from_data(TensorData::new(self.values.clone(), [self.frames, self.variables]), device),
+        }
+    }
+
+    /// Tone-mapped ground truth on `device`.
+    pub fn target(&self, device: &Device) -> Option<Tensor<4>> {
+        self.ground_truth.as_ref().map(|t| crate::loss::tonemap(self.tensor(t, 3, device)))
+    }
+
+    /// Transparency buffer `k` of every frame, for streaming.
+    pub fn transparent_tensor(&self, k: usize, device: &Device) -> Tensor<4> {
+        self.tensor(&self.transparent[k], TRANSPARENT_CHANNELS, device)
+    }
+}
+
+/// Frame `index` of an [N, 3, H, W] prediction as a linear RGB image (channels R, G, B).
+pub fn image_from_tensor(prediction: &Tensor<4>, index: usize) -> Result<PlanarImage> {
+    let [_, channels, h, w] = prediction.dims();
+    let frame = prediction.clone().narrow(0, index, 1);
+    let data = frame.into_data().try_to_vec::<f32>().map_err(|e| Error::Internal(format!("reading the prediction back: {e:?}")))?;
+    let names = if channels == 3 { layout::GROUND_TRUTH_CHANNELS.iter().map(|s| s.to_string()).collect() } else { (0..channels).map(|c| format!("c{c}")).collect() };
+    PlanarImage::from_planes(w as u32, h as u32, names, data)
+}

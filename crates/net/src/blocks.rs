@@ -1,0 +1,177 @@
+//! The layer types GlassNet is built from: a 3x3 convolution + activation, the U-Net of F and
+//! B, the plain CNN of h, the rendering network R and NeRF positional encoding.
+
+use burn::nn::conv::{Conv2d, Conv2dConfig, ConvTranspose2d, ConvTranspose2dConfig};
+use burn::nn::PaddingConfig2d;
+use burn::prelude::*;
+use burn::tensor::activation::leaky_relu;
+
+use crate::config::{CnnConfig, RendererConfig, UNetConfig};
+
+/// Leaky slope of every hidden activation: small nets lose too many units to plain ReLU.
+const LEAK: f64 = 0.1;
+
+fn conv(in_channels: usize, out_channels: usize, kernel: usize, device: &Device) -> Conv2d {
+    Conv2dConfig::new([in_channels, out_channels], [kernel, kernel])
+        .with_padding(PaddingConfig2d::Same)
+        .init(device)
+}
+
+/// Convolution followed by a leaky ReLU.
+#[derive(Module, Debug)]
+pub struct ConvAct {
+    pub conv: Conv2d,
+}
+
+impl ConvAct {
+    pub fn new(in_channels: usize, out_channels: usize, kernel: usize, device: &Device) -> Self {
+        ConvAct { conv: conv(in_channels, out_channels, kernel, device) }
+    }
+
+    pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
+        leaky_relu(self.conv.forward(x), LEAK)
+    }
+}
+
+/// Two 3x3 convolutions, the unit of every U-Net level.
+#[derive(Module, Debug)]
+pub struct DoubleConv {
+    pub first: ConvAct,
+    pub second: ConvAct,
+}
+
+impl DoubleConv {
+    pub fn new(in_channels: usize, out_channels: usize, device: &Device) -> Self {
+        DoubleConv { first: ConvAct::new(in_channels, out_channels, 3, device), second: ConvAct::new(out_channels, out_channels, 3, device) }
+    }
+
+    pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
+        self.second.forward(self.first.forward(x))
+    }
+}
+
+/// U-Net (Ronneberger et al. 2015) with strided-convolution down-sampling and
+/// transposed-convolution up-sampling; a 1x1 head maps to the output channels.
+#[derive(Module, Debug)]
+pub struct UNet {
+    /// One per level, top to bottom (the last is the bottleneck).
+    pub encoder: Vec<DoubleConv>,
+    /// Stride-2 3x3 convolutions between encoder levels.
+    pub down: Vec<ConvAct>,
+    /// 2x2 stride-2 transposed convolutions, bottom to top.
+    pub up: Vec<ConvTranspose2d>,
+    /// One per level above the bottleneck, bottom to top; reads (up-sampled, skip).
+    pub decoder: Vec<DoubleConv>,
+    pub head: Conv2d,
+}
+
+impl UNet {
+    pub fn new(in_channels: usize, config: &UNetConfig, device: &Device) -> Self {
+        let width = |level: usize| config.base_width << level;
+        let mut encoder = Vec::new();
+        let mut down = Vec::new();
+        for level in 0..config.levels {
+            let input = if level == 0 { in_channels } else { width(level) };
+            encoder.push(DoubleConv::new(input, width(level), device));
+            if level + 1 < config.levels {
+                down.push(ConvAct {
+                    conv: Conv2dConfig::new([width(level), width(level + 1)], [3, 3])
+                        .with_stride([2, 2])
+                        .with_padding(PaddingConfig2d::Explicit(1, 1, 1, 1))
+                        .init(device),
+                });
+            }
+        }
+        let mut up = Vec::new();
+        let mut decoder = Vec::new();
+        for level in (0..config.levels.saturating_sub(1)).rev() {
+            up.push(ConvTranspose2dConfig::new([width(level + 1), width(level)], [2, 2]).with_stride([2, 2]).init(device));
+            decoder.push(DoubleConv::new(2 * width(level), width(level), device));
+        }
+        UNet { encoder, down, up, decoder, head: conv(width(0), config.out_channels, 1, device) }
+    }
+
+    /// `x` must have sides divisible by 2^(levels-1).
+    pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
+        let mut skips = Vec::with_capacity(self.encoder.len());
+        let mut x = x;
+        for (level, block) in self.encoder.iter().enumerate() {
+            x = block.forward(x);
+            if let Some(down) = self.down.get(level) {
+                skips.push(x.clone());
+                x = down.forward(x);
+            }
+        }
+        for (up, block) in self.up.iter().zip(&self.decoder) {
+            let skip = skips.pop().expect("one skip per decoder level");
+            x = block.forward(Tensor::cat(vec![up.forward(x), skip], 1));
+        }
+        self.head.forward(x)
+    }
+}
+
+/// Plain CNN at full resolution: 3x3 layers then a 1x1 projection.
+#[derive(Module, Debug)]
+pub struct PlainCnn {
+    pub layers: Vec<ConvAct>,
+    pub head: Conv2d,
+}
+
+impl PlainCnn {
+    pub fn new(in_channels: usize, config: &CnnConfig, device: &Device) -> Self {
+        let layers = (0..config.layers).map(|i| ConvAct::new(if i == 0 { in_channels } else { config.width }, config.width, 3, device)).collect();
+        let last = if config.layers == 0 { in_channels } else { config.width };
+        PlainCnn { layers, head: conv(last, config.out_channels, 1, device) }
+    }
+
+    pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
+        let x = self.layers.iter().fold(x, |x, layer| layer.forward(x));
+        self.head.forward(x)
+    }
+}
+
+/// The rendering network R: a large-kernel layer (blur-like global effects), 3x3 layers, then
+/// 1x1 layers and a 1x1 projection to RGB, so no late layer can smear shapes.
+#[derive(Module, Debug)]
+pub struct Renderer {
+    pub large: ConvAct,
+    pub layers: Vec<ConvAct>,
+    pub pointwise: Vec<ConvAct>,
+    pub head: Conv2d,
+}
+
+impl Renderer {
+    pub fn new(in_channels: usize, config: &RendererConfig, out_channels: usize, device: &Device) -> Self {
+        let w = config.width;
+        Renderer {
+            large: ConvAct::new(in_channels, w, config.large_kernel, device),
+            layers: (0..config.layers).map(|_| ConvAct::new(w, w, 3, device)).collect(),
+            pointwise: (0..config.pointwise_layers).map(|_| ConvAct::new(w, w, 1, device)).collect(),
+            head: conv(w, out_channels, 1, device),
+        }
+    }
+
+    pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
+        let x = self.large.forward(x);
+        let x = self.layers.iter().fold(x, |x, layer| layer.forward(x));
+        let x = self.pointwise.iter().fold(x, |x, layer| layer.forward(x));
+        self.head.forward(x)
+    }
+}
+
+/// NeRF positional encoding (Mildenhall et al. 2020, eq. 4), per channel:
+/// x -> (x, sin(2^0 pi x), cos(2^0 pi x), ..., sin(2^(L-1) pi x), cos(2^(L-1) pi x)),
+/// laid out as [x | sin/cos of frequency 0 for every channel | ... ].
+pub fn positional_encoding(x: Tensor<4>, frequencies: usize) -> Tensor<4> {
+    if frequencies == 0 {
+        return x;
+    }
+    let mut parts = Vec::with_capacity(1 + 2 * frequencies);
+    parts.push(x.clone());
+    for k in 0..frequencies {
+        let scaled = x.clone().mul_scalar(std::f64::consts::PI * (1u64 << k) as f64);
+        parts.push(scaled.clone().sin());
+        parts.push(scaled.cos());
+    }
+    Tensor::cat(parts, 1)
+}

@@ -1,0 +1,327 @@
+//! Network and training configuration: every width, depth and frequency in one serde struct,
+//! with named presets (`tiny` for tests, `quick` for a CPU bake at 64-128 px, `paper` for a
+//! GPU at 256 px).
+
+use serde::{Deserialize, Serialize};
+
+use glassbake_core::{Error, Result};
+
+/// Which network the same F+B+R skeleton becomes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ModelKind {
+    /// The paper's model: opaque G-buffer + one transparency buffer per object, summed by T.
+    Glassnet,
+    /// Baseline: one ordinary G-buffer in which glass overwrites what is behind it; no T.
+    Naive,
+    /// Baseline: all transparency buffers concatenated in a fixed order (order-dependent,
+    /// memory grows with the number of objects).
+    Concat,
+}
+
+impl ModelKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            ModelKind::Glassnet => "glassnet",
+            ModelKind::Naive => "naive",
+            ModelKind::Concat => "concat",
+        }
+    }
+
+    pub fn parse(name: &str) -> Option<ModelKind> {
+        match name {
+            "glassnet" => Some(ModelKind::Glassnet),
+            "naive" => Some(ModelKind::Naive),
+            "concat" => Some(ModelKind::Concat),
+            _ => None,
+        }
+    }
+}
+
+/// A U-Net: `levels` resolutions, `base_width` channels at the top doubling per level, two 3x3
+/// convolutions per level, strided-convolution down-sampling and transposed-convolution
+/// up-sampling (bilinear up-sampling has no backward pass on burn's GPU backends).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UNetConfig {
+    pub base_width: usize,
+    pub levels: usize,
+    pub out_channels: usize,
+}
+
+/// A plain CNN at full resolution: `layers` 3x3 convolutions of `width` channels, then a 1x1
+/// convolution to `out_channels`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CnnConfig {
+    pub width: usize,
+    pub layers: usize,
+    pub out_channels: usize,
+}
+
+/// The rendering network R (paper 3.4): no down-sampling, one larger kernel for blur-like
+/// global effects, 3x3 layers, and 1x1 convolutions at the end to keep shapes sharp.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RendererConfig {
+    pub width: usize,
+    /// Side of the first, larger kernel (odd).
+    pub large_kernel: usize,
+    /// 3x3 layers after the large one.
+    pub layers: usize,
+    /// 1x1 layers before the final 1x1 projection to RGB.
+    pub pointwise_layers: usize,
+}
+
+/// The whole GlassNet (and baselines) architecture.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NetConfig {
+    pub model: ModelKind,
+    /// The preset this config came from (informative).
+    pub preset: String,
+    /// NeRF positional encoding: each input channel x becomes x, sin(2^k pi x), cos(2^k pi x)
+    /// for k in 0..frequencies. 0 switches the encoding off (the paper's ablation).
+    pub encoding_frequencies: usize,
+    /// Scene variables, fed to F as constant planes of their normalised values.
+    pub variables: usize,
+    /// Transparent objects in the scene. GlassNet accepts any number up to
+    /// [`MAX_EXACT_OBJECTS`]; `concat` is built for exactly this many.
+    pub transparent_objects: usize,
+    /// F: opaque G-buffer -> sigma.
+    pub scene_encoder: UNetConfig,
+    /// h: (transparency buffer, sigma) -> rho_i, summed into tau. For `concat`, the CNN that
+    /// reads all buffers at once.
+    pub transparency_encoder: CnnConfig,
+    /// B: (sigma, tau) -> phi.
+    pub blending: UNetConfig,
+    /// R: (phi, L_d) -> image.
+    pub renderer: RendererConfig,
+}
+
+/// The most transparency buffers GlassNet sums exactly (see `sum.rs`).
+pub const MAX_EXACT_OBJECTS: usize = 16;
+
+impl NetConfig {
+    pub const PRESETS: [&'static str; 3] = ["tiny", "quick", "paper"];
+
+    /// A named preset for `model` in a scene with `variables` variables and
+    /// `transparent_objects` transparent objects.
+    pub fn preset(name: &str, model: ModelKind, variables: usize, transparent_objects: usize) -> Result<NetConfig> {
+        let (frequencies, f, h, b, r) = match name {
+            "tiny" => (
+                2,
+                UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
+                CnnConfig { width: 4, layers: 1, out_channels: 4 },
+                UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
+                RendererConfig { width: 4, large_kernel: 5, layers: 1, pointwise_layers: 1 },
+            ),
+            "quick" => (
+                4,
+                UNetConfig { base_width: 12, levels: 3, out_channels: 12 },
+                CnnConfig { width: 12, layers: 2, out_channels: 12 },
+                UNetConfig { base_width: 12, levels: 3, out_channels: 12 },
+                RendererConfig { width: 16, large_kernel: 5, layers: 1, pointwise_layers: 1 },
+            ),
+            "paper" => (
+                6,
+                UNetConfig { base_width: 32, levels: 4, out_channels: 32 },
+                CnnConfig { width: 32, layers: 3, out_channels: 32 },
+                UNetConfig { base_width: 32, levels: 4, out_channels: 32 },
+                RendererConfig { width: 48, large_kernel: 7, layers: 2, pointwise_layers: 2 },
+            ),
+            other => {
+                return Err(Error::bad_input("--preset", "preset", format!("unknown preset {other:?}; the presets are {}", Self::PRESETS.join(", "))))
+            }
+        };
+        let config = NetConfig {
+            model,
+            preset: name.to_string(),
+            encoding_frequencies: frequencies,
+            variables,
+            transparent_objects,
+            scene_encoder: f,
+            transparency_encoder: h,
+            blending: b,
+            renderer: r,
+        };
+        config.check("preset")?;
+        Ok(config)
+    }
+
+    /// Checks the config is buildable; `origin` names the file or flag it came from.
+    pub fn check(&self, origin: &str) -> Result<()> {
+        let bad = |field: &str, message: String| Err(Error::bad_input(origin, field, message));
+        for (field, unet) in [("scene_encoder", &self.scene_encoder), ("blending", &self.blending)] {
+            if unet.base_width == 0 || unet.out_channels == 0 || !(1..=6).contains(&unet.levels) {
+                return bad(field, "base_width and out_channels must be at least 1 and levels in 1..=6".into());
+            }
+        }
+        let h = &self.transparency_encoder;
+        if h.width == 0 || h.out_channels == 0 {
+            return bad("transparency_encoder", "width and out_channels must be at least 1".into());
+        }
+        let r = &self.renderer;
+        if r.width == 0 || r.large_kernel % 2 == 0 {
+            return bad("renderer", "width must be at least 1 and large_kernel odd".into());
+        }
+        if self.encoding_frequencies > 12 {
+            return bad("encoding_frequencies", format!("{} is more than 12 (2^12 pi would alias at any buffer precision)", self.encoding_frequencies));
+        }
+        if self.model == ModelKind::Glassnet && self.transparent_objects > MAX_EXACT_OBJECTS {
+            return bad("transparent_objects", format!("{} transparent objects; GlassNet sums at most {MAX_EXACT_OBJECTS} exactly", self.transparent_objects));
+        }
+        if self.model == ModelKind::Concat && self.transparent_objects == 0 {
+            return bad("transparent_objects", "the concat baseline needs at least one transparent object".into());
+        }
+        Ok(())
+    }
+
+    /// Input sides must be multiples of this (the U-Nets halve the resolution levels-1 times).
+    pub fn size_multiple(&self) -> usize {
+        1 << (self.scene_encoder.levels.max(self.blending.levels) - 1)
+    }
+
+    /// Channels of one positionally encoded input channel.
+    pub fn encoded_width(&self) -> usize {
+        1 + 2 * self.encoding_frequencies
+    }
+}
+
+/// Optimisation settings, with presets matching the network presets.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrainConfig {
+    pub steps: u64,
+    pub batch_size: usize,
+    /// Square random crop of each training frame; `None` trains on whole frames.
+    pub crop: Option<u32>,
+    pub learning_rate: f64,
+    /// Decoupled (AdamW) weight decay.
+    pub weight_decay: f64,
+    /// Linear warm-up steps, then cosine decay to `final_lr_fraction` of the rate.
+    pub warmup_steps: u64,
+    pub final_lr_fraction: f64,
+    /// The SSIM term's weight: loss = L1 + ssim_weight * (1 - SSIM). 0 is the "L1 only" ablation.
+    pub ssim_weight: f64,
+    pub validate_every: u64,
+    pub checkpoint_every: u64,
+    /// Validation frames used at each validation (all, when `None`).
+    pub validation_frames: Option<usize>,
+    pub seed: u64,
+}
+
+impl TrainConfig {
+    pub fn preset(name: &str) -> Result<TrainConfig> {
+        let base = TrainConfig {
+            steps: 2000,
+            batch_size: 4,
+            crop: None,
+            learning_rate: 2e-3,
+            weight_decay: 1e-4,
+            warmup_steps: 50,
+            final_lr_fraction: 0.05,
+            ssim_weight: 1.0,
+            validate_every: 100,
+            checkpoint_every: 100,
+            validation_frames: Some(16),
+            seed: 0,
+        };
+        Ok(match name {
+            "tiny" => TrainConfig { steps: 40, batch_size: 2, warmup_steps: 5, validate_every: 10, checkpoint_every: 10, validation_frames: Some(2), ..base },
+            "quick" => base,
+            // The paper: Adam, lr 1e-4, weight decay 1e-4 (Appendix table), 256x256.
+            "paper" => TrainConfig {
+                steps: 100_000,
+                batch_size: 8,
+                learning_rate: 1e-4,
+                warmup_steps: 500,
+                validate_every: 1000,
+                checkpoint_every: 1000,
+                validation_frames: None,
+                ..base
+            },
+            other => return Err(Error::bad_input("--preset", "preset", format!("unknown preset {other:?}; the presets are {}", NetConfig::PRESETS.join(", ")))),
+        })
+    }
+
+    /// Learning rate at `step`: linear warm-up, then cosine decay.
+    pub fn learning_rate_at(&self, step: u64) -> f64 {
+        if step < self.warmup_steps {
+            return self.learning_rate * (step + 1) as f64 / self.warmup_steps as f64;
+        }
+        let span = self.steps.saturating_sub(self.warmup_steps).max(1) as f64;
+        let progress = ((step - self.warmup_steps) as f64 / span).min(1.0);
+        let cosine = 0.5 * (1.0 + (std::f64::consts::PI * progress).cos());
+        self.learning_rate * (self.final_lr_fraction + (1.0 - self.final_lr_fraction) * cosine)
+    }
+
+    pub fn check(&self, origin: &str) -> Result<()> {
+        let bad = |field: &str, message: &str| Err(Error::bad_input(origin, field, message));
+        if self.steps == 0 {
+            return bad("steps", "must be at least 1");
+        }
+        if self.batch_size == 0 {
+            return bad("batch_size", "must be at least 1");
+        }
+        if !(self.learning_rate > 0.0 && self.learning_rate.is_finite()) {
+            return bad("learning_rate", "must be a positive number");
+        }
+        if !(self.weight_decay >= 0.0) {
+            return bad("weight_decay", "must be at least 0");
+        }
+        if self.validate_every == 0 || self.checkpoint_every == 0 {
+            return bad("validate_every/checkpoint_every", "must be at least 1");
+        }
+        if !(0.0..=1.0).contains(&self.final_lr_fraction) {
+            return bad("final_lr_fraction", "must lie in [0, 1]");
+        }
+        if !(self.ssim_weight >= 0.0) {
+            return bad("ssim_weight", "must be at least 0");
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn presets_are_valid_and_unknown_presets_are_refused() {
+        for name in NetConfig::PRESETS {
+            for kind in [ModelKind::Glassnet, ModelKind::Naive, ModelKind::Concat] {
+                NetConfig::preset(name, kind, 3, 4).unwrap();
+            }
+            TrainConfig::preset(name).unwrap().check("preset").unwrap();
+        }
+        let err = NetConfig::preset("huge", ModelKind::Glassnet, 1, 1).unwrap_err();
+        assert!(err.to_string().contains("huge"), "{err}");
+    }
+
+    #[test]
+    fn too_many_objects_for_exact_sums_are_refused() {
+        let err = NetConfig::preset("tiny", ModelKind::Glassnet, 0, MAX_EXACT_OBJECTS + 1).unwrap_err();
+        assert!(err.to_string().contains("transparent_objects"), "{err}");
+    }
+
+    #[test]
+    fn learning_rate_warms_up_then_decays_to_the_floor() {
+        let c = TrainConfig { steps: 100, warmup_steps: 10, learning_rate: 1.0, final_lr_fraction: 0.1, ..TrainConfig::preset("quick").unwrap() };
+        assert!((c.learning_rate_at(0) - 0.1).abs() < 1e-12);
+        assert!((c.learning_rate_at(9) - 1.0).abs() < 1e-12);
+        assert!((c.learning_rate_at(10) - 1.0).abs() < 1e-12);
+        // Halfway through the cosine: the midpoint between peak and floor.
+        assert!((c.learning_rate_at(55) - 0.55).abs() < 1e-12);
+        assert!((c.learning_rate_at(100) - 0.1).abs() < 1e-12);
+        assert!((c.learning_rate_at(1000) - 0.1).abs() < 1e-12);
+    }
+
+    #[test]
+    fn config_round_trips_through_json() {
+        let c = NetConfig::preset("quick", ModelKind::Concat, 4, 4).unwrap();
+        let json = serde_json::to_string(&c).unwrap();
+        assert_eq!(serde_json::from_str::<NetConfig>(&json).unwrap(), c);
+        assert!(json.contains("\"model\":\"concat\""));
+    }
+}

@@ -1,0 +1,113 @@
+//! Inference: load a model directory and turn one frame's buffers into an image, the
+//! transparency buffers fed one at a time (for evaluation, `render` and the real-time path).
+
+use std::path::Path;
+
+use burn::prelude::*;
+use burn::tensor::TensorData;
+
+use glassbake_core::layout::TRANSPARENT_CHANNELS;
+use glassbake_core::{Error, PlanarImage, Result};
+
+use crate::batch::{image_from_tensor, FrameRef, HostBatch};
+use crate::config::{ModelKind, NetConfig};
+use crate::model::GlassNet;
+use crate::model_dir::{read_weights, ModelFiles, Network};
+use crate::sum::TransparencySum;
+use crate::super_sampler::{SuperSampler, SuperSamplerConfig};
+use crate::train::Trainable;
+
+/// A trained GlassNet (or baseline) ready to render on one device.
+pub struct TrainedModel {
+    pub net: GlassNet,
+    pub files: ModelFiles,
+    pub device: Device,
+}
+
+impl TrainedModel {
+    pub fn load(dir: &Path, device: &Device) -> Result<TrainedModel> {
+        let files = ModelFiles::open(dir)?;
+        let Network::Glassnet(config) = &files.config.network else {
+            return Err(Error::bad_input(dir.display(), "network", "holds a super-sampler, not GlassNet or a baseline"));
+        };
+        let mut net = GlassNet::new(config, 0, device)?;
+        read_weights(&mut net, &files.weights_path())?;
+        Ok(TrainedModel { net, files, device: device.clone() })
+    }
+
+    pub fn config(&self) -> &NetConfig {
+        &self.net.config
+    }
+
+    pub fn kind(&self) -> ModelKind {
+        self.net.kind()
+    }
+
+    /// Renders one frame to tone-mapped linear RGB (channels R, G, B, values clamped to [0, 1]).
+    /// `frame.gbuffer` must be the opaque G-buffer for GlassNet and concat, the naive one for naive.
+    pub fn render(&self, frame: FrameRef) -> Result<PlanarImage> {
+        let (w, h) = (frame.gbuffer.width() as usize, frame.gbuffer.height() as usize);
+        self.net.check_inputs(w, h, frame.transparent.len())?;
+        let batch = HostBatch::from_frames(&[FrameRef { ground_truth: None, ..frame }])?;
+        let prediction = self.render_streaming(&batch, |k| Some(batch.transparent_tensor(k, &self.device)));
+        image_from_tensor(&prediction.clamp(0.0, 1.0), 0)
+    }
+
+    /// Renders a batch, asking `buffer(k)` for transparency buffer k only when it is needed, so
+    /// at most one is alive at a time (GlassNet). Returns the unclamped [N, 3, H, W] prediction.
+    pub fn render_streaming(&self, batch: &HostBatch, mut buffer: impl FnMut(usize) -> Option<Tensor<4>>) -> Tensor<4> {
+        let net = &self.net;
+        let values = Tensor::from_data(TensorData::new(batch.values.clone(), [batch.frames, batch.variables]), &self.device);
+        let scene = net.encode_scene(batch.gbuffer_tensor(&self.device), values);
+        let tau = match net.kind() {
+            ModelKind::Naive => None,
+            ModelKind::Glassnet => {
+                let mut sum = TransparencySum::new();
+                for k in 0..batch.objects() {
+                    if let Some(b) = buffer(k) {
+                        sum.add(net.transparency_term(&scene, b));
+                    }
+                }
+                let shape = [batch.frames, net.config.transparency_encoder.out_channels, batch.height, batch.width];
+                Some(sum.finish(shape, &self.device))
+            }
+            ModelKind::Concat => {
+                let buffers: Vec<Tensor<4>> = (0..batch.objects())
+                    .map(|k| buffer(k).unwrap_or_else(|| Tensor::zeros([batch.frames, TRANSPARENT_CHANNELS, batch.height, batch.width], &self.device)))
+                    .collect();
+                Some(net.concat_term(&scene, &buffers))
+            }
+        };
+        net.decode(&scene, tau)
+    }
+}
+
+impl Trainable for GlassNet {
+    fn predict(&self, batch: &HostBatch, device: &Device) -> Tensor<4> {
+        self.forward(&batch.inputs(device))
+    }
+
+    fn target(&self, batch: &HostBatch, device: &Device) -> Result<Tensor<4>> {
+        batch.target(device).ok_or_else(|| Error::Internal("a training batch without ground truth".into()))
+    }
+}
+
+/// A trained super-sampler.
+pub struct TrainedSuperSampler {
+    pub net: SuperSampler,
+    pub files: ModelFiles,
+    pub device: Device,
+}
+
+impl TrainedSuperSampler {
+    pub fn load(dir: &Path, device: &Device) -> Result<TrainedSuperSampler> {
+        let files = ModelFiles::open(dir)?;
+        let Network::SuperSampler(config) = &files.config.network else {
+            return Err(Error::bad_input(dir.display(), "network", "holds GlassNet, not a super-sampler"));
+        };
+        let config: SuperSamplerConfig = config.clone();
+        let mut net = SuperSampler::new(&config, 0, device);
+        read_weights(&mut net, &files.weights_path())?;
+        Ok(TrainedSuperSampler { net, files, device: device.clone() })
+    }
+}

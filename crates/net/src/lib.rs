@@ -1,0 +1,30 @@
+//! glassbake-net: GlassNet (paper 3.4) in burn. It owns the networks — scene encoder F,
+//! the permutation-invariant transparency encoder T with its exact order-independent sum,
+//! blending B, renderer R, positional encoding — the `naive` and `concat` baselines, the x2
+//! super-sampler, the L1 + SSIM loss, the training loop with checkpoints and exact resume, the
+//! model directory format, and inference. It reads frames as `glassbake_core` images and knows
+//! nothing of how they were made (the CLI connects the dataset loader to it).
+
+pub mod batch;
+pub mod blocks;
+pub mod config;
+pub mod device;
+pub mod infer;
+pub mod init;
+pub mod loss;
+pub mod model;
+pub mod model_dir;
+pub mod sum;
+pub mod super_sampler;
+pub mod train;
+
+pub use batch::{FrameRef, HostBatch};
+pub use config::{ModelKind, NetConfig, TrainConfig};
+pub use device::{select_device, DeviceChoice};
+pub use infer::{TrainedModel, TrainedSuperSampler};
+pub use model::{GlassNet, NetInputs};
+pub use model_dir::{DataSource, ModelConfig, ModelFiles, Network};
+pub use super_sampler::{SuperSampler, SuperSamplerConfig};
+pub use train::{train, RunOptions, TrainEvent, TrainSummary, Trainable, TrainingData};
+
+pub use burn;

@@ -1,0 +1,153 @@
+//! GlassNet (paper 3.4) and its two baselines on one skeleton:
+//!
+//! - F, the scene encoder (U-Net): encoded G-buffer + variable planes -> sigma
+//! - T: tau = sum_i q(h(encoded b_i, sigma)), h a CNN shared by all transparent objects and q
+//!   the exact-sum snapping of `sum.rs`; `concat` replaces it by one CNN over all buffers
+//!   concatenated in a fixed order, `naive` drops it
+//! - B, the blending network (U-Net): (sigma, tau) -> phi
+//! - R, the rendering network: (phi, L_d) -> linear RGB (clamped to [0, 1] by the tone map)
+//!
+//! The streaming entry points ([`GlassNet::encode_scene`], [`GlassNet::transparency_term`],
+//! [`GlassNet::decode`]) let a caller feed transparency buffers one at a time, so memory does not
+//! grow with their number; [`GlassNet::forward`] composes them for training.
+
+use burn::prelude::*;
+
+use glassbake_core::layout::{self, OPAQUE_CHANNELS, TRANSPARENT_CHANNELS};
+use glassbake_core::{Error, Result};
+
+use crate::blocks::{positional_encoding, PlainCnn, Renderer, UNet};
+use crate::config::{ModelKind, NetConfig};
+use crate::sum::{snap_to_grid, TransparencySum};
+
+#[derive(Module, Debug)]
+pub struct GlassNet {
+    pub scene_encoder: UNet,
+    /// h for GlassNet, the concatenation CNN for `concat`, absent for `naive`.
+    pub transparency_encoder: Option<PlainCnn>,
+    pub blending: UNet,
+    pub renderer: Renderer,
+    #[module(skip)]
+    pub config: NetConfig,
+}
+
+/// One frame batch on the device.
+#[derive(Clone, Debug)]
+pub struct NetInputs {
+    /// [N, 17, H, W]: the opaque G-buffer (GlassNet, concat) or the naive one (naive).
+    pub gbuffer: Tensor<4>,
+    /// Per transparent object, [N, 16, H, W]; ignored by `naive`.
+    pub transparent: Vec<Tensor<4>>,
+    /// [N, variables], normalised to [0, 1].
+    pub values: Tensor<2>,
+}
+
+/// What F computed once per frame and every later stage reads.
+#[derive(Clone, Debug)]
+pub struct SceneCode {
+    pub sigma: Tensor<4>,
+    /// L_d of the G-buffer, for R.
+    pub direct_light: Tensor<4>,
+}
+
+impl GlassNet {
+    /// A network with weights drawn from `seed` (see `init.rs`).
+    pub fn new(config: &NetConfig, seed: u64, device: &Device) -> Result<GlassNet> {
+        config.check("config")?;
+        let e = config.encoded_width();
+        let sigma = config.scene_encoder.out_channels;
+        let tau = config.transparency_encoder.out_channels;
+        let scene_encoder = UNet::new(OPAQUE_CHANNELS * e + config.variables, &config.scene_encoder, device);
+        let (transparency_encoder, blend_input) = match config.model {
+            ModelKind::Glassnet => (Some(PlainCnn::new(TRANSPARENT_CHANNELS * e + sigma, &config.transparency_encoder, device)), sigma + tau),
+            ModelKind::Concat => (
+                Some(PlainCnn::new(config.transparent_objects * TRANSPARENT_CHANNELS * e + sigma, &config.transparency_encoder, device)),
+                sigma + tau,
+            ),
+            ModelKind::Naive => (None, sigma),
+        };
+        let blending = UNet::new(blend_input, &config.blending, device);
+        let renderer = Renderer::new(config.blending.out_channels + 3, &config.renderer, 3, device);
+        let net = GlassNet { scene_encoder, transparency_encoder, blending, renderer, config: config.clone() };
+        Ok(crate::init::initialize(net, seed))
+    }
+
+    pub fn kind(&self) -> ModelKind {
+        self.config.model
+    }
+
+    /// Checks that a frame of `width` x `height` with `objects` transparency buffers fits.
+    pub fn check_inputs(&self, width: usize, height: usize, objects: usize) -> Result<()> {
+        let m = self.config.size_multiple();
+        if width % m != 0 || height % m != 0 || width == 0 || height == 0 {
+            return Err(Error::bad_input("inputs", "resolution", format!("{width}x{height} is not a multiple of {m} (the U-Nets halve it {} times)", m.trailing_zeros())));
+        }
+        match self.config.model {
+            ModelKind::Concat if objects != self.config.transparent_objects => Err(Error::bad_input(
+                "inputs",
+                "transparent",
+                format!("the concat baseline was built for {} transparency buffers, got {objects}", self.config.transparent_objects),
+            )),
+            ModelKind::Glassnet if objects > crate::config::MAX_EXACT_OBJECTS => {
+                Err(Error::bad_input("inputs", "transparent", format!("{objects} transparency buffers; at most {} sum exactly", crate::config::MAX_EXACT_OBJECTS)))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// F: the G-buffer and variable values -> sigma (and L_d kept for R).
+    pub fn encode_scene(&self, gbuffer: Tensor<4>, values: Tensor<2>) -> SceneCode {
+        let [n, _, h, w] = gbuffer.dims();
+        let direct_light = gbuffer.clone().narrow(1, layout::opaque::LD, 3);
+        let mut inputs = vec![positional_encoding(gbuffer, self.config.encoding_frequencies)];
+        if self.config.variables > 0 {
+            inputs.push(values.reshape([n, self.config.variables, 1, 1]).expand([n, self.config.variables, h, w]));
+        }
+        SceneCode { sigma: self.scene_encoder.forward(Tensor::cat(inputs, 1)), direct_light }
+    }
+
+    /// h for one transparency buffer, snapped for the exact sum. GlassNet only.
+    pub fn transparency_term(&self, scene: &SceneCode, buffer: Tensor<4>) -> Tensor<4> {
+        assert_eq!(self.config.model, ModelKind::Glassnet, "transparency_term is GlassNet's T");
+        let h = self.transparency_encoder.as_ref().expect("GlassNet has h");
+        let encoded = positional_encoding(buffer, self.config.encoding_frequencies);
+        snap_to_grid(h.forward(Tensor::cat(vec![encoded, scene.sigma.clone()], 1)))
+    }
+
+    /// The concat baseline's tau: every buffer at once, in the given (fixed) order.
+    pub fn concat_term(&self, scene: &SceneCode, buffers: &[Tensor<4>]) -> Tensor<4> {
+        assert_eq!(self.config.model, ModelKind::Concat, "concat_term is the concat baseline's");
+        let cnn = self.transparency_encoder.as_ref().expect("concat has its CNN");
+        let mut inputs: Vec<Tensor<4>> = buffers.iter().map(|b| positional_encoding(b.clone(), self.config.encoding_frequencies)).collect();
+        inputs.push(scene.sigma.clone());
+        cnn.forward(Tensor::cat(inputs, 1))
+    }
+
+    /// B and R: (sigma, tau) -> phi -> linear RGB.
+    pub fn decode(&self, scene: &SceneCode, tau: Option<Tensor<4>>) -> Tensor<4> {
+        let blend_input = match tau {
+            Some(tau) => Tensor::cat(vec![scene.sigma.clone(), tau], 1),
+            None => scene.sigma.clone(),
+        };
+        let phi = self.blending.forward(blend_input);
+        self.renderer.forward(Tensor::cat(vec![phi, scene.direct_light.clone()], 1))
+    }
+
+    /// The whole network on a batch. GlassNet streams the buffers through h one at a time.
+    pub fn forward(&self, inputs: &NetInputs) -> Tensor<4> {
+        let scene = self.encode_scene(inputs.gbuffer.clone(), inputs.values.clone());
+        let tau = match self.config.model {
+            ModelKind::Naive => None,
+            ModelKind::Concat => Some(self.concat_term(&scene, &inputs.transparent)),
+            ModelKind::Glassnet => {
+                let mut sum = TransparencySum::new();
+                for buffer in &inputs.transparent {
+                    sum.add(self.transparency_term(&scene, buffer.clone()));
+                }
+                let [n, _, h, w] = scene.sigma.dims();
+                Some(sum.finish([n, self.config.transparency_encoder.out_channels, h, w], &scene.sigma.device()))
+            }
+        };
+        self.decode(&scene, tau)
+    }
+}

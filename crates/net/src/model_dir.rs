@@ -1,0 +1,143 @@
+//! A model directory: `config.json` (what was built and how it was trained), the weights as
+//! SafeTensors with PyTorch-style names (`scene_encoder.encoder.0.first.conv.weight`, convolution
+//! weights [out, in, kh, kw] as in `torch.nn.Conv2d`), `train_log.csv`, and the training
+//! checkpoint.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use burn::module::Module;
+use burn::store::{BurnToPyTorchAdapter, ModuleSnapshot, PyTorchToBurnAdapter, SafetensorsStore};
+use serde::{Deserialize, Serialize};
+
+use glassbake_core::image::write_bytes_atomically;
+use glassbake_core::{Error, Result};
+
+use crate::config::{NetConfig, TrainConfig};
+use crate::super_sampler::SuperSamplerConfig;
+
+pub const CONFIG_FILE: &str = "config.json";
+pub const FORMAT_VERSION: u32 = 1;
+
+/// The network a directory holds.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Network {
+    Glassnet(NetConfig),
+    SuperSampler(SuperSamplerConfig),
+}
+
+impl Network {
+    pub fn weights_file(&self) -> &'static str {
+        match self {
+            Network::Glassnet(_) => "glassnet.safetensors",
+            Network::SuperSampler(_) => "super_sampler.safetensors",
+        }
+    }
+}
+
+/// Where the training data came from (for the report and for refusing mismatched resumes).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DataSource {
+    pub dataset: String,
+    pub scene: String,
+    pub scene_hash: String,
+    pub resolution: u32,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelConfig {
+    pub format_version: u32,
+    pub network: Network,
+    pub train: TrainConfig,
+    pub data: DataSource,
+}
+
+#[derive(Clone, Debug)]
+pub struct ModelFiles {
+    pub dir: PathBuf,
+    pub config: ModelConfig,
+}
+
+impl ModelFiles {
+    pub fn weights_path(&self) -> PathBuf {
+        self.dir.join(self.config.network.weights_file())
+    }
+
+    /// Creates `dir` for a new run, or reopens it to resume: an existing `config.json` must
+    /// describe the same run.
+    pub fn prepare(dir: &Path, config: ModelConfig) -> Result<ModelFiles> {
+        fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        let path = dir.join(CONFIG_FILE);
+        if path.exists() {
+            let existing = read_config(&path)?;
+            if existing != config {
+                let field = if existing.network != config.network {
+                    "network"
+                } else if existing.train != config.train {
+                    "train"
+                } else {
+                    "data"
+                };
+                return Err(Error::bad_input(
+                    path.display(),
+                    field,
+                    "this directory holds a run with different settings; resume with the same settings, or give a new --out",
+                ));
+            }
+        } else {
+            let json = serde_json::to_vec_pretty(&config).expect("config serialises");
+            write_bytes_atomically(&path, &json)?;
+        }
+        Ok(ModelFiles { dir: dir.to_path_buf(), config })
+    }
+
+    /// Opens a trained model directory.
+    pub fn open(dir: &Path) -> Result<ModelFiles> {
+        let path = dir.join(CONFIG_FILE);
+        if !path.is_file() {
+            return Err(Error::bad_input(dir.display(), CONFIG_FILE, "not a glassbake model directory (no config.json)"));
+        }
+        let config = read_config(&path)?;
+        let files = ModelFiles { dir: dir.to_path_buf(), config };
+        if !files.weights_path().is_file() {
+            return Err(Error::bad_input(dir.display(), files.config.network.weights_file(), "missing: the model has not been trained to its first checkpoint yet"));
+        }
+        Ok(files)
+    }
+}
+
+fn read_config(path: &Path) -> Result<ModelConfig> {
+    let text = fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let config: ModelConfig = serde_json::from_str(&text).map_err(|e| Error::bad_input(path.display(), "config", e.to_string()))?;
+    if config.format_version != FORMAT_VERSION {
+        return Err(Error::bad_input(path.display(), "format_version", format!("{} is not {FORMAT_VERSION}", config.format_version)));
+    }
+    Ok(config)
+}
+
+/// Writes the weights as SafeTensors with PyTorch names, atomically.
+pub fn write_weights<M: Module + ModuleSnapshot>(model: &M, files: &ModelFiles) -> Result<()> {
+    let path = files.weights_path();
+    let tmp = path.with_extension("safetensors.tmp");
+    let config = serde_json::to_string(&files.config.network).expect("config serialises");
+    let mut store = SafetensorsStore::from_file(&tmp).with_to_adapter(BurnToPyTorchAdapter).metadata("glassbake.network", config).overwrite(true);
+    model.save_into(&mut store).map_err(|e| Error::Internal(format!("writing {}: {e}", tmp.display())))?;
+    fs::rename(&tmp, &path).map_err(|e| Error::io(&path, e))
+}
+
+/// Loads weights written by [`write_weights`] into `model` (built from the same config).
+pub fn read_weights<M: Module + ModuleSnapshot>(model: &mut M, path: &Path) -> Result<()> {
+    let mut store = SafetensorsStore::from_file(path).with_from_adapter(PyTorchToBurnAdapter);
+    let result = model.load_from(&mut store).map_err(|e| Error::bad_input(path.display(), "weights", e.to_string()))?;
+    if !result.missing.is_empty() || !result.errors.is_empty() || !result.unused.is_empty() {
+        let first = result.missing.first().map(|(name, _)| name.clone()).or_else(|| result.unused.first().cloned()).unwrap_or_else(|| format!("{:?}", result.errors.first()));
+        return Err(Error::bad_input(
+            path.display(),
+            "weights",
+            format!("do not fit the network in config.json ({} missing, {} unused, {} errors; first: {first})", result.missing.len(), result.unused.len(), result.errors.len()),
+        ));
+    }
+    Ok(())
+}

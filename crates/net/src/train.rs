@@ -1,0 +1,287 @@
+//! The training loop shared by GlassNet, the baselines and the super-sampler: AdamW, the
+//! warm-up + cosine learning-rate schedule, validation every N steps, checkpoints that resume
+//! exactly after a kill, `train_log.csv`, and a NaN guard that keeps the last good checkpoint.
+//!
+//! All randomness is fixed by the seed: the weights are initialised from it, and the data
+//! source derives each epoch's order and crops from (seed, epoch). A checkpoint therefore holds
+//! the whole training state in the weights, the optimizer moments and (step, epoch, batch).
+
+use std::fs;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use burn::module::Module;
+use burn::optim::{AdamWConfig, GradientsParams, ModuleOptimizer};
+use burn::prelude::*;
+use burn::store::{BurnpackStore, ModuleSnapshot};
+use serde::{Deserialize, Serialize};
+
+use glassbake_core::{Error, Result};
+
+use crate::batch::HostBatch;
+use crate::config::TrainConfig;
+use crate::loss::training_loss;
+use crate::model_dir::{self, ModelFiles};
+
+/// Where training batches come from. Implemented by the CLI over the dataset loader, and by
+/// tests over synthetic frames.
+pub trait TrainingData {
+    /// Batches in one epoch of the training split.
+    fn batches_per_epoch(&self) -> usize;
+    /// The batches of `epoch` after the first `skip` (used to resume mid-epoch).
+    fn epoch(&mut self, epoch: u64, skip: usize) -> Box<dyn Iterator<Item = Result<HostBatch>> + '_>;
+    /// The validation batches (the same every call).
+    fn validation(&mut self) -> Result<Vec<HostBatch>>;
+}
+
+/// A network the loop can train: built from its config, run on a host batch.
+pub trait Trainable: Module + ModuleSnapshot + Clone + Sized + 'static {
+    /// The network's prediction for a batch, [N, 3, H', W'] tone-mapped RGB.
+    fn predict(&self, batch: &HostBatch, device: &Device) -> Tensor<4>;
+    /// What the prediction is compared with.
+    fn target(&self, batch: &HostBatch, device: &Device) -> Result<Tensor<4>>;
+}
+
+/// The position of a run, saved with each checkpoint.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct TrainState {
+    /// Optimizer steps taken.
+    pub step: u64,
+    pub epoch: u64,
+    /// Batches of `epoch` already consumed.
+    pub batch_in_epoch: usize,
+    pub seed: u64,
+    pub last_validation_loss: Option<f64>,
+    /// Wall time spent training before this checkpoint, summed over resumed runs.
+    pub elapsed_seconds: f64,
+}
+
+/// What the caller hears after every step (for a progress bar).
+#[derive(Clone, Debug)]
+pub struct TrainEvent {
+    pub step: u64,
+    pub steps: u64,
+    pub loss: f64,
+    pub learning_rate: f64,
+    pub validation_loss: Option<f64>,
+    /// Set when the step ended in a checkpoint.
+    pub checkpointed: bool,
+}
+
+#[derive(Clone, Debug)]
+pub struct TrainSummary {
+    pub steps: u64,
+    pub resumed_from: Option<u64>,
+    pub final_validation_loss: Option<f64>,
+    pub elapsed_seconds: f64,
+    pub already_done: bool,
+}
+
+/// Knobs that do not change what is trained.
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    /// Stop (as if killed) after this many steps, without a checkpoint: for resume tests.
+    pub stop_after: Option<u64>,
+}
+
+const CHECKPOINT: &str = "checkpoint";
+const LOG: &str = "train_log.csv";
+const LOG_HEADER: &str = "step,epoch,learning_rate,train_loss,validation_loss,elapsed_s";
+
+/// Trains `model` into `files.dir`, resuming from its checkpoint when there is one.
+/// `model` must live on an autodiff device; `device` is that device.
+pub fn train<M>(
+    mut model: M,
+    files: &ModelFiles,
+    config: &TrainConfig,
+    device: &Device,
+    data: &mut dyn TrainingData,
+    options: &RunOptions,
+    on_event: &mut dyn FnMut(&TrainEvent),
+) -> Result<TrainSummary>
+where
+    M: Trainable,
+{
+    config.check("train config")?;
+    let batches_per_epoch = data.batches_per_epoch();
+    if batches_per_epoch == 0 {
+        return Err(Error::bad_input(files.dir.display(), "dataset", "the training split has no frames"));
+    }
+    let mut optimizer = AdamWConfig::new().with_weight_decay(config.weight_decay as f32).init();
+    let mut state = TrainState { seed: config.seed, ..TrainState::default() };
+    let checkpoint_dir = files.dir.join(CHECKPOINT);
+    let resumed_from = if let Some(found) = existing_checkpoint(&files.dir) {
+        let (m, o, s) = load_checkpoint(model, optimizer, &found)?;
+        (model, optimizer, state) = (m, o, s);
+        truncate_log(&files.dir.join(LOG), state.step)?;
+        Some(state.step)
+    } else {
+        write_log_header(&files.dir.join(LOG))?;
+        None
+    };
+    if state.step >= config.steps {
+        return Ok(TrainSummary { steps: state.step, resumed_from, final_validation_loss: state.last_validation_loss, elapsed_seconds: state.elapsed_seconds, already_done: true });
+    }
+
+    let validation = data.validation()?;
+    let started = Instant::now();
+    let elapsed_before = state.elapsed_seconds;
+    let mut losses_since_log = Vec::new();
+    'epochs: loop {
+        let epoch = state.epoch;
+        let skip = state.batch_in_epoch;
+        let mut batches = data.epoch(epoch, skip);
+        loop {
+            if state.step >= config.steps || options.stop_after.is_some_and(|s| state.step >= s) {
+                break 'epochs;
+            }
+            let Some(batch) = batches.next() else { break };
+            let batch = batch?;
+            let learning_rate = config.learning_rate_at(state.step);
+            let prediction = model.predict(&batch, device);
+            let target = model.target(&batch, device)?;
+            let loss = training_loss(prediction, target, config.ssim_weight);
+            let loss_value = loss.clone().into_scalar::<f32>() as f64;
+            if !loss_value.is_finite() {
+                return Err(Error::Internal(format!(
+                    "the training loss became {loss_value} at step {} (epoch {epoch}); stopped without saving, so {} keeps the last good checkpoint{}. Try a lower learning rate.",
+                    state.step + 1,
+                    files.dir.display(),
+                    if checkpoint_dir.exists() { "" } else { " (there is none yet)" }
+                )));
+            }
+            let gradients = GradientsParams::from_grads(loss.backward(), &model);
+            model = optimizer.step(learning_rate, model, gradients);
+            state.step += 1;
+            state.batch_in_epoch += 1;
+            losses_since_log.push(loss_value);
+
+            let mut validation_loss = None;
+            if state.step % config.validate_every == 0 || state.step == config.steps {
+                let v = validate(&model, &validation, device, config.ssim_weight)?;
+                state.last_validation_loss = v;
+                validation_loss = v;
+                let train_loss = losses_since_log.iter().sum::<f64>() / losses_since_log.len().max(1) as f64;
+                losses_since_log.clear();
+                append_log(
+                    &files.dir.join(LOG),
+                    &format!(
+                        "{},{},{:.6e},{:.6},{},{:.1}",
+                        state.step,
+                        epoch,
+                        learning_rate,
+                        train_loss,
+                        v.map(|v| format!("{v:.6}")).unwrap_or_default(),
+                        elapsed_before + started.elapsed().as_secs_f64()
+                    ),
+                )?;
+            }
+            let checkpointed = state.step % config.checkpoint_every == 0 || state.step == config.steps;
+            if checkpointed {
+                // A checkpoint taken at the end of an epoch resumes at the next one.
+                let mut saved = state.clone();
+                if saved.batch_in_epoch >= batches_per_epoch {
+                    saved.epoch += 1;
+                    saved.batch_in_epoch = 0;
+                }
+                saved.elapsed_seconds = elapsed_before + started.elapsed().as_secs_f64();
+                save_checkpoint(&model, &optimizer, &saved, &files.dir)?;
+                model_dir::write_weights(&model.valid(), files)?;
+            }
+            on_event(&TrainEvent { step: state.step, steps: config.steps, loss: loss_value, learning_rate, validation_loss, checkpointed });
+        }
+        drop(batches);
+        if state.batch_in_epoch == 0 {
+            return Err(Error::Internal(format!("epoch {epoch} produced no batches")));
+        }
+        state.epoch += 1;
+        state.batch_in_epoch = 0;
+    }
+    Ok(TrainSummary {
+        steps: state.step,
+        resumed_from,
+        final_validation_loss: state.last_validation_loss,
+        elapsed_seconds: elapsed_before + started.elapsed().as_secs_f64(),
+        already_done: false,
+    })
+}
+
+/// Mean loss over the validation batches, on the model without autodiff.
+pub fn validate<M: Trainable>(model: &M, batches: &[HostBatch], device: &Device, ssim_weight: f64) -> Result<Option<f64>> {
+    if batches.is_empty() {
+        return Ok(None);
+    }
+    let (model, device) = (model.valid(), device.clone().inner());
+    let mut total = 0.0;
+    let mut frames = 0;
+    for batch in batches {
+        let prediction = model.predict(batch, &device);
+        let target = model.target(batch, &device)?;
+        total += training_loss(prediction, target, ssim_weight).into_scalar::<f32>() as f64 * batch.frames as f64;
+        frames += batch.frames;
+    }
+    Ok(Some(total / frames as f64))
+}
+
+fn existing_checkpoint(dir: &Path) -> Option<PathBuf> {
+    // A crash between the two renames of `save_checkpoint` leaves only `.old`.
+    [CHECKPOINT, "checkpoint.old"].iter().map(|n| dir.join(n)).find(|p| p.join("state.json").is_file())
+}
+
+fn save_checkpoint<M: Module + ModuleSnapshot>(model: &M, optimizer: &ModuleOptimizer, state: &TrainState, dir: &Path) -> Result<()> {
+    let tmp = dir.join("checkpoint.tmp");
+    let _ = fs::remove_dir_all(&tmp);
+    fs::create_dir_all(&tmp).map_err(|e| Error::io(&tmp, e))?;
+    let mut store = BurnpackStore::from_file(tmp.join("model.bpk")).overwrite(true);
+    model.save_into(&mut store).map_err(|e| Error::Internal(format!("saving the model checkpoint: {e}")))?;
+    optimizer.save(tmp.join("optimizer.bpk")).map_err(|e| Error::Internal(format!("saving the optimizer state: {e:?}")))?;
+    let json = serde_json::to_vec_pretty(state).expect("state serialises");
+    fs::write(tmp.join("state.json"), json).map_err(|e| Error::io(&tmp.join("state.json"), e))?;
+    let current = dir.join(CHECKPOINT);
+    let old = dir.join("checkpoint.old");
+    let _ = fs::remove_dir_all(&old);
+    if current.exists() {
+        fs::rename(&current, &old).map_err(|e| Error::io(&current, e))?;
+    }
+    fs::rename(&tmp, &current).map_err(|e| Error::io(&current, e))?;
+    let _ = fs::remove_dir_all(&old);
+    Ok(())
+}
+
+fn load_checkpoint<M: Module + ModuleSnapshot>(mut model: M, optimizer: ModuleOptimizer, dir: &Path) -> Result<(M, ModuleOptimizer, TrainState)> {
+    let state_path = dir.join("state.json");
+    let text = fs::read_to_string(&state_path).map_err(|e| Error::io(&state_path, e))?;
+    let state: TrainState = serde_json::from_str(&text).map_err(|e| Error::bad_input(state_path.display(), "state", e.to_string()))?;
+    let mut store = BurnpackStore::from_file(dir.join("model.bpk"));
+    let applied = model.load_from(&mut store).map_err(|e| Error::bad_input(dir.join("model.bpk").display(), "weights", e.to_string()))?;
+    if !applied.missing.is_empty() || !applied.errors.is_empty() {
+        return Err(Error::bad_input(dir.join("model.bpk").display(), "weights", format!("does not fit this network ({} missing, {} errors)", applied.missing.len(), applied.errors.len())));
+    }
+    let optimizer = optimizer.load(dir.join("optimizer.bpk")).map_err(|e| Error::bad_input(dir.join("optimizer.bpk").display(), "optimizer", format!("{e:?}")))?;
+    Ok((model, optimizer, state))
+}
+
+fn write_log_header(path: &Path) -> Result<()> {
+    fs::write(path, format!("{LOG_HEADER}\n")).map_err(|e| Error::io(path, e))
+}
+
+fn append_log(path: &Path, line: &str) -> Result<()> {
+    let mut file = fs::OpenOptions::new().append(true).create(true).open(path).map_err(|e| Error::io(path, e))?;
+    writeln!(file, "{line}").map_err(|e| Error::io(path, e))
+}
+
+/// Drops log rows written after the checkpoint a run resumes from.
+fn truncate_log(path: &Path, step: u64) -> Result<()> {
+    let Ok(text) = fs::read_to_string(path) else {
+        return write_log_header(path);
+    };
+    let kept: Vec<&str> = text
+        .lines()
+        .filter(|line| match line.split(',').next().and_then(|s| s.parse::<u64>().ok()) {
+            Some(row_step) => row_step <= step,
+            None => true,
+        })
+        .collect();
+    glassbake_core::image::write_bytes_atomically(path, format!("{}\n", kept.join("\n")).as_bytes())
+}

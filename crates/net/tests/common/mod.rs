@@ -1,0 +1,100 @@
+//! Synthetic frames for the network tests: random buffers whose ground truth is a smooth,
+//! learnable function of them, so tests can train without a dataset.
+
+#![allow(dead_code)]
+
+use glassbake_core::layout::{self, OPAQUE_CHANNELS, TRANSPARENT_CHANNELS};
+use glassbake_core::{PlanarImage, Result};
+use glassbake_net::{FrameRef, HostBatch, TrainingData};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+pub struct SyntheticFrame {
+    pub opaque: PlanarImage,
+    pub transparent: Vec<PlanarImage>,
+    pub values: Vec<f32>,
+    pub ground_truth: PlanarImage,
+}
+
+fn smooth_plane(rng: &mut ChaCha8Rng, size: usize) -> Vec<f32> {
+    let (a, b, c) = (rng.random_range(-1.0..1.0f32), rng.random_range(-1.0..1.0f32), rng.random_range(0.0..6.0f32));
+    (0..size * size).map(|i| {
+        let (x, y) = ((i % size) as f32 / size as f32, (i / size) as f32 / size as f32);
+        0.5 + 0.4 * (a * x * 3.0 + b * y * 3.0 + c).sin()
+    }).collect()
+}
+
+/// A frame of `size`^2 with `objects` transparency buffers and `variables` values.
+pub fn frame(seed: u64, size: usize, objects: usize, variables: usize) -> SyntheticFrame {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let planes = |rng: &mut ChaCha8Rng, n: usize| (0..n).flat_map(|_| smooth_plane(rng, size)).collect::<Vec<f32>>();
+    let opaque = PlanarImage::from_planes(size as u32, size as u32, layout::opaque_channel_names(), planes(&mut rng, OPAQUE_CHANNELS)).unwrap();
+    let transparent: Vec<PlanarImage> = (0..objects)
+        .map(|k| PlanarImage::from_planes(size as u32, size as u32, layout::transparent_channel_names(k), planes(&mut rng, TRANSPARENT_CHANNELS)).unwrap())
+        .collect();
+    let values: Vec<f32> = (0..variables).map(|_| rng.random_range(0.0..1.0)).collect();
+    // Ground truth: albedo lit by L_d, tinted by the first transparency buffer's albedo.
+    let mut gt = Vec::with_capacity(3 * size * size);
+    for c in 0..3 {
+        let albedo = opaque.plane(layout::opaque::ALBEDO + c);
+        let light = opaque.plane(layout::opaque::LD + c);
+        for i in 0..size * size {
+            let tint = transparent.first().map_or(1.0, |t| 0.5 + 0.5 * t.plane(layout::transparent::ALBEDO + c)[i]);
+            gt.push(albedo[i] * light[i] * tint);
+        }
+    }
+    let ground_truth = PlanarImage::from_planes(size as u32, size as u32, vec!["B".into(), "G".into(), "R".into()], {
+        // Channels alphabetically, as read_exr returns them: B, G, R.
+        let n = size * size;
+        [&gt[2 * n..], &gt[n..2 * n], &gt[..n]].concat()
+    })
+    .unwrap();
+    SyntheticFrame { opaque, transparent, values, ground_truth }
+}
+
+pub fn batch(frames: &[SyntheticFrame]) -> HostBatch {
+    let refs: Vec<FrameRef> = frames
+        .iter()
+        .map(|f| FrameRef { gbuffer: &f.opaque, transparent: &f.transparent, values: &f.values, ground_truth: Some(&f.ground_truth) })
+        .collect();
+    HostBatch::from_frames(&refs).unwrap()
+}
+
+/// A training set of `frames` synthetic frames in batches of `batch_size`, shuffled per epoch.
+pub struct SyntheticData {
+    pub frames: Vec<SyntheticFrame>,
+    pub batch_size: usize,
+    pub seed: u64,
+    /// From this epoch on, ground truth is NaN (for the NaN guard test).
+    pub poison_from_epoch: Option<u64>,
+}
+
+impl TrainingData for SyntheticData {
+    fn batches_per_epoch(&self) -> usize {
+        self.frames.len().div_ceil(self.batch_size)
+    }
+
+    fn epoch(&mut self, epoch: u64, skip: usize) -> Box<dyn Iterator<Item = Result<HostBatch>> + '_> {
+        let mut order: Vec<usize> = (0..self.frames.len()).collect();
+        let mut rng = ChaCha8Rng::seed_from_u64(self.seed ^ epoch.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        rand::seq::SliceRandom::shuffle(order.as_mut_slice(), &mut rng);
+        let poison = self.poison_from_epoch.is_some_and(|e| epoch >= e);
+        let chunks: Vec<Vec<usize>> = order.chunks(self.batch_size).map(|c| c.to_vec()).collect();
+        Box::new(chunks.into_iter().skip(skip).map(move |chunk| {
+            let frames: Vec<&SyntheticFrame> = chunk.iter().map(|&i| &self.frames[i]).collect();
+            let refs: Vec<FrameRef> = frames
+                .iter()
+                .map(|f| FrameRef { gbuffer: &f.opaque, transparent: &f.transparent, values: &f.values, ground_truth: Some(&f.ground_truth) })
+                .collect();
+            let mut batch = HostBatch::from_frames(&refs)?;
+            if poison {
+                batch.ground_truth.as_mut().unwrap()[0] = f32::NAN;
+            }
+            Ok(batch)
+        }))
+    }
+
+    fn validation(&mut self) -> Result<Vec<HostBatch>> {
+        Ok(vec![batch(&self.frames[..1])])
+    }
+}

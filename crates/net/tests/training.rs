@@ -1,0 +1,112 @@
+//! The training loop: a tiny model overfits one frame, a killed run resumes to the same
+//! weights as an uninterrupted one, a NaN loss stops with the last good checkpoint kept.
+
+mod common;
+
+use burn::prelude::*;
+use glassbake_net::model_dir::{DataSource, ModelConfig, ModelFiles, Network, FORMAT_VERSION};
+use glassbake_net::{burn, train, GlassNet, ModelKind, NetConfig, RunOptions, TrainConfig};
+
+fn files(dir: &std::path::Path, net: &NetConfig, train: &TrainConfig) -> ModelFiles {
+    ModelFiles::prepare(
+        dir,
+        ModelConfig {
+            format_version: FORMAT_VERSION,
+            network: Network::Glassnet(net.clone()),
+            train: train.clone(),
+            data: DataSource { dataset: "synthetic".into(), scene: "none".into(), scene_hash: "0".into(), resolution: 16 },
+        },
+    )
+    .unwrap()
+}
+
+fn model(net: &NetConfig, seed: u64) -> (GlassNet, Device) {
+    let device = Device::flex();
+    device.seed(seed);
+    let device = device.autodiff();
+    (GlassNet::new(net, seed, &device).unwrap(), device)
+}
+
+#[test]
+fn a_tiny_model_overfits_one_frame() {
+    let net = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap();
+    let config = TrainConfig { steps: 300, batch_size: 1, learning_rate: 1e-2, warmup_steps: 10, validate_every: 300, checkpoint_every: 300, ..TrainConfig::preset("tiny").unwrap() };
+    let mut data = common::SyntheticData { frames: vec![common::frame(42, 16, 2, 1)], batch_size: 1, seed: 0, poison_from_epoch: None };
+    let dir = tempfile::tempdir().unwrap();
+    let files = files(dir.path(), &net, &config);
+    let (model, device) = model(&net, 1);
+    let mut losses = Vec::new();
+    train(model, &files, &config, &device, &mut data, &RunOptions::default(), &mut |e| losses.push(e.loss)).unwrap();
+    let first = losses[0];
+    let last = losses[losses.len() - 10..].iter().sum::<f64>() / 10.0;
+    assert!(last * 10.0 < first, "loss went from {first} to {last}: not down 10x");
+}
+
+#[test]
+fn a_killed_run_resumes_to_the_weights_of_an_uninterrupted_one() {
+    let net = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap();
+    let config = TrainConfig { steps: 12, batch_size: 2, checkpoint_every: 4, validate_every: 3, ..TrainConfig::preset("tiny").unwrap() };
+    let data = || common::SyntheticData { frames: (0..5).map(|i| common::frame(i, 16, 2, 1)).collect(), batch_size: 2, seed: 3, poison_from_epoch: None };
+
+    let straight = tempfile::tempdir().unwrap();
+    let f = files(straight.path(), &net, &config);
+    let (m, d) = model(&net, 7);
+    train(m, &f, &config, &d, &mut data(), &RunOptions::default(), &mut |_| {}).unwrap();
+
+    // Killed after step 6 (between the checkpoints at 4 and 8), then started again: the second
+    // run resumes from step 4, mid-epoch (3 batches per epoch), and redoes steps 5 and 6.
+    let killed = tempfile::tempdir().unwrap();
+    let f2 = files(killed.path(), &net, &config);
+    let (m, d) = model(&net, 7);
+    train(m, &f2, &config, &d, &mut data(), &RunOptions { stop_after: Some(6) }, &mut |_| {}).unwrap();
+    let (m, d) = model(&net, 99); // the checkpoint, not the seed, decides the weights now
+    let summary = train(m, &f2, &config, &d, &mut data(), &RunOptions::default(), &mut |_| {}).unwrap();
+    assert_eq!(summary.resumed_from, Some(4));
+    assert_eq!(summary.steps, 12);
+
+    // Tensor by tensor (the file's metadata order is not fixed, so its bytes can differ).
+    let (a, b) = (std::fs::read(f.weights_path()).unwrap(), std::fs::read(f2.weights_path()).unwrap());
+    let (a, b) = (safetensors::SafeTensors::deserialize(&a).unwrap(), safetensors::SafeTensors::deserialize(&b).unwrap());
+    assert_eq!(a.len(), b.len());
+    for name in a.names() {
+        assert!(a.tensor(name).unwrap().data() == b.tensor(name).unwrap().data(), "{name}: resumed weights differ from the uninterrupted run's");
+    }
+    let log = |dir: &std::path::Path| std::fs::read_to_string(dir.join("train_log.csv")).unwrap();
+    let steps = |text: String| text.lines().skip(1).map(|l| l.split(',').next().unwrap().to_string()).collect::<Vec<_>>();
+    assert_eq!(steps(log(straight.path())), steps(log(killed.path())), "the resumed log must not repeat or skip rows");
+
+    // A finished run is not trained again.
+    let (m, d) = model(&net, 7);
+    assert!(train(m, &f2, &config, &d, &mut data(), &RunOptions::default(), &mut |_| {}).unwrap().already_done);
+}
+
+#[test]
+fn a_nan_loss_stops_with_a_clear_message_and_keeps_the_last_checkpoint() {
+    let net = NetConfig::preset("tiny", ModelKind::Naive, 1, 1).unwrap();
+    let config = TrainConfig { steps: 20, batch_size: 1, checkpoint_every: 2, validate_every: 2, ..TrainConfig::preset("tiny").unwrap() };
+    let mut data = common::SyntheticData { frames: (0..3).map(|i| common::frame(i, 16, 1, 1)).collect(), batch_size: 1, seed: 0, poison_from_epoch: Some(1) };
+    let dir = tempfile::tempdir().unwrap();
+    let f = files(dir.path(), &net, &config);
+    let (m, d) = model(&net, 1);
+    let err = train(m, &f, &config, &d, &mut data, &RunOptions::default(), &mut |_| {}).unwrap_err();
+    let message = err.to_string();
+    assert!(message.contains("NaN") && message.contains("step 4") && message.contains("last good checkpoint"), "{message}");
+    let state: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("checkpoint/state.json")).unwrap()).unwrap();
+    assert_eq!(state["step"], 2, "the checkpoint of step 2 (the last before the NaN) is kept");
+    assert!(f.weights_path().is_file());
+}
+
+#[test]
+fn a_directory_holding_a_different_run_is_refused() {
+    let net = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap();
+    let config = TrainConfig::preset("tiny").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    files(dir.path(), &net, &config);
+    let other = TrainConfig { learning_rate: 0.5, ..config };
+    let err = ModelFiles::prepare(
+        dir.path(),
+        ModelConfig { format_version: FORMAT_VERSION, network: Network::Glassnet(net), train: other, data: DataSource { dataset: "synthetic".into(), scene: "none".into(), scene_hash: "0".into(), resolution: 16 } },
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("config.json") && err.to_string().contains("train"), "{err}");
+}
