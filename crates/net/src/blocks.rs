@@ -45,13 +45,21 @@ impl DoubleConv {
         DoubleConv { first: ConvAct::new(in_channels, out_channels, 3, device), second: ConvAct::new(out_channels, out_channels, 3, device) }
     }
 
+    /// The input level of a network fed encoded buffers: a 1x1 projection of the wide
+    /// positional encoding (9-13 channels per input channel) before the 3x3 convolution, which
+    /// would otherwise cost most of the network's time.
+    pub fn new_stem(in_channels: usize, out_channels: usize, device: &Device) -> Self {
+        DoubleConv { first: ConvAct::new(in_channels, out_channels, 1, device), second: ConvAct::new(out_channels, out_channels, 3, device) }
+    }
+
     pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
         self.second.forward(self.first.forward(x))
     }
 }
 
 /// U-Net (Ronneberger et al. 2015) with strided-convolution down-sampling and
-/// transposed-convolution up-sampling; a 1x1 head maps to the output channels.
+/// transposed-convolution up-sampling; the first convolution is 1x1 (see
+/// [`DoubleConv::new_stem`]) and a 1x1 head maps to the output channels.
 #[derive(Module, Debug)]
 pub struct UNet {
     /// One per level, top to bottom (the last is the bottleneck).
@@ -71,8 +79,7 @@ impl UNet {
         let mut encoder = Vec::new();
         let mut down = Vec::new();
         for level in 0..config.levels {
-            let input = if level == 0 { in_channels } else { width(level) };
-            encoder.push(DoubleConv::new(input, width(level), device));
+            encoder.push(if level == 0 { DoubleConv::new_stem(in_channels, width(0), device) } else { DoubleConv::new(width(level), width(level), device) });
             if level + 1 < config.levels {
                 down.push(ConvAct {
                     conv: Conv2dConfig::new([width(level), width(level + 1)], [3, 3])
@@ -110,7 +117,7 @@ impl UNet {
     }
 }
 
-/// Plain CNN at full resolution: 3x3 layers then a 1x1 projection.
+/// Plain CNN at full resolution: a 1x1 input projection, 3x3 layers, then a 1x1 head.
 #[derive(Module, Debug)]
 pub struct PlainCnn {
     pub layers: Vec<ConvAct>,
@@ -119,7 +126,7 @@ pub struct PlainCnn {
 
 impl PlainCnn {
     pub fn new(in_channels: usize, config: &CnnConfig, device: &Device) -> Self {
-        let layers = (0..config.layers).map(|i| ConvAct::new(if i == 0 { in_channels } else { config.width }, config.width, 3, device)).collect();
+        let layers = (0..config.layers).map(|i| if i == 0 { ConvAct::new(in_channels, config.width, 1, device) } else { ConvAct::new(config.width, config.width, 3, device) }).collect();
         let last = if config.layers == 0 { in_channels } else { config.width };
         PlainCnn { layers, head: conv(last, config.out_channels, 1, device) }
     }

@@ -38,8 +38,8 @@ impl ModelKind {
     }
 }
 
-/// A U-Net: `levels` resolutions, `base_width` channels at the top doubling per level, two 3x3
-/// convolutions per level, strided-convolution down-sampling and transposed-convolution
+/// A U-Net: `levels` resolutions, `base_width` channels at the top doubling per level, two
+/// convolutions per level (3x3; the very first 1x1, projecting the encoded input), strided-convolution down-sampling and transposed-convolution
 /// up-sampling (bilinear up-sampling has no backward pass on burn's GPU backends).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -49,8 +49,8 @@ pub struct UNetConfig {
     pub out_channels: usize,
 }
 
-/// A plain CNN at full resolution: `layers` 3x3 convolutions of `width` channels, then a 1x1
-/// convolution to `out_channels`.
+/// A plain CNN at full resolution: `layers` convolutions of `width` channels (the first 1x1,
+/// projecting the encoded input; the rest 3x3), then a 1x1 convolution to `out_channels`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CnnConfig {
@@ -119,7 +119,7 @@ impl NetConfig {
             "quick" => (
                 4,
                 UNetConfig { base_width: 12, levels: 3, out_channels: 12 },
-                CnnConfig { width: 12, layers: 2, out_channels: 12 },
+                CnnConfig { width: 12, layers: 3, out_channels: 12 },
                 UNetConfig { base_width: 12, levels: 3, out_channels: 12 },
                 RendererConfig { width: 16, large_kernel: 5, layers: 1, pointwise_layers: 1 },
             ),
@@ -213,10 +213,11 @@ pub struct TrainConfig {
 
 impl TrainConfig {
     pub fn preset(name: &str) -> Result<TrainConfig> {
+        // quick: 32 px crops keep a step near 0.35 s on two CPU cores (64 px frames, t = 4).
         let base = TrainConfig {
-            steps: 2000,
+            steps: 1500,
             batch_size: 4,
-            crop: None,
+            crop: Some(32),
             learning_rate: 2e-3,
             weight_decay: 1e-4,
             warmup_steps: 50,
@@ -228,12 +229,13 @@ impl TrainConfig {
             seed: 0,
         };
         Ok(match name {
-            "tiny" => TrainConfig { steps: 40, batch_size: 2, warmup_steps: 5, validate_every: 10, checkpoint_every: 10, validation_frames: Some(2), ..base },
+            "tiny" => TrainConfig { steps: 40, batch_size: 2, crop: None, warmup_steps: 5, validate_every: 10, checkpoint_every: 10, validation_frames: Some(2), ..base },
             "quick" => base,
             // The paper: Adam, lr 1e-4, weight decay 1e-4 (Appendix table), 256x256.
             "paper" => TrainConfig {
                 steps: 100_000,
                 batch_size: 8,
+                crop: None,
                 learning_rate: 1e-4,
                 warmup_steps: 500,
                 validate_every: 1000,

@@ -146,7 +146,7 @@ fn weights_round_trip_through_safetensors_with_pytorch_names() {
     let tensors = safetensors::SafeTensors::deserialize(&bytes).unwrap();
     let conv = tensors.tensor("scene_encoder.encoder.0.first.conv.weight").unwrap();
     let encoded = glassbake_core::layout::OPAQUE_CHANNELS * config.encoded_width() + 2;
-    assert_eq!(conv.shape(), &[4, encoded, 3, 3]);
+    assert_eq!(conv.shape(), &[4, encoded, 1, 1], "the input stem is a 1x1 convolution");
     assert!(tensors.tensor("scene_encoder.encoder.0.first.conv.bias").is_ok());
     let up = tensors.tensor("blending.up.0.weight").unwrap();
     assert_eq!(up.shape(), &[8, 4, 2, 2], "ConvTranspose2d weights are [in, out, kh, kw] as in PyTorch");
