@@ -273,7 +273,49 @@ pub fn run(args: TrainArgs) -> Result<()> {
     let bar = progress_bar(train_config.steps);
     let summary = train(model, &files, &train_config, &device, &mut data, &RunOptions::default(), &mut on_event(&bar));
     bar.finish_and_clear();
-    report(summary?, &files)
+    report(summary?, &files)?;
+    write_previews(&files, &mut data.val, naive, device_choice)
+}
+
+/// `DIR/preview/val_NNN.png`: the model's image beside the path-traced ground truth for the
+/// first validation frames, so a run can be looked at, not only read off a loss.
+fn write_previews(files: &ModelFiles, val: &mut Loader, naive: bool, device_choice: DeviceChoice) -> Result<()> {
+    const FRAMES: usize = 4;
+    let model = TrainedModel::load(&files.dir, &select_device(device_choice, 0, false))?;
+    let dir = files.dir.join("preview");
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let mut written = 0;
+    for examples in val.epoch_iter(0) {
+        for e in examples? {
+            if written == FRAMES {
+                break;
+            }
+            let gbuffer = if naive { e.naive.as_ref().expect("naive buffers") } else { &e.opaque };
+            let transparent: &[glassbake_core::PlanarImage] = if naive { &[] } else { &e.transparent };
+            let image = model.render(FrameRef { gbuffer, transparent, values: &e.values, ground_truth: None })?;
+            let pair = side_by_side(&image, &e.ground_truth)?;
+            pair.write_png_rgb(&dir.join(format!("val_{:03}.png", e.index)), [0, 1, 2])?;
+            written += 1;
+        }
+        if written == FRAMES {
+            break;
+        }
+    }
+    println!("  preview {} (model | ground truth)", dir.display());
+    Ok(())
+}
+
+fn side_by_side(left: &glassbake_core::PlanarImage, right: &glassbake_core::PlanarImage) -> glassbake_core::Result<glassbake_core::PlanarImage> {
+    let (w, h) = (left.width() as usize, left.height() as usize);
+    let mut data = Vec::with_capacity(6 * w * h);
+    for name in glassbake_core::layout::GROUND_TRUTH_CHANNELS {
+        let (l, r) = (left.plane_by_name(name).expect("RGB"), right.plane_by_name(name).expect("RGB"));
+        for y in 0..h {
+            data.extend_from_slice(&l[y * w..(y + 1) * w]);
+            data.extend_from_slice(&r[y * w..(y + 1) * w]);
+        }
+    }
+    glassbake_core::PlanarImage::from_planes(2 * w as u32, h as u32, glassbake_core::layout::GROUND_TRUTH_CHANNELS.iter().map(|s| s.to_string()).collect(), data)
 }
 
 pub fn run_super_sampler(args: TrainSrArgs) -> Result<()> {
