@@ -162,7 +162,7 @@ impl NetConfig {
             return bad("transparency_encoder", "width and out_channels must be at least 1".into());
         }
         let r = &self.renderer;
-        if r.width == 0 || r.large_kernel % 2 == 0 {
+        if r.width == 0 || r.large_kernel.is_multiple_of(2) {
             return bad("renderer", "width must be at least 1 and large_kernel odd".into());
         }
         if self.encoding_frequencies > 12 {
@@ -269,7 +269,7 @@ impl TrainConfig {
         if !(self.learning_rate > 0.0 && self.learning_rate.is_finite()) {
             return bad("learning_rate", "must be a positive number");
         }
-        if !(self.weight_decay >= 0.0) {
+        if self.weight_decay.is_nan() || self.weight_decay < 0.0 {
             return bad("weight_decay", "must be at least 0");
         }
         if self.validate_every == 0 || self.checkpoint_every == 0 {
@@ -278,7 +278,7 @@ impl TrainConfig {
         if !(0.0..=1.0).contains(&self.final_lr_fraction) {
             return bad("final_lr_fraction", "must lie in [0, 1]");
         }
-        if !(self.ssim_weight >= 0.0) {
+        if self.ssim_weight.is_nan() || self.ssim_weight < 0.0 {
             return bad("ssim_weight", "must be at least 0");
         }
         Ok(())

@@ -79,7 +79,7 @@ impl GlassNet {
     /// Checks that a frame of `width` x `height` with `objects` transparency buffers fits.
     pub fn check_inputs(&self, width: usize, height: usize, objects: usize) -> Result<()> {
         let m = self.config.size_multiple();
-        if width % m != 0 || height % m != 0 || width == 0 || height == 0 {
+        if !width.is_multiple_of(m) || !height.is_multiple_of(m) || width == 0 || height == 0 {
             return Err(Error::bad_input("inputs", "resolution", format!("{width}x{height} is not a multiple of {m} (the U-Nets halve it {} times)", m.trailing_zeros())));
         }
         match self.config.model {

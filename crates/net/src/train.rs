@@ -158,7 +158,7 @@ where
             losses_since_log.push(loss_value);
 
             let mut validation_loss = None;
-            if state.step % config.validate_every == 0 || state.step == config.steps {
+            if state.step.is_multiple_of(config.validate_every) || state.step == config.steps {
                 let v = validate(&model, &validation, device, config.ssim_weight)?;
                 state.last_validation_loss = v;
                 validation_loss = v;
@@ -177,7 +177,7 @@ where
                     ),
                 )?;
             }
-            let checkpointed = state.step % config.checkpoint_every == 0 || state.step == config.steps;
+            let checkpointed = state.step.is_multiple_of(config.checkpoint_every) || state.step == config.steps;
             if checkpointed {
                 // A checkpoint taken at the end of an epoch resumes at the next one.
                 let mut saved = state.clone();

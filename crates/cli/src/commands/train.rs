@@ -246,7 +246,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
         net_config.check("--encoding-frequencies")?;
     }
     let side = train_config.crop.unwrap_or(info.resolution) as usize;
-    if side % net_config.size_multiple() != 0 {
+    if !side.is_multiple_of(net_config.size_multiple()) {
         return Err(Error::bad_input("--crop", "resolution", format!("training frames of {side} px are not a multiple of {}", net_config.size_multiple())).into());
     }
     let files = ModelFiles::prepare(
@@ -325,7 +325,7 @@ pub fn run_super_sampler(args: TrainSrArgs) -> Result<()> {
     let inference_device = select_device(device_choice, train_config.seed, false);
     let glassnet = TrainedModel::load(&args.glassnet, &inference_device)?;
     let side = train_config.crop.unwrap_or(store.manifest.spec.resolution) as usize;
-    if side % (2 * glassnet.config().size_multiple()) != 0 {
+    if !side.is_multiple_of(2 * glassnet.config().size_multiple()) {
         return Err(Error::bad_input("--crop", "resolution", format!("{side} px frames halve to a size GlassNet cannot take (need a multiple of {})", 2 * glassnet.config().size_multiple())).into());
     }
     let sr_config = SuperSamplerConfig::preset(&args.common.preset)?;
