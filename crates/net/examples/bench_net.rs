@@ -13,7 +13,6 @@ use burn::prelude::*;
 use burn::tensor::Distribution;
 use glassbake_core::layout::{OPAQUE_CHANNELS, TRANSPARENT_CHANNELS};
 use glassbake_net::loss::training_loss;
-use glassbake_net::sum::TransparencySum;
 use glassbake_net::{burn, select_device, DeviceChoice, GlassNet, ModelKind, NetConfig, NetInputs};
 
 fn arg<'a>(args: &'a [String], name: &str, default: &'a str) -> &'a str {
@@ -104,13 +103,7 @@ fn main() {
                 PEAK.store(baseline, Ordering::Relaxed);
                 let start = Instant::now();
                 // The streaming path: one transparency buffer alive at a time.
-                let scene = net.encode_scene(frame.gbuffer.clone(), frame.values.clone());
-                let mut sum = TransparencySum::new();
-                for b in &frame.transparent {
-                    sum.add(net.transparency_term(&scene, b.clone()));
-                }
-                let tau = sum.finish([1, config.transparency_encoder.out_channels, res, res], &device);
-                let image = net.decode(&scene, Some(tau));
+                let image = net.forward_streaming(frame.gbuffer.clone(), frame.values.clone(), t, |k| Some(frame.transparent[k].clone()));
                 let _ = image.into_data();
                 if i > 0 {
                     infer_times.push(start.elapsed().as_secs_f64() * 1e3);

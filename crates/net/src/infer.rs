@@ -6,15 +6,13 @@ use std::path::Path;
 use burn::prelude::*;
 use burn::tensor::TensorData;
 
-use glassbake_core::layout::TRANSPARENT_CHANNELS;
 use glassbake_core::{Error, PlanarImage, Result};
 
 use crate::batch::{image_from_tensor, FrameRef, HostBatch};
 use crate::config::{ModelKind, NetConfig};
 use crate::model::GlassNet;
 use crate::model_dir::{read_weights, ModelFiles, Network};
-use crate::sum::TransparencySum;
-use crate::super_sampler::{SuperSampler, SuperSamplerConfig};
+use crate::super_sampler::SuperSampler;
 use crate::train::Trainable;
 
 /// A trained GlassNet (or baseline) ready to render on one device.
@@ -55,30 +53,9 @@ impl TrainedModel {
 
     /// Renders a batch, asking `buffer(k)` for transparency buffer k only when it is needed, so
     /// at most one is alive at a time (GlassNet). Returns the unclamped [N, 3, H, W] prediction.
-    pub fn render_streaming(&self, batch: &HostBatch, mut buffer: impl FnMut(usize) -> Option<Tensor<4>>) -> Tensor<4> {
-        let net = &self.net;
+    pub fn render_streaming(&self, batch: &HostBatch, buffer: impl FnMut(usize) -> Option<Tensor<4>>) -> Tensor<4> {
         let values = Tensor::from_data(TensorData::new(batch.values.clone(), [batch.frames, batch.variables]), &self.device);
-        let scene = net.encode_scene(batch.gbuffer_tensor(&self.device), values);
-        let tau = match net.kind() {
-            ModelKind::Naive => None,
-            ModelKind::Glassnet => {
-                let mut sum = TransparencySum::new();
-                for k in 0..batch.objects() {
-                    if let Some(b) = buffer(k) {
-                        sum.add(net.transparency_term(&scene, b));
-                    }
-                }
-                let shape = [batch.frames, net.config.transparency_encoder.out_channels, batch.height, batch.width];
-                Some(sum.finish(shape, &self.device))
-            }
-            ModelKind::Concat => {
-                let buffers: Vec<Tensor<4>> = (0..batch.objects())
-                    .map(|k| buffer(k).unwrap_or_else(|| Tensor::zeros([batch.frames, TRANSPARENT_CHANNELS, batch.height, batch.width], &self.device)))
-                    .collect();
-                Some(net.concat_term(&scene, &buffers))
-            }
-        };
-        net.decode(&scene, tau)
+        self.net.forward_streaming(batch.gbuffer_tensor(&self.device), values, batch.objects(), buffer)
     }
 }
 
@@ -105,8 +82,7 @@ impl TrainedSuperSampler {
         let Network::SuperSampler(config) = &files.config.network else {
             return Err(Error::bad_input(dir.display(), "network", "holds GlassNet, not a super-sampler"));
         };
-        let config: SuperSamplerConfig = config.clone();
-        let mut net = SuperSampler::new(&config, 0, device);
+        let mut net = SuperSampler::new(config, 0, device);
         read_weights(&mut net, &files.weights_path())?;
         Ok(TrainedSuperSampler { net, files, device: device.clone() })
     }

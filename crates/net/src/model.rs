@@ -135,17 +135,31 @@ impl GlassNet {
 
     /// The whole network on a batch. GlassNet streams the buffers through h one at a time.
     pub fn forward(&self, inputs: &NetInputs) -> Tensor<4> {
-        let scene = self.encode_scene(inputs.gbuffer.clone(), inputs.values.clone());
+        self.forward_streaming(inputs.gbuffer.clone(), inputs.values.clone(), inputs.transparent.len(), |k| Some(inputs.transparent[k].clone()))
+    }
+
+    /// The whole network, asking `buffer(k)` for transparency buffer k of `objects` only when it
+    /// is needed, so GlassNet holds at most one at a time. `None` is an object out of view: it
+    /// adds nothing to GlassNet's sum and is zeros for `concat`.
+    pub fn forward_streaming(&self, gbuffer: Tensor<4>, values: Tensor<2>, objects: usize, mut buffer: impl FnMut(usize) -> Option<Tensor<4>>) -> Tensor<4> {
+        let scene = self.encode_scene(gbuffer, values);
+        let [n, _, h, w] = scene.sigma.dims();
+        let device = scene.sigma.device();
         let tau = match self.config.model {
             ModelKind::Naive => None,
-            ModelKind::Concat => Some(self.concat_term(&scene, &inputs.transparent)),
+            ModelKind::Concat => {
+                let buffers: Vec<Tensor<4>> =
+                    (0..objects).map(|k| buffer(k).unwrap_or_else(|| Tensor::zeros([n, TRANSPARENT_CHANNELS, h, w], &device))).collect();
+                Some(self.concat_term(&scene, &buffers))
+            }
             ModelKind::Glassnet => {
                 let mut sum = TransparencySum::new();
-                for buffer in &inputs.transparent {
-                    sum.add(self.transparency_term(&scene, buffer.clone()));
+                for k in 0..objects {
+                    if let Some(b) = buffer(k) {
+                        sum.add(self.transparency_term(&scene, b));
+                    }
                 }
-                let [n, _, h, w] = scene.sigma.dims();
-                Some(sum.finish([n, self.config.transparency_encoder.out_channels, h, w], &scene.sigma.device()))
+                Some(sum.finish([n, self.config.transparency_encoder.out_channels, h, w], &device))
             }
         };
         self.decode(&scene, tau)
