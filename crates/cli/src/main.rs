@@ -28,6 +28,10 @@ enum Command {
     Train(commands::train::TrainArgs),
     /// Train the x2 super-sampler from a trained GlassNet's images to ground truth at 2x.
     TrainSr(commands::train::TrainSrArgs),
+    /// Score trained models on a dataset split: metrics, grids, the order test, a report.
+    Eval(commands::eval::EvalArgs),
+    /// Scene to trained model and report in one command: dataset -> train -> eval -> report.
+    Bake(commands::bake::BakeArgs),
 }
 
 fn main() {
@@ -70,6 +74,8 @@ fn main() {
         Command::Dataset(args) => commands::dataset::run(args),
         Command::Train(args) => commands::train::run(args),
         Command::TrainSr(args) => commands::train::run_super_sampler(args),
+        Command::Eval(args) => commands::eval::run(args),
+        Command::Bake(args) => commands::bake::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {}", one_line(&e));

@@ -51,6 +51,16 @@ impl TrainedModel {
         image_from_tensor(&prediction.clamp(0.0, 1.0), 0)
     }
 
+    /// The unclamped prediction of one frame, [3, H, W] flattened: for exact comparisons
+    /// (the order test), which clamping could hide.
+    pub fn render_raw(&self, frame: FrameRef) -> Result<Vec<f32>> {
+        let (w, h) = (frame.gbuffer.width() as usize, frame.gbuffer.height() as usize);
+        self.net.check_inputs(w, h, frame.transparent.len())?;
+        let batch = HostBatch::from_frames(&[FrameRef { ground_truth: None, ..frame }])?;
+        let prediction = self.render_streaming(&batch, |k| Some(batch.transparent_tensor(k, &self.device)));
+        prediction.into_data().try_to_vec::<f32>().map_err(|e| Error::Internal(format!("reading a prediction: {e:?}")))
+    }
+
     /// Renders a batch, asking `buffer(k)` for transparency buffer k only when it is needed, so
     /// at most one is alive at a time (GlassNet). Returns the unclamped [N, 3, H, W] prediction.
     pub fn render_streaming(&self, batch: &HostBatch, buffer: impl FnMut(usize) -> Option<Tensor<4>>) -> Tensor<4> {

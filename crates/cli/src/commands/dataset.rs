@@ -33,37 +33,37 @@ enum DatasetCommand {
     Info { dir: PathBuf },
 }
 
-#[derive(Args)]
-struct MakeArgs {
+#[derive(Args, Clone)]
+pub struct MakeArgs {
     /// A built-in name or a path to a manifest, glTF or OBJ file.
-    scene: String,
+    pub scene: String,
     /// Dataset directory; re-running the same command there completes it.
     #[arg(long)]
-    out: PathBuf,
+    pub out: PathBuf,
     #[arg(long, default_value_t = 1800)]
-    train: u64,
+    pub train: u64,
     #[arg(long, default_value_t = 200)]
-    val: u64,
+    pub val: u64,
     #[arg(long, default_value_t = 128)]
-    test: u64,
+    pub test: u64,
     /// Square resolution of every frame.
     #[arg(long, default_value_t = 256)]
-    res: u32,
+    pub res: u32,
     /// Path-tracing samples per pixel of the ground truth.
     #[arg(long, default_value_t = 256)]
-    spp: u32,
+    pub spp: u32,
     #[arg(long, default_value_t = 0)]
-    seed: u64,
+    pub seed: u64,
     /// Also store the rasterized buffers (f16 EXR); otherwise they are rasterized again when
     /// needed, deterministically.
     #[arg(long)]
-    cache_buffers: bool,
+    pub cache_buffers: bool,
     /// Make only the frames whose index mod n is i, e.g. `--shard 3/16`.
     #[arg(long)]
-    shard: Option<String>,
+    pub shard: Option<String>,
     /// Path-tracer threads (default: all cores).
     #[arg(long)]
-    threads: Option<usize>,
+    pub threads: Option<usize>,
 }
 
 fn human_bytes(bytes: u64) -> String {
@@ -95,7 +95,12 @@ pub fn run(args: DatasetArgs) -> Result<()> {
             let copied = merge(&out, &shard_paths)?;
             println!("merged {} shard(s) into {} ({copied} frames copied)", shards.len(), out.display());
         }
-        (None, Some(make)) => make_dataset(make)?,
+        (None, Some(make)) => {
+            let bar = ProgressBar::new(0);
+            let result = make_dataset(&make, &bar);
+            bar.finish_and_clear();
+            result?
+        }
         (None, None) => {
             return Err(glassbake_core::Error::bad_input("glassbake dataset", "arguments", "give a scene and --out, or a subcommand (see glassbake dataset --help)").into())
         }
@@ -103,7 +108,8 @@ pub fn run(args: DatasetArgs) -> Result<()> {
     Ok(())
 }
 
-fn make_dataset(args: MakeArgs) -> Result<()> {
+/// Makes (or completes) a dataset as `glassbake dataset` does, showing progress on `bar`.
+pub fn make_dataset(args: &MakeArgs, bar: &ProgressBar) -> Result<()> {
     let scene = load_scene(&args.scene)?;
     let shard = match &args.shard {
         Some(text) => ShardSpec::parse(text)?,
@@ -120,7 +126,8 @@ fn make_dataset(args: MakeArgs) -> Result<()> {
         cache_buffers: args.cache_buffers,
     };
     let options = GenerateOptions { shard, threads: args.threads, ..Default::default() };
-    let bar = ProgressBar::new(0);
+    bar.set_length(0);
+    bar.set_position(0);
     bar.set_style(
         ProgressStyle::with_template("{spinner} frames {pos}/{len} [{elapsed_precise}] {wide_bar} ETA {eta}")
             .expect("static template")
@@ -135,25 +142,25 @@ fn make_dataset(args: MakeArgs) -> Result<()> {
         }
         bar.set_position(done);
     };
-    let summary = generate(&scene, &spec, &args.out, &options, &progress);
-    bar.finish_and_clear();
-    let summary = summary?;
-    let secs = summary.elapsed.as_secs_f64();
-    println!(
-        "dataset {}: {} frame(s) made, {} already complete{}, in {:.1} s{}",
-        args.out.display(),
-        summary.generated,
-        summary.skipped,
-        if summary.redone > 0 { format!(" ({} corrupt, redone)", summary.redone) } else { String::new() },
-        secs,
-        if summary.generated > 0 { format!(" ({:.0} frames/hour)", summary.generated as f64 * 3600.0 / secs) } else { String::new() },
-    );
-    if shard != ShardSpec::ALL {
-        println!("  shard {}/{}: {} frame(s) of this shard", shard.index, shard.count, summary.frames_in_shard);
-    }
-    if summary.discarded_samples > 0 {
-        println!("  {} NaN/inf path sample(s) discarded", summary.discarded_samples);
-    }
-    println!("  disk {} ({} per frame)", human_bytes(summary.disk_bytes), human_bytes(summary.disk_bytes / summary.frames_in_shard.max(1)));
+    let summary = generate(&scene, &spec, &args.out, &options, &progress)?;
+    bar.suspend(|| {
+        let secs = summary.elapsed.as_secs_f64();
+        println!(
+            "dataset {}: {} frame(s) made, {} already complete{}, in {:.1} s{}",
+            args.out.display(),
+            summary.generated,
+            summary.skipped,
+            if summary.redone > 0 { format!(" ({} corrupt, redone)", summary.redone) } else { String::new() },
+            secs,
+            if summary.generated > 0 { format!(" ({:.0} frames/hour)", summary.generated as f64 * 3600.0 / secs) } else { String::new() },
+        );
+        if shard != ShardSpec::ALL {
+            println!("  shard {}/{}: {} frame(s) of this shard", shard.index, shard.count, summary.frames_in_shard);
+        }
+        if summary.discarded_samples > 0 {
+            println!("  {} NaN/inf path sample(s) discarded", summary.discarded_samples);
+        }
+        println!("  disk {} ({} per frame)", human_bytes(summary.disk_bytes), human_bytes(summary.disk_bytes / summary.frames_in_shard.max(1)));
+    });
     Ok(())
 }

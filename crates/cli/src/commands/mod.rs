@@ -4,3 +4,5 @@ pub mod scene;
 pub mod trace;
 pub mod dataset;
 pub mod train;
+pub mod eval;
+pub mod bake;

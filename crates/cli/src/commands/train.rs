@@ -63,6 +63,33 @@ pub struct TrainArgs {
     /// Weight of the (1 - SSIM) term (0 = the paper's "L1 only" ablation).
     #[arg(long)]
     pub ssim_weight: Option<f64>,
+    /// One of the paper's ablations (Table 2): no-encoding (no positional encoding) or l1-only.
+    #[arg(long)]
+    pub ablation: Option<String>,
+}
+
+/// The paper's ablations (Table 2) as changes to a preset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ablation {
+    /// Buffers enter the networks raw, without positional encoding.
+    NoEncoding,
+    /// L1 loss only, no SSIM term.
+    L1Only,
+}
+
+impl Ablation {
+    pub const ALL: [Ablation; 2] = [Ablation::NoEncoding, Ablation::L1Only];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Ablation::NoEncoding => "no-encoding",
+            Ablation::L1Only => "l1-only",
+        }
+    }
+
+    pub fn parse(text: &str) -> glassbake_core::Result<Ablation> {
+        Ablation::ALL.into_iter().find(|a| a.name() == text).ok_or_else(|| Error::bad_input("--ablation", "ablation", format!("{text:?} is not no-encoding or l1-only")))
+    }
 }
 
 #[derive(Args)]
@@ -118,15 +145,16 @@ fn data_source(dir: &Path, store: &DatasetStore) -> DataSource {
     }
 }
 
-fn progress_bar(steps: u64) -> ProgressBar {
-    let bar = ProgressBar::new(steps);
+/// Turns `bar` into a training-step bar of `steps` steps.
+fn step_bar(bar: &ProgressBar, steps: u64) {
+    bar.set_length(steps);
+    bar.set_position(0);
     bar.set_style(
         ProgressStyle::with_template("{spinner} step {pos}/{len} [{elapsed_precise}] {wide_bar} ETA {eta} {msg}")
             .expect("static template")
             .progress_chars("=> "),
     );
     bar.enable_steady_tick(Duration::from_millis(250));
-    bar
 }
 
 fn on_event(bar: &ProgressBar) -> impl FnMut(&TrainEvent) + '_ {
@@ -230,9 +258,21 @@ fn loaders(dir: &Path, scene: Option<glassbake_scene::Scene>, config: &TrainConf
 }
 
 pub fn run(args: TrainArgs) -> Result<()> {
+    let bar = ProgressBar::new(0);
+    let result = train_model(&args, &bar);
+    bar.finish_and_clear();
+    result
+}
+
+/// Trains one model as `glassbake train` does, showing progress on `bar`.
+pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<()> {
     let kind = ModelKind::parse(&args.model).ok_or_else(|| Error::bad_input("--model", "model", format!("{:?} is not glassnet, naive or concat", args.model)))?;
     let device_choice = DeviceChoice::parse(&args.common.device)?;
     let mut train_config = train_config(&args.common)?;
+    let ablation = args.ablation.as_deref().map(Ablation::parse).transpose()?;
+    if ablation == Some(Ablation::L1Only) {
+        train_config.ssim_weight = 0.0;
+    }
     if let Some(w) = args.ssim_weight {
         train_config.ssim_weight = w;
         train_config.check("--ssim-weight")?;
@@ -241,6 +281,9 @@ pub fn run(args: TrainArgs) -> Result<()> {
     let info = store.info();
     let variables = store.manifest.samples.first().map_or(0, |s| s.values.len());
     let mut net_config = NetConfig::preset(&args.common.preset, kind, variables, info.transparent_objects)?;
+    if ablation == Some(Ablation::NoEncoding) {
+        net_config.encoding_frequencies = 0;
+    }
     if let Some(f) = args.encoding_frequencies {
         net_config.encoding_frequencies = f;
         net_config.check("--encoding-frequencies")?;
@@ -258,9 +301,10 @@ pub fn run(args: TrainArgs) -> Result<()> {
     let mut data = DatasetData { train: train_loader, val, validation_frames: train_config.validation_frames, batch_size: train_config.batch_size, naive, low_res: None };
     let device = select_device(device_choice, train_config.seed, true);
     let model = GlassNet::new(&net_config, train_config.seed, &device)?;
-    println!(
-        "training {} ({} preset, {} parameters) on {} ({} train frames, {} px{}), {} steps on {}",
+    let message = format!(
+        "training {}{} ({} preset, {} parameters) on {} ({} train frames, {} px{}), {} steps on {}",
         kind.name(),
+        ablation.map(|a| format!(" ({} ablation)", a.name())).unwrap_or_default(),
         args.common.preset,
         glassbake_net::burn::module::Module::num_params(&model),
         args.common.dataset.display(),
@@ -270,16 +314,22 @@ pub fn run(args: TrainArgs) -> Result<()> {
         train_config.steps,
         device_choice.name()
     );
-    let bar = progress_bar(train_config.steps);
-    let summary = train(model, &files, &train_config, &device, &mut data, &RunOptions::default(), &mut on_event(&bar));
-    bar.finish_and_clear();
-    report(summary?, &files)?;
-    write_previews(&files, &mut data.val, naive, device_choice)
+    bar.suspend(|| println!("{message}"));
+    step_bar(bar, train_config.steps);
+    let summary = train(model, &files, &train_config, &device, &mut data, &RunOptions::default(), &mut on_event(bar))?;
+    let already_done = summary.already_done;
+    bar.suspend(|| report(summary, &files));
+    if already_done && files.dir.join("preview").exists() {
+        return Ok(());
+    }
+    let previews = write_previews(&files, &mut data.val, naive, device_choice)?;
+    bar.suspend(|| println!("  preview {} (model | ground truth)", previews.display()));
+    Ok(())
 }
 
 /// `DIR/preview/val_NNN.png`: the model's image beside the path-traced ground truth for the
 /// first validation frames, so a run can be looked at, not only read off a loss.
-fn write_previews(files: &ModelFiles, val: &mut Loader, naive: bool, device_choice: DeviceChoice) -> Result<()> {
+fn write_previews(files: &ModelFiles, val: &mut Loader, naive: bool, device_choice: DeviceChoice) -> Result<PathBuf> {
     const FRAMES: usize = 4;
     let model = TrainedModel::load(&files.dir, &select_device(device_choice, 0, false))?;
     let dir = files.dir.join("preview");
@@ -301,8 +351,7 @@ fn write_previews(files: &ModelFiles, val: &mut Loader, naive: bool, device_choi
             break;
         }
     }
-    println!("  preview {} (model | ground truth)", dir.display());
-    Ok(())
+    Ok(dir)
 }
 
 fn side_by_side(left: &glassbake_core::PlanarImage, right: &glassbake_core::PlanarImage) -> glassbake_core::Result<glassbake_core::PlanarImage> {
@@ -339,13 +388,15 @@ pub fn run_super_sampler(args: TrainSrArgs) -> Result<()> {
     let device = select_device(device_choice, train_config.seed, true);
     let model = SuperSampler::new(&sr_config, train_config.seed, &device);
     println!("training the x2 super-sampler ({} preset) on {}, {} steps on {}", args.common.preset, args.common.dataset.display(), train_config.steps, device_choice.name());
-    let bar = progress_bar(train_config.steps);
+    let bar = ProgressBar::new(0);
+    step_bar(&bar, train_config.steps);
     let summary = train(model, &files, &train_config, &device, &mut data, &RunOptions::default(), &mut on_event(&bar));
     bar.finish_and_clear();
-    report(summary?, &files)
+    report(summary?, &files);
+    Ok(())
 }
 
-fn report(summary: glassbake_net::TrainSummary, files: &ModelFiles) -> Result<()> {
+fn report(summary: glassbake_net::TrainSummary, files: &ModelFiles) {
     if summary.already_done {
         println!("{} is already trained ({} steps); nothing to do", files.dir.display(), summary.steps);
     } else {
@@ -359,5 +410,4 @@ fn report(summary: glassbake_net::TrainSummary, files: &ModelFiles) -> Result<()
     }
     println!("  weights {}", files.weights_path().display());
     println!("  log     {}", files.dir.join("train_log.csv").display());
-    Ok(())
 }

@@ -1,0 +1,192 @@
+//! `glassbake bake`: a scene to a trained model and an honest report in one command.
+//! Stages: dataset -> train GlassNet -> train the naive baseline (-> the ablations) -> eval ->
+//! report. Every stage resumes where a killed run stopped and is skipped when already done.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::Result;
+use clap::Args;
+use glassbake_core::Error;
+use glassbake_eval::EvaluationSummary;
+use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
+
+use super::dataset::{make_dataset, MakeArgs};
+use super::eval::{evaluate, EvalArgs};
+use super::train::{train_model, Ablation, CommonTrainArgs, TrainArgs};
+
+#[derive(Args)]
+pub struct BakeArgs {
+    /// A built-in name or a path to a manifest, glTF or OBJ file.
+    pub scene: String,
+    /// quick (a CPU bake: 64 px, minutes), paper (a GPU bake: 256 px, the paper's network) or
+    /// tiny (a smoke test: seconds, meaningless numbers).
+    #[arg(long, default_value = "quick")]
+    pub preset: String,
+    /// Output directory: dataset/, glassnet/, naive/, eval/, report/.
+    #[arg(long, default_value = "bake")]
+    pub out: PathBuf,
+    /// cpu (burn's flex backend) or wgpu (Vulkan) for training and evaluation.
+    #[arg(long, default_value = "cpu")]
+    pub device: String,
+    /// Also train and evaluate the paper's ablations (no positional encoding; L1 loss only).
+    #[arg(long)]
+    pub ablations: bool,
+    /// LPIPS AlexNet weights (safetensors, see docs/eval.md); without it LPIPS is skipped.
+    #[arg(long)]
+    pub lpips_weights: Option<PathBuf>,
+    /// Path-tracer threads for the dataset (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// Dataset size and training preset of a bake preset.
+struct BakePreset {
+    resolution: u32,
+    spp: u32,
+    train: u64,
+    val: u64,
+    test: u64,
+    training: &'static str,
+}
+
+fn bake_preset(name: &str) -> glassbake_core::Result<BakePreset> {
+    Ok(match name {
+        "tiny" => BakePreset { resolution: 32, spp: 4, train: 8, val: 2, test: 2, training: "tiny" },
+        // Sized to finish in under 30 minutes on a 2-core CPU (docs/benchmarks.md).
+        "quick" => BakePreset { resolution: 64, spp: 128, train: 400, val: 32, test: 32, training: "quick" },
+        "paper" => BakePreset { resolution: 256, spp: 512, train: 1800, val: 200, test: 128, training: "paper" },
+        _ => return Err(Error::bad_input("--preset", "preset", format!("{name:?} is not tiny, quick or paper"))),
+    })
+}
+
+/// The models a bake trains: (directory name, model kind, ablation).
+fn models(ablations: bool) -> Vec<(String, &'static str, Option<Ablation>)> {
+    let mut list = vec![("glassnet".to_string(), "glassnet", None), ("naive".to_string(), "naive", None)];
+    if ablations {
+        list.extend(Ablation::ALL.map(|a| (format!("glassnet-{}", a.name()), "glassnet", Some(a))));
+    }
+    list
+}
+
+fn modified(path: &Path) -> Option<std::time::SystemTime> {
+    std::fs::metadata(path).and_then(|m| m.modified()).ok()
+}
+
+/// True when `eval/metrics.json` is newer than every model's weights and lists exactly these
+/// models with the same LPIPS setting.
+fn evaluation_is_current(eval_dir: &Path, model_dirs: &[PathBuf], lpips: bool) -> bool {
+    let metrics = eval_dir.join("metrics.json");
+    let (Some(written), Ok(summary)) = (modified(&metrics), EvaluationSummary::read(&metrics)) else {
+        return false;
+    };
+    let names: Vec<String> = model_dirs.iter().map(|d| d.file_name().unwrap_or_default().to_string_lossy().into_owned()).collect();
+    summary.models.iter().map(|m| &m.model).eq(names.iter())
+        && summary.lpips.starts_with("AlexNet") == lpips
+        && model_dirs.iter().all(|d| modified(&d.join("glassnet.safetensors")).is_some_and(|w| w <= written))
+}
+
+pub fn run(args: BakeArgs) -> Result<()> {
+    let preset = bake_preset(&args.preset)?;
+    glassbake_net::DeviceChoice::parse(&args.device)?;
+    glassbake_scene::load_scene(&args.scene)?;
+    std::fs::create_dir_all(&args.out).map_err(|e| Error::io(&args.out, e))?;
+    let started = Instant::now();
+    let dataset_dir = args.out.join("dataset");
+    let models = models(args.ablations);
+    let model_dirs: Vec<PathBuf> = models.iter().map(|m| args.out.join(&m.0)).collect();
+
+    let multi = MultiProgress::new();
+    let stages = 1 + models.len() + 1;
+    let overall = multi.add(ProgressBar::new(stages as u64));
+    overall.set_style(ProgressStyle::with_template("bake {prefix} [{elapsed_precise}] stage {pos}/{len}: {msg}").expect("static template"));
+    overall.set_prefix(args.scene.clone());
+    overall.enable_steady_tick(Duration::from_millis(500));
+    let bar = multi.add(ProgressBar::new(0));
+    let mut facts = vec![format!("`glassbake bake {} --preset {}` on {}", args.scene, args.preset, args.device)];
+    let mut stage = |name: String, work: &mut dyn FnMut() -> Result<()>| -> Result<()> {
+        overall.set_message(name.clone());
+        let t0 = Instant::now();
+        work()?;
+        let seconds = t0.elapsed().as_secs_f64();
+        facts.push(format!("{name}: {seconds:.0} s"));
+        overall.inc(1);
+        Ok(())
+    };
+
+    let make = MakeArgs {
+        scene: args.scene.clone(),
+        out: dataset_dir.clone(),
+        train: preset.train,
+        val: preset.val,
+        test: preset.test,
+        res: preset.resolution,
+        spp: preset.spp,
+        seed: 0,
+        cache_buffers: true,
+        shard: None,
+        threads: args.threads,
+    };
+    stage(format!("dataset ({} frames, {} px, {} spp)", preset.train + preset.val + preset.test, preset.resolution, preset.spp), &mut || make_dataset(&make, &bar))?;
+    for ((name, kind, ablation), dir) in models.iter().zip(&model_dirs) {
+        let train = TrainArgs {
+            common: CommonTrainArgs {
+                dataset: dataset_dir.clone(),
+                out: dir.clone(),
+                preset: preset.training.into(),
+                device: args.device.clone(),
+                steps: None,
+                batch: None,
+                lr: None,
+                crop: None,
+                seed: None,
+                workers: 2,
+            },
+            model: kind.to_string(),
+            encoding_frequencies: None,
+            ssim_weight: None,
+            ablation: ablation.map(|a| a.name().to_string()),
+        };
+        stage(format!("train {name}"), &mut || train_model(&train, &bar))?;
+    }
+    let eval_dir = args.out.join("eval");
+    let mut paths = model_dirs.clone();
+    paths.push(dataset_dir.clone());
+    let eval = EvalArgs { paths, out: eval_dir.clone(), split: "test".into(), frames: None, lpips_weights: args.lpips_weights.clone(), device: args.device.clone(), workers: 2 };
+    let mut summary = None;
+    let current = evaluation_is_current(&eval_dir, &model_dirs, args.lpips_weights.is_some());
+    stage("evaluate and report".into(), &mut || {
+        if current {
+            bar.suspend(|| println!("{} is up to date with the models; not evaluated again", eval_dir.join("metrics.json").display()));
+            summary = Some(EvaluationSummary::read(&eval_dir.join("metrics.json"))?);
+        } else {
+            summary = Some(evaluate(&eval, &bar, &[])?);
+        }
+        Ok(())
+    })?;
+    facts.push(format!("total {:.0} s", started.elapsed().as_secs_f64()));
+    // The bake's report: the evaluation's, with the stage times.
+    let report = glassbake_eval::report::write_report(
+        &args.out.join("report"),
+        &glassbake_eval::report::ReportInputs {
+            title: format!("glassbake bake: {}", args.scene),
+            facts,
+            eval_dir: Some(eval_dir.clone()),
+            training_logs: models.iter().zip(&model_dirs).map(|(m, d)| glassbake_eval::report::TrainingLog { name: m.0.clone(), path: d.join("train_log.csv") }).collect(),
+            bench: Some(args.out.join("bench.json")),
+        },
+    )?;
+    overall.finish_and_clear();
+    bar.finish_and_clear();
+    let summary = summary.expect("the evaluation stage ran");
+    println!("\nbake of {} done in {:.1} min: {}", args.scene, started.elapsed().as_secs_f64() / 60.0, args.out.display());
+    println!("  report {}\n", report.display());
+    println!("{} frames of the test split, {} px:", summary.frames.len(), summary.resolution);
+    print!("{}", summary.text_table());
+    if let (Some(g), Some(n)) = (summary.models.iter().find(|m| m.model == "glassnet"), summary.models.iter().find(|m| m.model == "naive")) {
+        if let (Some(gt), Some(nt)) = (g.t_psnr, n.t_psnr) {
+            println!("GlassNet vs Naive on transparent pixels: T.PSNR {gt:.2} vs {nt:.2} dB ({:+.2} dB)", gt - nt);
+        }
+    }
+    Ok(())
+}

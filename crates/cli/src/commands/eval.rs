@@ -1,0 +1,166 @@
+//! `glassbake eval`: render a dataset split with trained models, score them against the
+//! ground truth (glassbake-eval), run the order test, write metrics, grids and a report.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::Result;
+use clap::Args;
+use glassbake_core::{Error, PlanarImage};
+use glassbake_dataset::{DatasetStore, Loader, LoaderOptions, Split};
+use glassbake_eval::report::{write_report, ReportInputs, TrainingLog};
+use glassbake_eval::rgb::mask_from_planar;
+use glassbake_eval::{Evaluation, EvaluationSummary, Lpips, OrderTest, RgbImage};
+use glassbake_net::{select_device, DeviceChoice, FrameRef, ModelKind, TrainedModel};
+use indicatif::{ProgressBar, ProgressStyle};
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+
+#[derive(Args, Clone)]
+pub struct EvalArgs {
+    /// One or more model directories (from `glassbake train`), then the dataset directory.
+    #[arg(required = true, num_args = 2.., value_name = "MODEL_DIR... DATASET")]
+    pub paths: Vec<PathBuf>,
+    /// Where metrics.json, metrics.csv, frames/, grids/ and report/ go.
+    #[arg(long)]
+    pub out: PathBuf,
+    #[arg(long, default_value = "test")]
+    pub split: String,
+    /// Evaluate only the first N frames of the split.
+    #[arg(long)]
+    pub frames: Option<usize>,
+    /// LPIPS AlexNet weights (safetensors, see docs/eval.md); without it LPIPS is skipped.
+    #[arg(long)]
+    pub lpips_weights: Option<PathBuf>,
+    /// cpu (burn's flex backend) or wgpu (Vulkan).
+    #[arg(long, default_value = "cpu")]
+    pub device: String,
+    /// Frame-reading/rasterizing worker threads.
+    #[arg(long, default_value_t = 2)]
+    pub workers: usize,
+}
+
+pub fn run(args: EvalArgs) -> Result<()> {
+    let bar = ProgressBar::new(0);
+    let summary = evaluate(&args, &bar, &[])?;
+    bar.finish_and_clear();
+    println!("{}", summary.text_table());
+    Ok(())
+}
+
+fn frame_style() -> ProgressStyle {
+    ProgressStyle::with_template("{spinner} frames {pos}/{len} [{elapsed_precise}] {wide_bar} ETA {eta}").expect("static template").progress_chars("=> ")
+}
+
+fn model_name(dir: &Path) -> String {
+    dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| dir.display().to_string())
+}
+
+/// Largest |a - b| over two equally long slices (infinite when their lengths differ).
+fn max_abs_diff(a: &[f32], b: &[f32]) -> f32 {
+    if a.len() != b.len() {
+        return f32::INFINITY;
+    }
+    a.iter().zip(b).map(|(x, y)| if x.to_bits() == y.to_bits() { 0.0 } else { (x - y).abs().max(f32::MIN_POSITIVE) }).fold(0.0, f32::max)
+}
+
+/// Evaluates, writes `OUT/metrics.*`, `OUT/frames`, `OUT/grids` and `OUT/report/`. `facts` are
+/// extra lines for the report (the bake's stage times).
+pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<EvaluationSummary> {
+    let (dataset, model_dirs) = args.paths.split_last().expect("clap requires two paths");
+    let split = Split::parse(&args.split)?;
+    let store = DatasetStore::open(dataset)?;
+    let info = store.info();
+    if let Some((_, planned, done)) = info.splits.iter().find(|s| s.0 == split) {
+        if done < planned {
+            return Err(Error::bad_input(dataset.display(), "frames", format!("the {} split is incomplete ({done}/{planned}); finish it with `glassbake dataset`", args.split)).into());
+        }
+    }
+    let device = select_device(DeviceChoice::parse(&args.device)?, 0, false);
+    let mut models = Vec::new();
+    let mut names: Vec<String> = Vec::new();
+    for dir in model_dirs {
+        let model = TrainedModel::load(dir, &device)?;
+        let data = &model.files.config.data;
+        if data.scene_hash != store.manifest.scene.hash {
+            return Err(Error::bad_input(
+                dir.join("config.json").display(),
+                "data.scene_hash",
+                format!("the model was trained on scene {} ({}), the dataset holds {} ({})", data.scene, data.scene_hash, store.manifest.scene.name, store.manifest.scene.hash),
+            )
+            .into());
+        }
+        let mut name = model_name(dir);
+        if names.contains(&name) {
+            name = format!("{name}-{}", names.len());
+        }
+        names.push(name);
+        models.push(model);
+    }
+    let lpips = args.lpips_weights.as_deref().map(Lpips::load).transpose()?;
+    let needs_naive = models.iter().any(|m| m.kind() == ModelKind::Naive);
+    let scene = if store.manifest.spec.cache_buffers { None } else { Some(glassbake_scene::load_scene(&store.manifest.spec.scene)?) };
+    let mut loader = Loader::new(dataset, scene, LoaderOptions { split, batch_size: 1, crop: None, seed: 0, shuffle: false, workers: args.workers, naive: needs_naive, ..Default::default() })?;
+    let total = args.frames.unwrap_or(usize::MAX).min(loader.len());
+    let mut evaluation = Evaluation::new(&args.out, names.clone(), lpips, dataset.display().to_string(), args.split.to_lowercase())?;
+    // The order test runs on the first model that sums transparency buffers (GlassNet).
+    let order_model = models.iter().position(|m| m.kind() == ModelKind::Glassnet);
+    let mut order = OrderTest { model: order_model.map(|i| names[i].clone()).unwrap_or_default(), frames: 0, reversed_max_abs_diff: 0.0, shuffled_max_abs_diff: 0.0 };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x0dde_0b1e);
+
+    bar.set_style(frame_style());
+    bar.set_length(total as u64);
+    bar.set_position(0);
+    bar.enable_steady_tick(Duration::from_millis(250));
+    let mut done = 0;
+    'frames: for examples in loader.epoch_iter(0) {
+        for e in examples? {
+            if done == total {
+                break 'frames;
+            }
+            let mut predictions = Vec::new();
+            for model in &models {
+                let naive = model.kind() == ModelKind::Naive;
+                let gbuffer = if naive { e.naive.as_ref().expect("the loader was asked for naive buffers") } else { &e.opaque };
+                let transparent: &[PlanarImage] = if naive { &[] } else { &e.transparent };
+                let image = model.render(FrameRef { gbuffer, transparent, values: &e.values, ground_truth: None })?;
+                predictions.push(RgbImage::from_planar(&image)?);
+            }
+            if let Some(i) = order_model {
+                let model = &models[i];
+                let frame = |transparent: &[PlanarImage]| model.render_raw(FrameRef { gbuffer: &e.opaque, transparent, values: &e.values, ground_truth: None });
+                let original = frame(&e.transparent)?;
+                let mut reversed = e.transparent.clone();
+                reversed.reverse();
+                let mut shuffled = e.transparent.clone();
+                shuffled.shuffle(&mut rng);
+                order.reversed_max_abs_diff = order.reversed_max_abs_diff.max(max_abs_diff(&original, &frame(&reversed)?));
+                order.shuffled_max_abs_diff = order.shuffled_max_abs_diff.max(max_abs_diff(&original, &frame(&shuffled)?));
+                order.frames += 1;
+            }
+            evaluation.add_frame(e.index, &RgbImage::from_planar(&e.ground_truth)?, &mask_from_planar(&e.mask), &predictions)?;
+            done += 1;
+            bar.set_position(done as u64);
+        }
+    }
+    if order_model.is_some() {
+        evaluation.set_order_test(order);
+    }
+    let summary = evaluation.finish()?;
+    let training_logs = model_dirs.iter().zip(&names).map(|(dir, name)| TrainingLog { name: name.clone(), path: dir.join("train_log.csv") }).collect();
+    let mut report_facts = vec![format!("dataset {} ({} transparent objects, {} px, {} spp)", dataset.display(), info.transparent_objects, info.resolution, info.spp)];
+    report_facts.extend(facts.iter().cloned());
+    let index = write_report(
+        &args.out.join("report"),
+        &ReportInputs { title: format!("glassbake: {}", store.manifest.scene.name), facts: report_facts, eval_dir: Some(args.out.clone()), training_logs, bench: None },
+    )?;
+    bar.suspend(|| {
+        println!("evaluated {} frame(s) of {}: {}", summary.frames.len(), dataset.display(), args.out.join("metrics.json").display());
+        if let Some(o) = &summary.order_test {
+            println!("  order test ({}, {} frames): max |difference| reversed {}, shuffled {}{}", o.model, o.frames, o.reversed_max_abs_diff, o.shuffled_max_abs_diff, if o.passed() { " (bit-identical)" } else { " — NOT identical" });
+        }
+        println!("  LPIPS {}", summary.lpips);
+        println!("  report {}", index.display());
+    });
+    Ok(summary)
+}

@@ -1,0 +1,246 @@
+//! One evaluation run: per-frame metrics of every model against the ground truth, per-frame
+//! images and grids, the order test, and `metrics.json` / `metrics.csv`.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use glassbake_core::{Error, Result};
+use serde::{Deserialize, Serialize};
+
+use crate::grid;
+use crate::lpips::Lpips;
+use crate::metrics::{frame_metrics, FrameMetrics};
+use crate::rgb::RgbImage;
+
+pub const TONE_MAP: &str = "clamp linear RGB to [0, 1]; MAE, PSNR, DSSIM, T.MAE, T.PSNR on the clamped linear values; FLIP (8-bit) and LPIPS on their sRGB encoding";
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct FrameRecord {
+    pub index: u64,
+    /// Pixels covered by any transparent object.
+    pub transparent_pixels: usize,
+    /// One entry per model, in the evaluation's model order.
+    pub metrics: Vec<FrameMetrics>,
+}
+
+/// A model's metrics averaged over frames (T.* over the frames that show glass).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ModelMetrics {
+    pub model: String,
+    pub frames: usize,
+    pub mae: f64,
+    pub psnr: f64,
+    pub dssim: f64,
+    pub t_mae: Option<f64>,
+    pub t_psnr: Option<f64>,
+    pub t_frames: usize,
+    pub flip: f64,
+    pub lpips: Option<f64>,
+}
+
+/// GlassNet rendered with its transparent objects in other orders than the dataset's.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct OrderTest {
+    pub model: String,
+    pub frames: usize,
+    /// Largest |difference| of any pixel value against the dataset order.
+    pub reversed_max_abs_diff: f32,
+    pub shuffled_max_abs_diff: f32,
+}
+
+impl OrderTest {
+    pub fn passed(&self) -> bool {
+        self.reversed_max_abs_diff == 0.0 && self.shuffled_max_abs_diff == 0.0
+    }
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct EvaluationSummary {
+    pub dataset: String,
+    pub split: String,
+    pub resolution: usize,
+    pub tone_map: String,
+    /// "AlexNet weights from PATH" or "skipped: no weights".
+    pub lpips: String,
+    pub models: Vec<ModelMetrics>,
+    pub order_test: Option<OrderTest>,
+    pub frames: Vec<FrameRecord>,
+}
+
+pub struct Evaluation {
+    dir: PathBuf,
+    models: Vec<String>,
+    lpips: Option<Lpips>,
+    dataset: String,
+    split: String,
+    resolution: usize,
+    frames: Vec<FrameRecord>,
+    order_test: Option<OrderTest>,
+}
+
+fn mean(values: impl Iterator<Item = f64>) -> Option<f64> {
+    let (sum, n) = values.fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+    (n > 0).then(|| sum / n as f64)
+}
+
+impl Evaluation {
+    /// Starts an evaluation writing under `dir` (`frames/`, `grids/`, `metrics.*`).
+    pub fn new(dir: &Path, models: Vec<String>, lpips: Option<Lpips>, dataset: String, split: String) -> Result<Evaluation> {
+        for sub in ["frames", "grids"] {
+            std::fs::create_dir_all(dir.join(sub)).map_err(|e| Error::io(&dir.join(sub), e))?;
+        }
+        Ok(Evaluation { dir: dir.to_path_buf(), models, lpips, dataset, split, resolution: 0, frames: Vec::new(), order_test: None })
+    }
+
+    pub fn grid_path(&self, index: u64) -> PathBuf {
+        self.dir.join("grids").join(format!("{index:06}.png"))
+    }
+
+    /// Scores one frame: `predictions` in the model order given to `new`.
+    pub fn add_frame(&mut self, index: u64, ground_truth: &RgbImage, mask: &[bool], predictions: &[RgbImage]) -> Result<&FrameRecord> {
+        if predictions.len() != self.models.len() {
+            return Err(Error::Internal(format!("{} predictions for {} models", predictions.len(), self.models.len())));
+        }
+        self.resolution = ground_truth.width;
+        let frames = self.dir.join("frames");
+        ground_truth.write_png(&frames.join(format!("{index:06}_ground_truth.png")))?;
+        let mut metrics = Vec::new();
+        let mut heat_maps = Vec::new();
+        for (model, prediction) in self.models.iter().zip(predictions) {
+            let (m, flip_map) = frame_metrics(ground_truth, prediction, mask, self.lpips.as_ref())?;
+            prediction.write_png(&frames.join(format!("{index:06}_{model}.png")))?;
+            heat_maps.push(grid::heat_map(ground_truth.width, ground_truth.height, &flip_map));
+            metrics.push(m);
+        }
+        let mut tiles = vec![ground_truth.clone()];
+        tiles.extend(predictions.iter().cloned());
+        tiles.extend(heat_maps);
+        tiles.push(grid::mask_image(ground_truth.width, ground_truth.height, mask));
+        grid::row(&tiles).write_png(&self.grid_path(index))?;
+        self.frames.push(FrameRecord { index, transparent_pixels: mask.iter().filter(|&&m| m).count(), metrics });
+        Ok(self.frames.last().expect("just pushed"))
+    }
+
+    pub fn set_order_test(&mut self, test: OrderTest) {
+        self.order_test = Some(test);
+    }
+
+    /// Averages, writes `metrics.json` and `metrics.csv`, and returns the summary.
+    pub fn finish(self) -> Result<EvaluationSummary> {
+        let models = self
+            .models
+            .iter()
+            .enumerate()
+            .map(|(m, name)| {
+                let of = |f: &dyn Fn(&FrameMetrics) -> f64| mean(self.frames.iter().map(|r| f(&r.metrics[m]))).unwrap_or(f64::NAN);
+                let t = |f: &dyn Fn(&FrameMetrics) -> Option<f64>| mean(self.frames.iter().filter_map(|r| f(&r.metrics[m])));
+                ModelMetrics {
+                    model: name.clone(),
+                    frames: self.frames.len(),
+                    mae: of(&|x| x.mae),
+                    psnr: of(&|x| x.psnr),
+                    dssim: of(&|x| x.dssim),
+                    t_mae: t(&|x| x.t_mae),
+                    t_psnr: t(&|x| x.t_psnr),
+                    t_frames: self.frames.iter().filter(|r| r.metrics[m].t_mae.is_some()).count(),
+                    flip: of(&|x| x.flip),
+                    lpips: t(&|x| x.lpips),
+                }
+            })
+            .collect();
+        let summary = EvaluationSummary {
+            dataset: self.dataset,
+            split: self.split,
+            resolution: self.resolution,
+            tone_map: TONE_MAP.into(),
+            lpips: match &self.lpips {
+                Some(l) => format!("AlexNet weights from {}", l.source.display()),
+                None => "skipped: no weights".into(),
+            },
+            models,
+            order_test: self.order_test,
+            frames: self.frames,
+        };
+        let json = serde_json::to_string_pretty(&summary).map_err(|e| Error::Internal(e.to_string()))?;
+        glassbake_core::image::write_bytes_atomically(&self.dir.join("metrics.json"), json.as_bytes())?;
+        glassbake_core::image::write_bytes_atomically(&self.dir.join("metrics.csv"), summary.csv().as_bytes())?;
+        Ok(summary)
+    }
+}
+
+fn cell(v: Option<f64>, digits: usize) -> String {
+    v.map(|v| format!("{v:.digits$}")).unwrap_or_default()
+}
+
+impl EvaluationSummary {
+    pub fn read(path: &Path) -> Result<EvaluationSummary> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        serde_json::from_str(&text).map_err(|e| Error::bad_input(path.display(), "metrics", e.to_string()))
+    }
+
+    /// One row per frame and model, then one `mean` row per model.
+    pub fn csv(&self) -> String {
+        let mut out = String::from("frame,model,mae,psnr,dssim,t_mae,t_psnr,flip,lpips\n");
+        for record in &self.frames {
+            for (model, m) in self.models.iter().zip(&record.metrics) {
+                let _ = writeln!(
+                    out,
+                    "{},{},{:.6},{:.4},{:.6},{},{},{:.6},{}",
+                    record.index,
+                    model.model,
+                    m.mae,
+                    m.psnr,
+                    m.dssim,
+                    cell(m.t_mae, 6),
+                    cell(m.t_psnr, 4),
+                    m.flip,
+                    cell(m.lpips, 6)
+                );
+            }
+        }
+        for m in &self.models {
+            let _ = writeln!(out, "mean,{},{:.6},{:.4},{:.6},{},{},{:.6},{}", m.model, m.mae, m.psnr, m.dssim, cell(m.t_mae, 6), cell(m.t_psnr, 4), m.flip, cell(m.lpips, 6));
+        }
+        out
+    }
+
+    /// The averaged metrics as a Markdown table (arrows say which way is better).
+    pub fn markdown_table(&self) -> String {
+        let mut out = String::from("| model | MAE ↓ | PSNR ↑ | DSSIM ↓ | T.MAE ↓ | T.PSNR ↑ | FLIP ↓ | LPIPS ↓ |\n|---|---|---|---|---|---|---|---|\n");
+        for m in &self.models {
+            let _ = writeln!(
+                out,
+                "| {} | {:.4} | {:.2} | {:.4} | {} | {} | {:.4} | {} |",
+                m.model,
+                m.mae,
+                m.psnr,
+                m.dssim,
+                cell(m.t_mae, 4),
+                cell(m.t_psnr, 2),
+                m.flip,
+                m.lpips.map(|v| format!("{v:.4}")).unwrap_or_else(|| "skipped".into())
+            );
+        }
+        out
+    }
+
+    /// A plain-text table for the terminal.
+    pub fn text_table(&self) -> String {
+        let mut out = format!("{:<22} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>8}\n", "model", "MAE", "PSNR", "DSSIM", "T.MAE", "T.PSNR", "FLIP", "LPIPS");
+        for m in &self.models {
+            let _ = writeln!(
+                out,
+                "{:<22} {:>7.4} {:>7.2} {:>7.4} {:>7} {:>7} {:>7.4} {:>8}",
+                m.model,
+                m.mae,
+                m.psnr,
+                m.dssim,
+                cell(m.t_mae, 4),
+                cell(m.t_psnr, 2),
+                m.flip,
+                m.lpips.map(|v| format!("{v:.4}")).unwrap_or_else(|| "skipped".into())
+            );
+        }
+        out
+    }
+}

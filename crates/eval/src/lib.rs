@@ -1,0 +1,19 @@
+//! glassbake-eval: judging rendered frames against path-traced ground truth. It owns the
+//! metrics (MAE, PSNR, DSSIM, their transparent-pixel versions T.MAE/T.PSNR, FLIP and LPIPS),
+//! the tone map they are computed on, the comparison grids and error heat-maps, the
+//! `metrics.json`/`metrics.csv` files and the HTML/Markdown/PNG report. It sees only images:
+//! the CLI renders frames with the network crate and hands them over, so nothing here
+//! depends on burn.
+
+pub mod evaluation;
+pub mod grid;
+pub mod lpips;
+pub mod metrics;
+pub mod plot;
+pub mod report;
+pub mod rgb;
+
+pub use evaluation::{Evaluation, EvaluationSummary, ModelMetrics, OrderTest};
+pub use lpips::Lpips;
+pub use metrics::FrameMetrics;
+pub use rgb::RgbImage;

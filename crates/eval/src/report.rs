@@ -1,0 +1,284 @@
+//! The report of a bake: `report/index.html` (self-contained: styles inline, images as data
+//! URIs, plots as inline SVG), `report/report.md` with the same content pointing at PNG files
+//! beside it, and those PNGs (plots, comparison grids).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use base64::Engine as _;
+use glassbake_core::image::write_bytes_atomically;
+use glassbake_core::{Error, Result};
+use serde::{Deserialize, Serialize};
+
+use crate::evaluation::EvaluationSummary;
+use crate::grid::column_titles;
+use crate::plot::{bar_chart, line_chart, Plot, Series};
+
+/// Grids shown in the report (the rest stay in the evaluation directory).
+pub const MAX_GRIDS: usize = 6;
+
+pub struct TrainingLog {
+    pub name: String,
+    /// A `train_log.csv` with columns step, train_loss, validation_loss.
+    pub path: PathBuf,
+}
+
+/// `bench.json` as written by `glassbake bench` (the real-time stage).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct BenchFile {
+    pub device: String,
+    pub rows: Vec<BenchRow>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct BenchRow {
+    pub resolution: u32,
+    pub objects: usize,
+    pub ms_per_frame: f64,
+    pub fps: f64,
+    pub peak_ram_mib: Option<f64>,
+    pub peak_gpu_mib: Option<f64>,
+}
+
+pub struct ReportInputs {
+    pub title: String,
+    /// Lines of context (scene, preset, stage wall times), shown first.
+    pub facts: Vec<String>,
+    /// An evaluation directory holding `metrics.json` and `grids/`.
+    pub eval_dir: Option<PathBuf>,
+    pub training_logs: Vec<TrainingLog>,
+    pub bench: Option<PathBuf>,
+}
+
+/// A plot or image of the report: its file name beside the report and how to show it inline.
+struct Figure {
+    title: String,
+    file: String,
+    png: Vec<u8>,
+    svg: Option<String>,
+}
+
+/// (step, loss) points.
+type Curve = Vec<(f64, f64)>;
+
+/// The training and validation curves of a `train_log.csv`.
+fn read_training_log(path: &Path) -> Result<(Curve, Curve)> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name).ok_or_else(|| Error::bad_input(path.display(), name, "column missing"));
+    let (step, train, val) = (column("step")?, column("train_loss")?, column("validation_loss")?);
+    let (mut train_points, mut val_points) = (Vec::new(), Vec::new());
+    for line in lines {
+        let cells: Vec<&str> = line.split(',').collect();
+        let get = |i: usize| cells.get(i).and_then(|c| c.parse::<f64>().ok());
+        if let Some(s) = get(step) {
+            if let Some(v) = get(train) {
+                train_points.push((s, v));
+            }
+            if let Some(v) = get(val) {
+                val_points.push((s, v));
+            }
+        }
+    }
+    Ok((train_points, val_points))
+}
+
+fn figure(title: &str, file: &str, plot: Option<Plot>) -> Option<Figure> {
+    plot.map(|p| Figure { title: title.into(), file: file.into(), png: p.png, svg: Some(p.svg) })
+}
+
+fn html_escape(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+}
+
+/// Markdown table to HTML (the simple tables this module writes: header, rule, rows).
+fn table_html(markdown: &str) -> String {
+    let mut out = String::from("<table>\n");
+    for (i, line) in markdown.lines().enumerate() {
+        if i == 1 {
+            continue;
+        }
+        let tag = if i == 0 { "th" } else { "td" };
+        out.push_str("<tr>");
+        for cell in line.trim_matches('|').split('|') {
+            let _ = write!(out, "<{tag}>{}</{tag}>", html_escape(cell.trim()));
+        }
+        out.push_str("</tr>\n");
+    }
+    out.push_str("</table>\n");
+    out
+}
+
+fn bench_table(bench: &BenchFile) -> String {
+    let mut out = String::from("| resolution | transparent objects | ms / frame | FPS | peak RAM (MiB) | peak GPU (MiB) |\n|---|---|---|---|---|---|\n");
+    let mib = |v: Option<f64>| v.map(|v| format!("{v:.1}")).unwrap_or_else(|| "-".into());
+    for r in &bench.rows {
+        let _ = writeln!(out, "| {}^2 | {} | {:.2} | {:.1} | {} | {} |", r.resolution, r.objects, r.ms_per_frame, r.fps, mib(r.peak_ram_mib), mib(r.peak_gpu_mib));
+    }
+    out
+}
+
+/// Writes the report into `dir` (created); returns the path of `index.html`.
+pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
+    std::fs::create_dir_all(dir.join("grids")).map_err(|e| Error::io(dir, e))?;
+    let mut sections: Vec<(String, String, Vec<Figure>)> = Vec::new(); // (heading, markdown text, figures)
+    let mut notes = Vec::new();
+    if !crate::plot::font_available() {
+        notes.push("Plots were not drawn: no TrueType font was found (install fonts-dejavu-core or set GLASSBAKE_FONT).".to_string());
+    }
+
+    let summary = match &inputs.eval_dir {
+        Some(d) if d.join("metrics.json").exists() => Some(EvaluationSummary::read(&d.join("metrics.json"))?),
+        _ => None,
+    };
+    if let Some(summary) = &summary {
+        let mut text = format!(
+            "{} frames of the `{}` split of `{}`, {} px. Tone map: {}. LPIPS: {}.\n\n{}",
+            summary.frames.len(),
+            summary.split,
+            summary.dataset,
+            summary.resolution,
+            summary.tone_map,
+            summary.lpips,
+            summary.markdown_table()
+        );
+        text.push_str("\nT.MAE and T.PSNR are computed over the pixels covered by a transparent object, averaged over the frames that show one.\n");
+        if let Some(order) = &summary.order_test {
+            let _ = write!(
+                text,
+                "\n**Order test** ({}, {} frames): transparent objects reversed, max |difference| {}; shuffled, {} — {}.\n",
+                order.model,
+                order.frames,
+                order.reversed_max_abs_diff,
+                order.shuffled_max_abs_diff,
+                if order.passed() { "bit-identical, as the order-independent sum guarantees" } else { "NOT identical" }
+            );
+        }
+        let groups: Vec<String> = summary.models.iter().map(|m| m.model.clone()).collect();
+        let bars = vec![
+            ("PSNR".to_string(), summary.models.iter().map(|m| m.psnr).collect()),
+            ("T.PSNR".to_string(), summary.models.iter().map(|m| m.t_psnr.unwrap_or(f64::NAN)).collect()),
+        ];
+        let figures = figure("PSNR and T.PSNR (dB, higher is better)", "metrics.png", bar_chart("PSNR and T.PSNR", "dB", &groups, &bars)?).into_iter().collect();
+        sections.push(("Metrics".into(), text, figures));
+
+        let eval_dir = inputs.eval_dir.as_ref().expect("summary read from it");
+        let mut grids = Vec::new();
+        for record in summary.frames.iter().take(MAX_GRIDS) {
+            let source = eval_dir.join("grids").join(format!("{:06}.png", record.index));
+            let png = std::fs::read(&source).map_err(|e| Error::io(&source, e))?;
+            grids.push(Figure { title: format!("frame {}", record.index), file: format!("grids/{:06}.png", record.index), png, svg: None });
+        }
+        let columns = column_titles(&groups).join(" | ");
+        sections.push(("Comparison grids".into(), format!("Columns: {columns}. FLIP error maps in magma: black is no error, yellow the largest.\n"), grids));
+    } else {
+        notes.push("No evaluation yet (run `glassbake eval`).".into());
+    }
+
+    let mut curves = Vec::new();
+    for log in &inputs.training_logs {
+        if log.path.exists() {
+            let (train, val) = read_training_log(&log.path)?;
+            curves.push(Series { name: format!("{} train", log.name), points: train, dashed: false });
+            curves.push(Series { name: format!("{} validation", log.name), points: val, dashed: true });
+        }
+    }
+    if !curves.is_empty() {
+        let figures = figure("Training curves", "training_curves.png", line_chart("Training curves", "step", "loss (L1 + SSIM term)", &curves, true)?).into_iter().collect();
+        sections.push(("Training".into(), "Loss per step (solid: training batches, dashed: validation frames).\n".into(), figures));
+    }
+
+    if let Some(path) = inputs.bench.as_ref().filter(|p| p.exists()) {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let bench: BenchFile = serde_json::from_str(&text).map_err(|e| Error::bad_input(path.display(), "bench", e.to_string()))?;
+        let mut resolutions: Vec<u32> = bench.rows.iter().map(|r| r.resolution).collect();
+        resolutions.dedup();
+        let per_res = |f: &dyn Fn(&BenchRow) -> Option<f64>| -> Vec<Series> {
+            resolutions
+                .iter()
+                .map(|&res| Series {
+                    name: format!("{res}^2"),
+                    points: bench.rows.iter().filter(|r| r.resolution == res).filter_map(|r| f(r).map(|v| (r.objects as f64, v))).collect(),
+                    dashed: false,
+                })
+                .collect()
+        };
+        let mut figures = Vec::new();
+        figures.extend(figure("Time per frame", "speed.png", line_chart(&format!("Time per frame ({})", bench.device), "transparent objects", "ms / frame", &per_res(&|r| Some(r.ms_per_frame)), false)?));
+        let memory = per_res(&|r| r.peak_gpu_mib.or(r.peak_ram_mib));
+        figures.extend(figure("Peak memory", "memory.png", line_chart("Peak memory", "transparent objects", "MiB", &memory, false)?));
+        sections.push(("Speed and memory".into(), format!("{} on {}.\n\n{}", path.display(), bench.device, bench_table(&bench)), figures));
+    }
+
+    // Markdown and PNG files.
+    let mut md = format!("# {}\n\n", inputs.title);
+    for fact in &inputs.facts {
+        let _ = writeln!(md, "- {fact}");
+    }
+    for note in &notes {
+        let _ = writeln!(md, "\n> {note}");
+    }
+    for (heading, text, figures) in &sections {
+        let _ = write!(md, "\n## {heading}\n\n{text}\n");
+        for f in figures {
+            write_bytes_atomically(&dir.join(&f.file), &f.png)?;
+            let _ = writeln!(md, "![{}]({})\n", f.title, f.file);
+        }
+    }
+    write_bytes_atomically(&dir.join("report.md"), md.as_bytes())?;
+
+    // Self-contained HTML.
+    let mut html = format!(
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{}</title>\n<style>\nbody{{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}}\ntable{{border-collapse:collapse;margin:1em 0}}td,th{{border:1px solid #bbb;padding:4px 10px;text-align:right}}th{{background:#eee}}td:first-child{{text-align:left}}\nimg{{max-width:100%;image-rendering:pixelated}}figure{{margin:1em 0}}figcaption{{color:#555}}.note{{background:#fff4d6;padding:.5em 1em}}\n</style></head><body>\n<h1>{}</h1>\n<ul>\n",
+        html_escape(&inputs.title),
+        html_escape(&inputs.title)
+    );
+    for fact in &inputs.facts {
+        let _ = writeln!(html, "<li>{}</li>", html_escape(fact));
+    }
+    html.push_str("</ul>\n");
+    for note in &notes {
+        let _ = writeln!(html, "<p class=\"note\">{}</p>", html_escape(note));
+    }
+    for (heading, text, figures) in &sections {
+        let _ = writeln!(html, "<h2>{}</h2>", html_escape(heading));
+        let mut paragraph = String::new();
+        let flush = |paragraph: &mut String, html: &mut String| {
+            if !paragraph.trim().is_empty() {
+                let _ = writeln!(html, "<p>{}</p>", html_escape(paragraph.trim()).replace("**", ""));
+            }
+            paragraph.clear();
+        };
+        let mut table = String::new();
+        for line in text.lines() {
+            if line.starts_with('|') {
+                flush(&mut paragraph, &mut html);
+                table.push_str(line);
+                table.push('\n');
+            } else {
+                if !table.is_empty() {
+                    html.push_str(&table_html(&table));
+                    table.clear();
+                }
+                paragraph.push_str(line);
+                paragraph.push('\n');
+            }
+        }
+        if !table.is_empty() {
+            html.push_str(&table_html(&table));
+        }
+        flush(&mut paragraph, &mut html);
+        for f in figures {
+            let body = match &f.svg {
+                Some(svg) => svg.clone(),
+                None => format!("<img alt=\"{}\" src=\"data:image/png;base64,{}\">", html_escape(&f.title), base64::engine::general_purpose::STANDARD.encode(&f.png)),
+            };
+            let _ = writeln!(html, "<figure>{body}<figcaption>{}</figcaption></figure>", html_escape(&f.title));
+        }
+    }
+    html.push_str("</body></html>\n");
+    let index = dir.join("index.html");
+    write_bytes_atomically(&index, html.as_bytes())?;
+    Ok(index)
+}
