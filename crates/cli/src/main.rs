@@ -32,6 +32,12 @@ enum Command {
     Eval(commands::eval::EvalArgs),
     /// Scene to trained model and report in one command: dataset -> train -> eval -> report.
     Bake(commands::bake::BakeArgs),
+    /// Render one frame with a trained model (or one buffer attribute) to PNG.
+    Render(commands::realtime::RenderArgs),
+    /// Frame time and peak memory over resolutions x transparent-object counts (Table 4).
+    Bench(commands::realtime::BenchArgs),
+    /// Interactive viewer: orbit camera, a slider per scene variable, FPS, output switch.
+    View(commands::realtime::ViewArgs),
 }
 
 fn main() {
@@ -76,6 +82,9 @@ fn main() {
         Command::TrainSr(args) => commands::train::run_super_sampler(args),
         Command::Eval(args) => commands::eval::run(args),
         Command::Bake(args) => commands::bake::run(args),
+        Command::Render(args) => commands::realtime::render(args),
+        Command::Bench(args) => commands::realtime::bench(args),
+        Command::View(args) => commands::realtime::view(args),
     };
     if let Err(e) = result {
         eprintln!("error: {}", one_line(&e));

@@ -92,6 +92,25 @@ fn html_escape(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }
 
+/// Escapes `s` and renders the inline Markdown this module writes: `code` and **strong**.
+fn inline_html(s: &str) -> String {
+    let mut out = String::new();
+    for (i, part) in html_escape(s).split('`').enumerate() {
+        if i % 2 == 1 {
+            let _ = write!(out, "<code>{part}</code>");
+        } else {
+            for (j, piece) in part.split("**").enumerate() {
+                if j % 2 == 1 {
+                    let _ = write!(out, "<strong>{piece}</strong>");
+                } else {
+                    out.push_str(piece);
+                }
+            }
+        }
+    }
+    out
+}
+
 /// Markdown table to HTML (the simple tables this module writes: header, rule, rows).
 fn table_html(markdown: &str) -> String {
     let mut out = String::from("<table>\n");
@@ -102,7 +121,7 @@ fn table_html(markdown: &str) -> String {
         let tag = if i == 0 { "th" } else { "td" };
         out.push_str("<tr>");
         for cell in line.trim_matches('|').split('|') {
-            let _ = write!(out, "<{tag}>{}</{tag}>", html_escape(cell.trim()));
+            let _ = write!(out, "<{tag}>{}</{tag}>", inline_html(cell.trim()));
         }
         out.push_str("</tr>\n");
     }
@@ -185,7 +204,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
         }
     }
     if !curves.is_empty() {
-        let figures = figure("Training curves", "training_curves.png", line_chart("Training curves", "step", "loss (L1 + SSIM term)", &curves, true)?).into_iter().collect();
+        let figures = figure("Training curves", "training_curves.png", line_chart("Training curves", "step", "loss (L1 + SSIM term)", &curves, false)?).into_iter().collect();
         sections.push(("Training".into(), "Loss per step (solid: training batches, dashed: validation frames).\n".into(), figures));
     }
 
@@ -235,7 +254,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
         html_escape(&inputs.title)
     );
     for fact in &inputs.facts {
-        let _ = writeln!(html, "<li>{}</li>", html_escape(fact));
+        let _ = writeln!(html, "<li>{}</li>", inline_html(fact));
     }
     html.push_str("</ul>\n");
     for note in &notes {
@@ -246,7 +265,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
         let mut paragraph = String::new();
         let flush = |paragraph: &mut String, html: &mut String| {
             if !paragraph.trim().is_empty() {
-                let _ = writeln!(html, "<p>{}</p>", html_escape(paragraph.trim()).replace("**", ""));
+                let _ = writeln!(html, "<p>{}</p>", inline_html(paragraph.trim()));
             }
             paragraph.clear();
         };

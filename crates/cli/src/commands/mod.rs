@@ -6,3 +6,4 @@ pub mod dataset;
 pub mod train;
 pub mod eval;
 pub mod bake;
+pub mod realtime;

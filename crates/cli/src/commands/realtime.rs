@@ -1,0 +1,199 @@
+//! The real-time commands: `glassbake render` (one frame), `glassbake bench` (frame times and
+//! memory over resolutions x object counts) and `glassbake view` (the interactive viewer).
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::Result;
+use clap::{ArgGroup, Args};
+use glassbake_core::Error;
+use glassbake_eval::plot::{line_chart, Series};
+use glassbake_net::{select_device, DeviceChoice, TrainedModel, TrainedSuperSampler};
+use glassbake_raster::RasterizerOptions;
+use glassbake_realtime::bench::{marginal_ms_per_object, table};
+use glassbake_realtime::viewer::{check_display, run_viewer, ViewerOptions};
+use glassbake_realtime::{run_bench, scene_of_model, BenchOptions, FramePipeline, Output};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use super::camera_arg::parse_camera;
+
+/// The model (and optional companions) a real-time command runs.
+#[derive(Args, Clone)]
+pub struct PipelineArgs {
+    /// A trained GlassNet model directory (from `glassbake train` or `glassbake bake`).
+    pub model: PathBuf,
+    /// A trained naive baseline to switch to (`view`, `render --output naive`).
+    #[arg(long)]
+    pub naive: Option<PathBuf>,
+    /// A trained x2 super-sampler (`glassbake train-sr`): the network runs at half the
+    /// resolution and the super-sampler brings it up.
+    #[arg(long)]
+    pub sr: Option<PathBuf>,
+    /// The scene, when the model's training dataset is not at hand (must be the same scene).
+    #[arg(long)]
+    pub scene: Option<String>,
+    /// cpu (burn's flex backend) or wgpu (Vulkan) for the networks.
+    #[arg(long, default_value = "cpu")]
+    pub device: String,
+}
+
+struct Opened {
+    pipeline: FramePipeline,
+    dataset_seed: u64,
+    device: String,
+}
+
+fn open(args: &PipelineArgs) -> Result<Opened> {
+    let choice = DeviceChoice::parse(&args.device)?;
+    let device = select_device(choice, 0, false);
+    let glassnet = TrainedModel::load(&args.model, &device)?;
+    let scene = scene_of_model(&glassnet, args.scene.as_deref())?;
+    let naive = args.naive.as_deref().map(|d| TrainedModel::load(d, &device)).transpose()?;
+    let sr = args.sr.as_deref().map(|d| TrainedSuperSampler::load(d, &device)).transpose()?;
+    let pipeline = FramePipeline::new(scene.scene, glassnet, naive, sr, RasterizerOptions::default())?;
+    Ok(Opened { pipeline, dataset_seed: scene.dataset_seed, device: choice.name().to_string() })
+}
+
+#[derive(Args)]
+#[command(group(ArgGroup::new("view").required(true).args(["sample", "camera"])))]
+pub struct RenderArgs {
+    #[command(flatten)]
+    pub pipeline: PipelineArgs,
+    /// Render sample i of the model's dataset (its camera and variable values).
+    #[arg(long)]
+    pub sample: Option<u64>,
+    /// Camera as px,py,pz,tx,ty,tz[,fov_x_deg].
+    #[arg(long, allow_hyphen_values = true)]
+    pub camera: Option<String>,
+    /// Variable values for --camera, NAME=VALUE (others take their defaults).
+    #[arg(long = "set", requires = "camera")]
+    pub set: Vec<String>,
+    #[arg(long, default_value_t = 256)]
+    pub res: u32,
+    /// glassnet, naive, or a buffer attribute LAYER.ATTRIBUTE (opaque.albedo, transparent.0.coverage).
+    #[arg(long, default_value = "glassnet")]
+    pub output: String,
+    /// The PNG to write.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+fn parse_output(text: &str) -> glassbake_core::Result<Output> {
+    Ok(match text {
+        "glassnet" => Output::GlassNet,
+        "naive" => Output::Naive,
+        other => {
+            let (layer, attribute) = other.rsplit_once('.').ok_or_else(|| Error::bad_input("--output", "output", format!("{other:?} is not glassnet, naive or LAYER.ATTRIBUTE")))?;
+            Output::Buffer { layer: layer.into(), attribute: attribute.into() }
+        }
+    })
+}
+
+pub fn render(args: RenderArgs) -> Result<()> {
+    let output = parse_output(&args.output)?;
+    if args.out.extension().and_then(|e| e.to_str()) != Some("png") {
+        return Err(Error::bad_input(args.out.display(), "--out", "write a .png file").into());
+    }
+    let mut opened = open(&args.pipeline)?;
+    let scene = &opened.pipeline.scene;
+    let (camera, values) = match (args.sample, &args.camera) {
+        (Some(i), _) => {
+            let drawn = scene.sample(opened.dataset_seed, i);
+            (drawn.camera, drawn.values)
+        }
+        (None, Some(text)) => (parse_camera(text, scene)?, scene.values_from_assignments(&args.set)?),
+        (None, None) => unreachable!("clap requires --sample or --camera"),
+    };
+    let (image, times) = opened.pipeline.render(&camera, &values, args.res, args.res, &output)?;
+    image.write_png_rgb(&args.out, [0, 1, 2])?;
+    println!("{} ({}x{}, {}): {:.1} ms (raster {:.1}, network {:.1}; first frame, includes warm-up)", args.out.display(), args.res, args.res, args.output, times.total_ms, times.raster_ms, times.network_ms);
+    Ok(())
+}
+
+#[derive(Args)]
+pub struct BenchArgs {
+    #[command(flatten)]
+    pub pipeline: PipelineArgs,
+    /// Square resolutions, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "256,512")]
+    pub res: Vec<u32>,
+    /// Transparent-object counts, comma-separated (scenes synthesised from the model's).
+    #[arg(long, value_delimiter = ',', default_value = "1,2,4,8")]
+    pub objects: Vec<usize>,
+    /// Timed frames per configuration (the median is reported).
+    #[arg(long, default_value_t = 20)]
+    pub frames: usize,
+    /// Untimed frames before each configuration.
+    #[arg(long, default_value_t = 3)]
+    pub warmup: usize,
+    /// bench.json path (default: beside the model directory, where `glassbake bake` reports
+    /// look for it); a plot goes next to it as bench.png.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+pub fn bench(args: BenchArgs) -> Result<()> {
+    if args.frames == 0 || args.res.is_empty() || args.objects.is_empty() || args.objects.contains(&0) {
+        return Err(Error::bad_input("glassbake bench", "--frames/--res/--objects", "need at least one frame, one resolution and object counts of at least 1").into());
+    }
+    let out = args.out.clone().unwrap_or_else(|| args.pipeline.model.parent().unwrap_or(Path::new(".")).join("bench.json"));
+    let mut opened = open(&args.pipeline)?;
+    let options = BenchOptions { resolutions: args.res.clone(), objects: args.objects.clone(), warmup: args.warmup, frames: args.frames, seed: opened.dataset_seed };
+    let bar = ProgressBar::new(0);
+    bar.set_style(ProgressStyle::with_template("{spinner} frames {pos}/{len} [{elapsed_precise}] {wide_bar} ETA {eta}").expect("static template").progress_chars("=> "));
+    bar.enable_steady_tick(Duration::from_millis(250));
+    let progress = |done: usize, total: usize| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    };
+    let device = format!("network on {} ({} cores)", opened.device, std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let report = run_bench(&mut opened.pipeline, &device, &options, &progress);
+    bar.finish_and_clear();
+    let report = report?;
+    let json = serde_json::to_string_pretty(&report).map_err(|e| Error::Internal(e.to_string()))?;
+    glassbake_core::image::write_bytes_atomically(&out, json.as_bytes())?;
+    println!("{}: median of {} frames after {} warm-up, {}{}", report.device, report.frames, report.warmup, report.model, if report.super_sampler { ", with the x2 super-sampler" } else { "" });
+    print!("{}", table(&report));
+    let series: Vec<Series> = args
+        .res
+        .iter()
+        .map(|&res| Series { name: format!("{res}x{res}"), points: report.rows.iter().filter(|r| r.resolution == res).map(|r| (r.objects as f64, r.ms_per_frame)).collect(), dashed: false })
+        .collect();
+    let plot_path = out.with_extension("png");
+    if let Some(plot) = line_chart("Frame time", "transparent objects", "ms / frame (median)", &series, false)? {
+        glassbake_core::image::write_bytes_atomically(&plot_path, &plot.png)?;
+        println!("  plot  {}", plot_path.display());
+    }
+    println!("  table {}", out.display());
+    for &res in &args.res {
+        if let Some(slope) = marginal_ms_per_object(&report, res) {
+            println!("  {res}x{res}: {slope:+.2} ms per extra transparent object");
+        }
+    }
+    Ok(())
+}
+
+#[derive(Args)]
+pub struct ViewArgs {
+    #[command(flatten)]
+    pub pipeline: PipelineArgs,
+    /// Starting frame resolution.
+    #[arg(long, default_value_t = 128)]
+    pub res: u32,
+    /// Save a screenshot of the window here after --screenshot-after frames, then quit.
+    #[arg(long)]
+    pub screenshot: Option<PathBuf>,
+    #[arg(long, default_value_t = 5, requires = "screenshot")]
+    pub screenshot_after: usize,
+}
+
+pub fn view(args: ViewArgs) -> Result<()> {
+    check_display()?;
+    let opened = open(&args.pipeline)?;
+    let title = format!("glassbake view: {}", opened.pipeline.scene.name);
+    let options = ViewerOptions { resolution: args.res, screenshot: args.screenshot.clone(), screenshot_after: args.screenshot_after, title };
+    if let Some(path) = run_viewer(opened.pipeline, options)? {
+        println!("screenshot {}", path.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,109 @@
+//! `glassbake bake` and `glassbake eval` end to end on the tiny preset: every stage's outputs,
+//! the order test, a second run that skips every stage, LPIPS from a weights file, bad input.
+
+use std::path::Path;
+use std::process::Command;
+
+fn glassbake(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_glassbake")).args(args).output().unwrap();
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+}
+
+fn path(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// A tiny AlexNet-shaped LPIPS weights file in the safetensors format (8-byte header length,
+/// JSON header, little-endian f32 data), written by hand so the test needs no extra crate.
+fn write_lpips_weights(file: &Path) {
+    let channels = [3usize, 4, 5, 4, 3];
+    let kernels = [11usize, 5, 3, 3, 3];
+    let index = [0, 3, 6, 8, 10];
+    let mut tensors: Vec<(String, Vec<usize>)> = Vec::new();
+    let mut input = 3;
+    for s in 0..5 {
+        tensors.push((format!("features.{}.weight", index[s]), vec![channels[s], input, kernels[s], kernels[s]]));
+        tensors.push((format!("features.{}.bias", index[s]), vec![channels[s]]));
+        tensors.push((format!("lin{s}.model.1.weight"), vec![1, channels[s], 1, 1]));
+        input = channels[s];
+    }
+    let mut header = serde_json::Map::new();
+    let mut data: Vec<u8> = Vec::new();
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    for (name, shape) in &tensors {
+        let n: usize = shape.iter().product();
+        let fan_in: usize = shape.iter().skip(1).product();
+        let start = data.len();
+        for _ in 0..n {
+            // A 64-bit LCG: uniform in [-1, 1), scaled like a trained layer (1 / sqrt(fan in)).
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            let v = ((state >> 40) as f32 / (1u64 << 23) as f32 - 1.0) / (fan_in.max(1) as f32).sqrt();
+            let v = if name.starts_with("lin") { v.abs() } else { v };
+            data.extend_from_slice(&v.to_le_bytes());
+        }
+        header.insert(name.clone(), serde_json::json!({"dtype": "F32", "shape": shape, "data_offsets": [start, data.len()]}));
+    }
+    let header = serde_json::to_vec(&header).unwrap();
+    let mut bytes = (header.len() as u64).to_le_bytes().to_vec();
+    bytes.extend_from_slice(&header);
+    bytes.extend_from_slice(&data);
+    std::fs::write(file, bytes).unwrap();
+}
+
+#[test]
+fn bake_runs_every_stage_then_skips_them_and_eval_scores_with_lpips() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bake");
+    let (code, stdout, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--out", path(&out)]);
+    assert_eq!(code, 0, "{err}\n{stdout}");
+    for file in ["dataset/manifest.json", "glassnet/glassnet.safetensors", "naive/glassnet.safetensors", "eval/metrics.json", "eval/metrics.csv", "report/index.html", "report/report.md"] {
+        assert!(out.join(file).is_file(), "{file} missing");
+    }
+    // The bake ends with the metrics table, GlassNet against Naive.
+    let table_at = stdout.find("model ").expect("a metrics table");
+    assert!(stdout[table_at..].contains("glassnet") && stdout[table_at..].contains("naive"), "{stdout}");
+    assert!(stdout.contains("order test (glassnet, 2 frames): max |difference| reversed 0, shuffled 0 (bit-identical)"), "{stdout}");
+    let metrics: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("eval/metrics.json")).unwrap()).unwrap();
+    assert_eq!(metrics["models"].as_array().unwrap().len(), 2);
+    assert_eq!(metrics["order_test"]["reversed_max_abs_diff"], 0.0);
+    assert_eq!(metrics["order_test"]["shuffled_max_abs_diff"], 0.0);
+    assert_eq!(metrics["frames"].as_array().unwrap().len(), 2);
+    assert!(metrics["models"][0]["psnr"].as_f64().unwrap() > 5.0);
+
+    // Again: every stage is done already.
+    let (code, stdout, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--out", path(&out)]);
+    assert_eq!(code, 0, "{err}");
+    assert!(stdout.contains("0 frame(s) made") && stdout.matches("already trained").count() == 2 && stdout.contains("up to date"), "{stdout}");
+
+    // eval on its own, with LPIPS weights.
+    let weights = dir.path().join("lpips.safetensors");
+    write_lpips_weights(&weights);
+    let eval = dir.path().join("eval");
+    let (code, stdout, err) = glassbake(&["eval", path(&out.join("glassnet")), path(&out.join("dataset")), "--out", path(&eval), "--lpips-weights", path(&weights)]);
+    assert_eq!(code, 0, "{err}");
+    assert!(stdout.contains("LPIPS AlexNet weights from"), "{stdout}");
+    let metrics: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(eval.join("metrics.json")).unwrap()).unwrap();
+    assert!(metrics["models"][0]["lpips"].as_f64().unwrap() > 0.0);
+
+    // Bad input: one line naming the culprit, exit code 2, nothing written.
+    let (code, _, err) = glassbake(&["eval", path(&out.join("glassnet")), path(&out.join("dataset")), "--out", path(&dir.path().join("e2")), "--lpips-weights", path(&dir.path().join("none.safetensors"))]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("none.safetensors") && !dir.path().join("e2").exists(), "{err}");
+    let (code, _, err) = glassbake(&["bake", "cornell-glass", "--preset", "huge", "--out", path(&dir.path().join("b2"))]);
+    assert_eq!(code, 2);
+    assert!(err.contains("--preset") && !dir.path().join("b2").exists(), "{err}");
+}
+
+#[test]
+fn eval_refuses_a_model_of_another_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bake");
+    let (code, _, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--out", path(&out)]);
+    assert_eq!(code, 0, "{err}");
+    let other = dir.path().join("other");
+    let (code, _, err) = glassbake(&["dataset", "cornellbox", "--out", path(&other), "--train", "1", "--val", "1", "--test", "1", "--res", "32", "--spp", "2", "--cache-buffers"]);
+    assert_eq!(code, 0, "{err}");
+    let (code, _, err) = glassbake(&["eval", path(&out.join("glassnet")), path(&other), "--out", path(&dir.path().join("e"))]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("config.json") && err.contains("scene_hash"), "{err}");
+}

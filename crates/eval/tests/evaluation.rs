@@ -1,0 +1,85 @@
+//! An evaluation run on synthetic frames: per-frame and averaged metrics, metrics.json/csv,
+//! grids, and a self-contained report.
+
+use glassbake_eval::report::{write_report, BenchFile, BenchRow, ReportInputs, TrainingLog};
+use glassbake_eval::{Evaluation, EvaluationSummary, OrderTest, RgbImage};
+
+fn frame(w: usize, h: usize, level: f32) -> RgbImage {
+    RgbImage::new(w, h, (0..w * h).map(|i| [level, ((i % w) as f32 / w as f32), 0.3]).collect()).unwrap()
+}
+
+#[test]
+fn metrics_files_grids_and_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let eval_dir = dir.path().join("eval");
+    let models = vec!["glassnet".to_string(), "naive".to_string()];
+    let mut evaluation = Evaluation::new(&eval_dir, models, None, "data".into(), "test".into()).unwrap();
+    let (w, h) = (24, 20);
+    let truth = frame(w, h, 0.5);
+    // Frame 7: glass on the left half; glassnet is off by 0.1 in red everywhere, naive by 0.2.
+    let mask: Vec<bool> = (0..w * h).map(|i| i % w < w / 2).collect();
+    let record = evaluation.add_frame(7, &truth, &mask, &[frame(w, h, 0.6), frame(w, h, 0.7)]).unwrap().clone();
+    assert_eq!(record.transparent_pixels, w * h / 2);
+    // MAE = 0.1 / 3 over all channels; T.MAE the same (uniform error).
+    assert!((record.metrics[0].mae - 0.1 / 3.0).abs() < 1e-6);
+    assert!((record.metrics[0].t_mae.unwrap() - 0.1 / 3.0).abs() < 1e-6);
+    // PSNR = 10 log10(3 / 0.01) = 24.771 dB for glassnet, 10 log10(3 / 0.04) = 18.751 for naive.
+    assert!((record.metrics[0].psnr - 24.771_21).abs() < 1e-3);
+    assert!((record.metrics[1].psnr - 18.750_61).abs() < 1e-3);
+    assert!(record.metrics[0].flip < record.metrics[1].flip);
+    // Frame 8: no glass, exact match for glassnet.
+    evaluation.add_frame(8, &truth, &vec![false; w * h], &[truth.clone(), frame(w, h, 0.7)]).unwrap();
+    evaluation.set_order_test(OrderTest { model: "glassnet".into(), frames: 2, reversed_max_abs_diff: 0.0, shuffled_max_abs_diff: 0.0 });
+    let summary = evaluation.finish().unwrap();
+
+    let g = &summary.models[0];
+    assert_eq!((g.frames, g.t_frames), (2, 1));
+    assert!((g.mae - 0.1 / 6.0).abs() < 1e-6, "mean of 0.1/3 and 0");
+    assert!((g.psnr - (24.771_21 + 100.0) / 2.0).abs() < 1e-3, "an exact match counts as the 100 dB cap");
+    assert!((g.t_psnr.unwrap() - 24.771_21).abs() < 1e-3, "T.PSNR only over the frame with glass");
+    assert_eq!(g.lpips, None);
+    assert_eq!(summary.lpips, "skipped: no weights");
+
+    let read = EvaluationSummary::read(&eval_dir.join("metrics.json")).unwrap();
+    assert_eq!(read.models, summary.models);
+    let csv = std::fs::read_to_string(eval_dir.join("metrics.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 2 * 2 + 2, "{csv}");
+    assert!(csv.lines().any(|l| l.starts_with("8,glassnet,0.000000,100.0000,") && l.contains(",,")), "{csv}");
+    for file in ["grids/000007.png", "grids/000008.png", "frames/000007_ground_truth.png", "frames/000007_glassnet.png", "frames/000008_naive.png"] {
+        assert!(eval_dir.join(file).is_file(), "{file}");
+    }
+    let grid = image::open(eval_dir.join("grids/000007.png")).unwrap();
+    // ground truth, 2 models, 2 error maps, mask: 6 tiles of 24 px enlarged 6x, 4 px gaps.
+    assert_eq!((grid.width(), grid.height()), (6 * 144 + 5 * 4, 120));
+
+    let log = dir.path().join("train_log.csv");
+    std::fs::write(&log, "step,epoch,learning_rate,train_loss,validation_loss,elapsed_s\n1,0,1e-3,0.5,,0.1\n2,0,1e-3,0.4,0.45,0.2\n").unwrap();
+    let bench = dir.path().join("bench.json");
+    let rows = (1..=4).map(|t| BenchRow { resolution: 64, objects: t, ms_per_frame: 10.0 + t as f64, fps: 1000.0 / (10.0 + t as f64), peak_ram_mib: Some(50.0), peak_gpu_mib: None }).collect();
+    std::fs::write(&bench, serde_json::to_string(&BenchFile { device: "cpu".into(), rows }).unwrap()).unwrap();
+    let report_dir = dir.path().join("report");
+    let index = write_report(
+        &report_dir,
+        &ReportInputs { title: "test <bake>".into(), facts: vec!["a fact".into()], eval_dir: Some(eval_dir.clone()), training_logs: vec![TrainingLog { name: "glassnet".into(), path: log }], bench: Some(bench) },
+    )
+    .unwrap();
+    let html = std::fs::read_to_string(&index).unwrap();
+    assert!(html.contains("test &lt;bake&gt;") && html.contains("<table>") && html.contains("<td>glassnet</td>"));
+    assert!(html.contains("data:image/png;base64,"), "grids are embedded");
+    assert!(html.contains("bit-identical") && html.contains("<strong>Order test</strong>"));
+    // Self-contained: nothing is fetched from anywhere.
+    for external in ["src=\"http", "href=\"http", "src=\"/", "src=\"grids", "<link", "<script src"] {
+        assert!(!html.contains(external), "{external}");
+    }
+    let md = std::fs::read_to_string(report_dir.join("report.md")).unwrap();
+    assert!(md.contains("| glassnet |") && md.contains("![frame 7](grids/000007.png)"), "{md}");
+    assert!(report_dir.join("grids/000007.png").is_file());
+    if glassbake_eval::plot::font_available() {
+        assert!(html.contains("<svg"), "plots are inline SVG");
+        for png in ["metrics.png", "training_curves.png", "speed.png", "memory.png"] {
+            assert!(image::open(report_dir.join(png)).is_ok(), "{png}");
+        }
+    } else {
+        assert!(html.contains("no TrueType font"));
+    }
+}

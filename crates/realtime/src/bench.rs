@@ -1,0 +1,193 @@
+//! The real-time benchmark: frame time and peak memory over resolutions x transparent-object
+//! counts, laid out as the paper's Table 4.
+
+use std::fmt::Write as _;
+
+use glassbake_core::Result;
+use serde::{Deserialize, Serialize};
+
+use crate::memory::{peak_rss_mib, reset_peak_rss};
+use crate::pipeline::{FramePipeline, Output};
+use crate::synth::with_transparent_count;
+
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    pub resolutions: Vec<u32>,
+    pub objects: Vec<usize>,
+    /// Frames rendered and discarded before timing each configuration.
+    pub warmup: usize,
+    /// Timed frames per configuration (the median is reported).
+    pub frames: usize,
+    /// Seed of the cameras and values (the scene's sampling ranges; one per frame).
+    pub seed: u64,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct BenchRow {
+    pub resolution: u32,
+    pub objects: usize,
+    /// Median wall time of a whole frame.
+    pub ms_per_frame: f64,
+    pub fps: f64,
+    /// Medians of the frame's rasterizer and network parts.
+    pub raster_ms: f64,
+    pub network_ms: f64,
+    /// Fastest and slowest timed frame.
+    pub min_ms: f64,
+    pub max_ms: f64,
+    /// Peak resident memory of the process while this configuration ran (MiB).
+    pub peak_ram_mib: Option<f64>,
+    /// Peak GPU memory (MiB) where the backend reports it.
+    pub peak_gpu_mib: Option<f64>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct BenchReport {
+    /// The network's device and the rasterizer's adapter.
+    pub device: String,
+    pub model: String,
+    pub super_sampler: bool,
+    pub warmup: usize,
+    pub frames: usize,
+    pub rows: Vec<BenchRow>,
+}
+
+fn median(values: &mut [f64]) -> f64 {
+    values.sort_by(f64::total_cmp);
+    let n = values.len();
+    if n % 2 == 1 {
+        values[n / 2]
+    } else {
+        0.5 * (values[n / 2 - 1] + values[n / 2])
+    }
+}
+
+/// Runs every (resolution, objects) configuration; `progress(done, total)` after each frame.
+pub fn run_bench(pipeline: &mut FramePipeline, device: &str, options: &BenchOptions, progress: &dyn Fn(usize, usize)) -> Result<BenchReport> {
+    let base = pipeline.scene.clone();
+    let total = options.resolutions.len() * options.objects.len() * (options.warmup + options.frames);
+    let mut done = 0;
+    let mut rows = Vec::new();
+    for &resolution in &options.resolutions {
+        for &objects in &options.objects {
+            pipeline.set_scene(with_transparent_count(&base, objects)?);
+            let mut totals = Vec::new();
+            let mut raster = Vec::new();
+            let mut network = Vec::new();
+            let mut peak = None;
+            for i in 0..options.warmup + options.frames {
+                if i == options.warmup {
+                    // Measure what the timed frames need, not what earlier configurations left.
+                    reset_peak_rss();
+                }
+                let sample = base.sample(options.seed, i as u64);
+                let (_, times) = pipeline.render(&sample.camera, &sample.values, resolution, resolution, &Output::GlassNet)?;
+                if i >= options.warmup {
+                    totals.push(times.total_ms);
+                    raster.push(times.raster_ms);
+                    network.push(times.network_ms);
+                }
+                done += 1;
+                progress(done, total);
+            }
+            if options.frames > 0 {
+                peak = peak_rss_mib();
+            }
+            let ms_per_frame = median(&mut totals);
+            rows.push(BenchRow {
+                resolution,
+                objects,
+                ms_per_frame,
+                fps: 1000.0 / ms_per_frame,
+                raster_ms: median(&mut raster),
+                network_ms: median(&mut network),
+                min_ms: totals.first().copied().unwrap_or(f64::NAN),
+                max_ms: totals.last().copied().unwrap_or(f64::NAN),
+                peak_ram_mib: peak,
+                peak_gpu_mib: None,
+            });
+        }
+    }
+    pipeline.set_scene(base);
+    Ok(BenchReport {
+        device: format!("{device}; rasterizer on {}", pipeline.adapter_name()),
+        model: pipeline.glassnet.files.dir.display().to_string(),
+        super_sampler: pipeline.super_sampler.is_some(),
+        warmup: options.warmup,
+        frames: options.frames,
+        rows,
+    })
+}
+
+/// Least-squares slope of ms per frame against the object count, per resolution.
+pub fn marginal_ms_per_object(report: &BenchReport, resolution: u32) -> Option<f64> {
+    let points: Vec<(f64, f64)> = report.rows.iter().filter(|r| r.resolution == resolution).map(|r| (r.objects as f64, r.ms_per_frame)).collect();
+    if points.len() < 2 {
+        return None;
+    }
+    let n = points.len() as f64;
+    let (mx, my) = (points.iter().map(|p| p.0).sum::<f64>() / n, points.iter().map(|p| p.1).sum::<f64>() / n);
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    (sxx > 0.0).then(|| points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>() / sxx)
+}
+
+/// How one table row shows a configuration.
+type CellFormat = Box<dyn Fn(&BenchRow) -> String>;
+
+/// The paper's Table 4 layout: per resolution an FPS row and a frame-time row over the object
+/// counts, then peak memory and the marginal cost of one more object.
+pub fn table(report: &BenchReport) -> String {
+    let mut counts: Vec<usize> = report.rows.iter().map(|r| r.objects).collect();
+    counts.sort_unstable();
+    counts.dedup();
+    let mut resolutions: Vec<u32> = report.rows.iter().map(|r| r.resolution).collect();
+    resolutions.dedup();
+    let row = |res: u32, t: usize| report.rows.iter().find(|r| r.resolution == res && r.objects == t);
+    let mut out = format!("{:<10} {:<22}", "size", "# transparent objects");
+    for t in &counts {
+        let _ = write!(out, " {t:>9}");
+    }
+    out.push('\n');
+    for res in resolutions {
+        let size = format!("{res}x{res}");
+        let lines: [(&str, CellFormat); 5] = [
+            ("framerate (FPS)", Box::new(|r: &BenchRow| format!("{:.1}", r.fps))),
+            ("frame time (ms)", Box::new(|r: &BenchRow| format!("{:.1}", r.ms_per_frame))),
+            ("  raster (ms)", Box::new(|r: &BenchRow| format!("{:.1}", r.raster_ms))),
+            ("  network (ms)", Box::new(|r: &BenchRow| format!("{:.1}", r.network_ms))),
+            ("peak RAM (MiB)", Box::new(|r: &BenchRow| r.peak_ram_mib.map(|v| format!("{v:.0}")).unwrap_or_else(|| "-".into()))),
+        ];
+        for (i, (name, cell)) in lines.iter().enumerate() {
+            let _ = write!(out, "{:<10} {:<22}", if i == 0 { size.as_str() } else { "" }, name);
+            for &t in &counts {
+                let _ = write!(out, " {:>9}", row(res, t).map(cell).unwrap_or_else(|| "-".into()));
+            }
+            out.push('\n');
+        }
+        if let Some(slope) = marginal_ms_per_object(report, res) {
+            let _ = writeln!(out, "{:<10} {:<22} {slope:+.2} ms per extra object (least squares)", "", "marginal cost");
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(res: u32, objects: usize, ms: f64) -> BenchRow {
+        BenchRow { resolution: res, objects, ms_per_frame: ms, fps: 1000.0 / ms, raster_ms: 1.0, network_ms: ms - 1.0, min_ms: ms, max_ms: ms, peak_ram_mib: Some(100.0), peak_gpu_mib: None }
+    }
+
+    #[test]
+    fn median_and_slope() {
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), 2.5);
+        // The paper's 512^2 frame times (20, 27, 31, 43 ms at t = 1, 2, 4, 8): slope 88.25 / 28.75 = 3.07 ms.
+        let report = BenchReport { device: "d".into(), model: "m".into(), super_sampler: false, warmup: 0, frames: 1, rows: vec![row(512, 1, 20.0), row(512, 2, 27.0), row(512, 4, 31.0), row(512, 8, 43.0)] };
+        let slope = marginal_ms_per_object(&report, 512).unwrap();
+        assert!((slope - 88.25 / 28.75).abs() < 1e-9, "{slope}");
+        let text = table(&report);
+        assert!(text.contains("512x512") && text.contains("50.0") && text.contains("+3.07 ms per extra object"), "{text}");
+    }
+}

@@ -1,0 +1,17 @@
+//! glassbake-realtime: rendering a trained scene frame by frame. It owns the frame pipeline
+//! (camera + variable values -> rasterizer: opaque G-buffer, transparency buffers streamed one
+//! at a time -> GlassNet -> optional x2 super-sampler -> image), finding a model's scene,
+//! synthesising scenes with more or fewer transparent objects for the benchmark, the
+//! benchmark itself (frame times, peak memory), and the interactive viewer (eframe: egui on
+//! wgpu/winit).
+
+pub mod bench;
+pub mod memory;
+pub mod pipeline;
+pub mod scene_source;
+pub mod synth;
+pub mod viewer;
+
+pub use bench::{run_bench, BenchOptions, BenchReport, BenchRow};
+pub use pipeline::{FramePipeline, FrameTimes, Output};
+pub use scene_source::{scene_of_model, ModelScene};

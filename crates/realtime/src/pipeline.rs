@@ -1,0 +1,198 @@
+//! One frame: camera + variable values -> rasterizer -> GlassNet -> optional x2 super-sampler.
+//!
+//! The rasterizer renders the opaque G-buffer, then each transparency buffer into one reused
+//! set of targets, read back into one reused host buffer and handed to GlassNet's streaming
+//! forward pass, so neither the GPU nor the host holds more than one transparency buffer
+//! whatever the object count. The rasterizer's wgpu device and burn's are separate devices:
+//! each buffer crosses the host once (see docs/realtime.md for why and what it costs).
+
+use std::time::Instant;
+
+use glam::Vec3;
+use glassbake_core::layout::{self, OPAQUE_ATTRIBUTES, TRANSPARENT_ATTRIBUTES, TRANSPARENT_CHANNELS};
+use glassbake_core::{Camera, Error, PlanarImage, Result};
+use glassbake_net::batch::image_from_tensor;
+use glassbake_net::burn::prelude::*;
+use glassbake_net::burn::tensor::TensorData;
+use glassbake_net::{ModelKind, TrainedModel, TrainedSuperSampler};
+use glassbake_raster::{Rasterizer, RasterizerOptions};
+use glassbake_scene::Scene;
+
+/// What a frame shows.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Output {
+    /// The trained GlassNet (the pipeline's main model).
+    GlassNet,
+    /// The naive baseline, when one was loaded.
+    Naive,
+    /// One attribute of one rasterized buffer: `layer` is `opaque`, `naive` or
+    /// `transparent.K`; `attribute` one of `layout`'s attribute names.
+    Buffer { layer: String, attribute: String },
+}
+
+/// Wall-clock split of one frame, milliseconds.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FrameTimes {
+    /// Rasterizing and reading back buffers (including the transparency buffers fed while the
+    /// network runs).
+    pub raster_ms: f64,
+    /// Everything else: the network, uploads, the image read-back.
+    pub network_ms: f64,
+    pub total_ms: f64,
+}
+
+pub struct FramePipeline {
+    pub scene: Scene,
+    pub glassnet: TrainedModel,
+    pub naive: Option<TrainedModel>,
+    pub super_sampler: Option<TrainedSuperSampler>,
+    rasterizer: Rasterizer,
+    /// The one host buffer transparency buffers are read back into.
+    planes: Vec<f32>,
+}
+
+fn ms(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
+}
+
+impl FramePipeline {
+    pub fn new(scene: Scene, glassnet: TrainedModel, naive: Option<TrainedModel>, super_sampler: Option<TrainedSuperSampler>, raster: RasterizerOptions) -> Result<FramePipeline> {
+        if glassnet.kind() == ModelKind::Naive {
+            return Err(Error::bad_input(glassnet.files.dir.display(), "network", "is a naive baseline; give a GlassNet model (the naive one goes to --naive)"));
+        }
+        if let Some(n) = &naive {
+            if n.kind() != ModelKind::Naive {
+                return Err(Error::bad_input(n.files.dir.display(), "network", "is not a naive baseline"));
+            }
+        }
+        Ok(FramePipeline { scene, glassnet, naive, super_sampler, rasterizer: Rasterizer::new(raster)?, planes: Vec::new() })
+    }
+
+    /// Replaces the scene (the benchmark's object counts); the models stay.
+    pub fn set_scene(&mut self, scene: Scene) {
+        self.scene = scene;
+        self.rasterizer.clear_cache();
+    }
+
+    pub fn adapter_name(&self) -> String {
+        self.rasterizer.adapter_info().name.clone()
+    }
+
+    /// Renders one `width` x `height` frame. `values` are the variables' values in their
+    /// units (not normalised). Returns linear RGB clamped to [0, 1] (channels R, G, B).
+    pub fn render(&mut self, camera: &Camera, values: &[f32], width: u32, height: u32, output: &Output) -> Result<(PlanarImage, FrameTimes)> {
+        let start = Instant::now();
+        let instance = self.scene.instantiate(values)?;
+        let normalised: Vec<f32> = self.scene.variables.iter().zip(values).map(|(v, &x)| v.normalize(x)).collect();
+        let mut times = FrameTimes::default();
+        let image = match output {
+            Output::Buffer { layer, attribute } => {
+                let image = self.buffer_view(&instance, camera, width, height, layer, attribute)?;
+                times.raster_ms = ms(start);
+                image
+            }
+            Output::GlassNet | Output::Naive => {
+                let naive = *output == Output::Naive;
+                if naive && self.naive.is_none() {
+                    return Err(Error::bad_input("--naive", "model", "no naive baseline was loaded"));
+                }
+                let sr = self.super_sampler.is_some();
+                if sr && !(width.is_multiple_of(2) && height.is_multiple_of(2)) {
+                    return Err(Error::bad_input("--res", "resolution", "the x2 super-sampler needs an even size"));
+                }
+                let (lw, lh) = if sr { (width / 2, height / 2) } else { (width, height) };
+                let model = if naive { self.naive.as_ref().expect("checked") } else { &self.glassnet };
+                model.net.check_inputs(lw as usize, lh as usize, if naive { 0 } else { instance.transparent_count() })?;
+                let device = model.device.clone();
+                let raster_start = Instant::now();
+                let mut frame = self.rasterizer.begin_frame(&instance, camera, lw, lh)?;
+                let gbuffer = if naive { frame.naive()? } else { frame.opaque()? };
+                let objects = if naive { 0 } else { frame.transparent_count() };
+                times.raster_ms += ms(raster_start);
+                let to_tensor = |data: Vec<f32>, channels: usize| Tensor::<4>::from_data(TensorData::new(data, [1, channels, lh as usize, lw as usize]), &device);
+                let values_tensor = Tensor::<2>::from_data(TensorData::new(normalised.clone(), [1, normalised.len()]), &device);
+                let planes = &mut self.planes;
+                planes.resize(TRANSPARENT_CHANNELS * (lw * lh) as usize, 0.0);
+                let mut failure = None;
+                let mut raster_ms = 0.0;
+                let prediction = model.net.forward_streaming(to_tensor(gbuffer.data().to_vec(), layout::OPAQUE_CHANNELS), values_tensor, objects, |k| {
+                    let t = Instant::now();
+                    let read = frame.transparent_into(k, planes);
+                    raster_ms += ms(t);
+                    match read {
+                        Ok(()) => Some(to_tensor(planes.clone(), TRANSPARENT_CHANNELS)),
+                        Err(e) => {
+                            failure = Some(e);
+                            None
+                        }
+                    }
+                });
+                drop(frame);
+                if let Some(e) = failure {
+                    return Err(e);
+                }
+                times.raster_ms += raster_ms;
+                let mut prediction = prediction.clamp(0.0, 1.0);
+                if let Some(sampler) = &self.super_sampler {
+                    let t = Instant::now();
+                    let mut full = self.rasterizer.begin_frame(&instance, camera, width, height)?;
+                    let full_gbuffer = full.opaque()?;
+                    drop(full);
+                    times.raster_ms += ms(t);
+                    let gbuffer = Tensor::<4>::from_data(TensorData::new(full_gbuffer.data().to_vec(), [1, layout::OPAQUE_CHANNELS, height as usize, width as usize]), &sampler.device);
+                    let low = Tensor::<4>::from_data(prediction.into_data(), &sampler.device);
+                    prediction = sampler.net.forward(low, gbuffer).clamp(0.0, 1.0);
+                }
+                image_from_tensor(&prediction, 0)?
+            }
+        };
+        times.total_ms = ms(start);
+        times.network_ms = (times.total_ms - times.raster_ms).max(0.0);
+        Ok((image, times))
+    }
+
+    /// One attribute of one buffer as an RGB image (scalars grey; normals and directions
+    /// mapped from [-1, 1]; positions and depths scaled by the scene's extent).
+    fn buffer_view(&mut self, instance: &Scene, camera: &Camera, width: u32, height: u32, layer: &str, attribute: &str) -> Result<PlanarImage> {
+        let mut frame = self.rasterizer.begin_frame(instance, camera, width, height)?;
+        let (image, attributes) = match layer {
+            "opaque" => (frame.opaque()?, &OPAQUE_ATTRIBUTES[..]),
+            "naive" => (frame.naive()?, &OPAQUE_ATTRIBUTES[..]),
+            other => {
+                let k = other
+                    .strip_prefix("transparent.")
+                    .and_then(|k| k.parse::<usize>().ok())
+                    .filter(|&k| k < frame.transparent_count())
+                    .ok_or_else(|| Error::bad_input("--layer", "layer", format!("{other:?} is not opaque, naive or transparent.K with K < {}", frame.transparent_count())))?;
+                (frame.transparent(k)?, &TRANSPARENT_ATTRIBUTES[..])
+            }
+        };
+        drop(frame);
+        let mut offset = 0;
+        let found = attributes.iter().find(|a| {
+            let hit = a.name == attribute;
+            if !hit {
+                offset += a.components.len();
+            }
+            hit
+        });
+        let attr = found.ok_or_else(|| {
+            Error::bad_input("--layer", "attribute", format!("{attribute:?} is not one of {}", attributes.iter().map(|a| a.name).collect::<Vec<_>>().join(", ")))
+        })?;
+        let extent = instance.bounds().map(|(lo, hi)| (hi - lo).length()).unwrap_or(1.0).max(1e-6);
+        let centre = instance.bounds().map(|(lo, hi)| 0.5 * (lo + hi)).unwrap_or(Vec3::ZERO);
+        let map = |c: usize, v: f32| match attr.name {
+            "normal" | "wo" => 0.5 * v + 0.5,
+            "position" => (v - centre[c]) / extent + 0.5,
+            "depth" => v / extent,
+            _ => v,
+        };
+        let pixels = (width * height) as usize;
+        let mut data = Vec::with_capacity(3 * pixels);
+        for c in 0..3 {
+            let component = c.min(attr.components.len() - 1);
+            data.extend(image.plane(offset + component).iter().map(|&v| map(component, v)));
+        }
+        PlanarImage::from_planes(width, height, layout::GROUND_TRUTH_CHANNELS.iter().map(|s| s.to_string()).collect(), data)
+    }
+}

@@ -1,0 +1,269 @@
+//! The interactive viewer: an eframe window (egui on wgpu/winit, X11) showing the pipeline's
+//! frames, with an orbit camera (drag to turn, scroll to zoom), a slider per scene variable, a
+//! resolution slider, a choice between GlassNet, the naive baseline and any single buffer
+//! attribute, and the frame rate.
+
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+
+use eframe::egui;
+use glam::Vec3;
+use glassbake_core::color::linear_to_srgb;
+use glassbake_core::layout::{GROUND_TRUTH_CHANNELS, OPAQUE_ATTRIBUTES, TRANSPARENT_ATTRIBUTES};
+use glassbake_core::{Camera, Error, PlanarImage, Result};
+
+use crate::pipeline::{FramePipeline, Output};
+
+pub struct ViewerOptions {
+    /// Starting frame resolution (square).
+    pub resolution: u32,
+    /// Save a screenshot of the whole window here after `screenshot_after` frames, then quit
+    /// (for tests and docs under Xvfb).
+    pub screenshot: Option<PathBuf>,
+    pub screenshot_after: usize,
+    pub title: String,
+}
+
+/// Fails with a clear message when there is no display to open a window on.
+pub fn check_display() -> Result<()> {
+    let has = |v: &str| std::env::var_os(v).is_some_and(|s| !s.is_empty());
+    if !has("DISPLAY") {
+        return Err(Error::bad_input(
+            "glassbake view",
+            "display",
+            if has("WAYLAND_DISPLAY") {
+                "only a Wayland display is set; the viewer needs X11 (DISPLAY), e.g. XWayland".to_string()
+            } else {
+                "no display (DISPLAY is not set): run it on a desktop, over `ssh -X`, or headless under `xvfb-run -s '-screen 0 1280x800x24' glassbake view ...`".to_string()
+            },
+        ));
+    }
+    Ok(())
+}
+
+/// The orbit camera: angles in degrees around the scene camera's target.
+#[derive(Clone, Copy, Debug)]
+struct Orbit {
+    target: Vec3,
+    distance: f32,
+    azimuth: f32,
+    elevation: f32,
+}
+
+impl Orbit {
+    fn from_camera(camera: &Camera) -> Orbit {
+        let offset = camera.position - camera.target;
+        let distance = offset.length().max(1e-3);
+        Orbit { target: camera.target, distance, azimuth: offset.x.atan2(offset.z).to_degrees(), elevation: (offset.y / distance).clamp(-1.0, 1.0).asin().to_degrees() }
+    }
+
+    fn camera(&self, template: &Camera) -> Camera {
+        let (a, e) = (self.azimuth.to_radians(), self.elevation.clamp(-85.0, 85.0).to_radians());
+        let offset = Vec3::new(e.cos() * a.sin(), e.sin(), e.cos() * a.cos()) * self.distance;
+        Camera { position: self.target + offset, target: self.target, ..*template }
+    }
+}
+
+/// Everything the output menu offers.
+fn output_choices(pipeline: &FramePipeline) -> Vec<(String, Output)> {
+    let mut choices = vec![("GlassNet".to_string(), Output::GlassNet)];
+    if pipeline.naive.is_some() {
+        choices.push(("naive baseline".into(), Output::Naive));
+    }
+    for layer in ["opaque", "naive"] {
+        for a in OPAQUE_ATTRIBUTES {
+            choices.push((format!("{layer} buffer: {}", a.name), Output::Buffer { layer: layer.into(), attribute: a.name.into() }));
+        }
+    }
+    for k in 0..pipeline.scene.transparent_count() {
+        for a in TRANSPARENT_ATTRIBUTES {
+            choices.push((format!("transparency buffer {k}: {}", a.name), Output::Buffer { layer: format!("transparent.{k}"), attribute: a.name.into() }));
+        }
+    }
+    choices
+}
+
+fn color_image(image: &PlanarImage) -> egui::ColorImage {
+    let planes: Vec<&[f32]> = GROUND_TRUTH_CHANNELS.iter().map(|c| image.plane_by_name(c).expect("RGB frame")).collect();
+    let bytes: Vec<u8> = (0..image.pixel_count()).flat_map(|i| planes.iter().map(move |p| (linear_to_srgb(p[i]) * 255.0 + 0.5) as u8)).collect();
+    egui::ColorImage::from_rgb([image.width() as usize, image.height() as usize], &bytes)
+}
+
+struct Viewer {
+    pipeline: FramePipeline,
+    template: Camera,
+    orbit: Orbit,
+    values: Vec<f32>,
+    choices: Vec<(String, Output)>,
+    choice: usize,
+    resolution: u32,
+    size_multiple: u32,
+    texture: Option<egui::TextureHandle>,
+    /// Exponential moving average of the frame time, ms.
+    frame_ms: Option<f64>,
+    last: crate::pipeline::FrameTimes,
+    error: Option<String>,
+    frames: usize,
+    screenshot: Option<PathBuf>,
+    screenshot_after: usize,
+    screenshot_requested: bool,
+    screenshot_result: Arc<Mutex<Option<std::result::Result<PathBuf, String>>>>,
+}
+
+impl Viewer {
+    fn render(&mut self, ctx: &egui::Context) {
+        let camera = self.orbit.camera(&self.template);
+        let output = self.choices[self.choice].1.clone();
+        match self.pipeline.render(&camera, &self.values, self.resolution, self.resolution, &output) {
+            Ok((image, times)) => {
+                let picture = color_image(&image);
+                match &mut self.texture {
+                    Some(t) => t.set(picture, egui::TextureOptions::NEAREST),
+                    None => self.texture = Some(ctx.load_texture("frame", picture, egui::TextureOptions::NEAREST)),
+                }
+                self.frame_ms = Some(self.frame_ms.map_or(times.total_ms, |m| 0.9 * m + 0.1 * times.total_ms));
+                self.last = times;
+                self.error = None;
+                self.frames += 1;
+            }
+            Err(e) => self.error = Some(e.to_string()),
+        }
+    }
+
+    fn controls(&mut self, ui: &mut egui::Ui) {
+        ui.heading("glassbake");
+        match self.frame_ms {
+            Some(ms) => ui.label(format!("{:.1} FPS ({ms:.1} ms/frame)\nraster {:.1} ms, network {:.1} ms", 1000.0 / ms, self.last.raster_ms, self.last.network_ms)),
+            None => ui.label("first frame..."),
+        };
+        ui.separator();
+        egui::ComboBox::from_label("output").selected_text(self.choices[self.choice].0.clone()).show_ui(ui, |ui| {
+            for (i, (label, _)) in self.choices.iter().enumerate() {
+                ui.selectable_value(&mut self.choice, i, label);
+            }
+        });
+        let m = self.size_multiple;
+        let mut steps = self.resolution / m;
+        ui.add(egui::Slider::new(&mut steps, (32 / m).max(1)..=(1024 / m)).text("resolution").custom_formatter(move |v, _| format!("{} px", v as u32 * m)));
+        self.resolution = steps * m;
+        ui.separator();
+        ui.label("camera (drag the image to orbit, scroll to zoom)");
+        ui.add(egui::Slider::new(&mut self.orbit.azimuth, -180.0..=180.0).text("azimuth"));
+        ui.add(egui::Slider::new(&mut self.orbit.elevation, -85.0..=85.0).text("elevation"));
+        let far = (self.orbit.distance * 2.0).max(10.0);
+        ui.add(egui::Slider::new(&mut self.orbit.distance, 0.1..=far).text("distance"));
+        ui.separator();
+        ui.label("scene variables");
+        for (variable, value) in self.pipeline.scene.variables.iter().zip(self.values.iter_mut()) {
+            ui.add(egui::Slider::new(value, variable.min..=variable.max).text(&variable.name));
+        }
+        if let Some(error) = &self.error {
+            ui.separator();
+            ui.colored_label(egui::Color32::RED, error);
+        }
+    }
+}
+
+impl eframe::App for Viewer {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        let ctx = ui.ctx().clone();
+        self.render(&ctx);
+        egui::Panel::left("controls").show(ui, |ui| self.controls(ui));
+        egui::CentralPanel::default_margins().show(ui, |ui| {
+            if let Some(texture) = &self.texture {
+                let available = ui.available_size();
+                let side = available.x.min(available.y).max(64.0);
+                let response = ui.add(egui::Image::from_texture(egui::load::SizedTexture::new(texture.id(), egui::vec2(side, side))).sense(egui::Sense::click_and_drag()));
+                if response.dragged() {
+                    let d = response.drag_delta();
+                    self.orbit.azimuth = (self.orbit.azimuth - 0.4 * d.x + 540.0).rem_euclid(360.0) - 180.0;
+                    self.orbit.elevation = (self.orbit.elevation + 0.4 * d.y).clamp(-85.0, 85.0);
+                }
+                if response.hovered() {
+                    let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+                    self.orbit.distance = (self.orbit.distance * (-0.002 * scroll).exp()).max(0.05);
+                }
+            }
+        });
+        if let Some(path) = self.screenshot.clone() {
+            if !self.screenshot_requested && self.frames >= self.screenshot_after {
+                self.screenshot_requested = true;
+                let result = self.screenshot_result.clone();
+                let request_ctx = ctx.clone();
+                ctx.request_screenshot(move |image| {
+                    let saved = eframe_image_png(&image, &path).map(|()| path.clone());
+                    *result.lock().expect("screenshot result") = Some(saved);
+                    request_ctx.request_repaint();
+                });
+            }
+            if self.screenshot_result.lock().expect("screenshot result").is_some() {
+                ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+            }
+        }
+        ctx.request_repaint();
+    }
+}
+
+fn eframe_image_png(image: &egui::ColorImage, path: &std::path::Path) -> std::result::Result<(), String> {
+    let [w, h] = image.size;
+    let bytes: Vec<u8> = image.pixels.iter().flat_map(|c| [c.r(), c.g(), c.b()]).collect();
+    let buffer = image::RgbImage::from_raw(w as u32, h as u32, bytes).ok_or("screenshot size")?;
+    let mut png = Vec::new();
+    buffer.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).map_err(|e| e.to_string())?;
+    glassbake_core::image::write_bytes_atomically(path, &png).map_err(|e| e.to_string())
+}
+
+/// Opens the window and runs until it is closed (or the screenshot is taken).
+pub fn run_viewer(pipeline: FramePipeline, options: ViewerOptions) -> Result<Option<PathBuf>> {
+    check_display()?;
+    let template = pipeline.scene.camera.middle();
+    let values = pipeline.scene.default_values();
+    let choices = output_choices(&pipeline);
+    let size_multiple = (pipeline.glassnet.config().size_multiple() as u32) * if pipeline.super_sampler.is_some() { 2 } else { 1 };
+    let resolution = (options.resolution / size_multiple).max(1) * size_multiple;
+    let result = Arc::new(Mutex::new(None));
+    let viewer = Viewer {
+        orbit: Orbit::from_camera(&template),
+        template,
+        values,
+        choices,
+        choice: 0,
+        resolution,
+        size_multiple,
+        texture: None,
+        frame_ms: None,
+        last: Default::default(),
+        error: None,
+        frames: 0,
+        screenshot: options.screenshot.clone(),
+        screenshot_after: options.screenshot_after,
+        screenshot_requested: false,
+        screenshot_result: result.clone(),
+        pipeline,
+    };
+    let native = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default().with_inner_size([1100.0, 760.0]).with_title(options.title.clone()),
+        renderer: eframe::Renderer::Wgpu,
+        ..Default::default()
+    };
+    eframe::run_native(&options.title, native, Box::new(|_| Ok(Box::new(viewer)))).map_err(|e| Error::Internal(format!("the viewer window: {e}")))?;
+    let outcome = result.lock().expect("screenshot result").take();
+    match outcome {
+        Some(Ok(path)) => Ok(Some(path)),
+        Some(Err(e)) => Err(Error::Internal(format!("saving the screenshot: {e}"))),
+        None if options.screenshot.is_some() => Err(Error::Internal("the window closed before the screenshot was taken".into())),
+        None => Ok(None),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn orbit_round_trips_a_camera() {
+        let camera = Camera { position: Vec3::new(1.0, 2.0, 3.0), target: Vec3::new(0.0, 1.0, 0.0), ..glassbake_scene::builtin::builtin("cornellbox").unwrap().camera.middle() };
+        let back = Orbit::from_camera(&camera).camera(&camera);
+        assert!((back.position - camera.position).length() < 1e-5, "{:?}", back.position);
+    }
+}
