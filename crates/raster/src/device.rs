@@ -32,6 +32,9 @@ pub struct RasterizerOptions {
     /// Draw rectangle lights' own quads into the opaque and naive G-buffers (they show their
     /// radiance in L_d, as the path tracer sees them).
     pub draw_lights: bool,
+    /// Open the device with every feature the adapter offers (mappable primary buffers
+    /// excepted), as burn's wgpu backend expects of a device it is given to share.
+    pub all_adapter_features: bool,
 }
 
 impl Default for RasterizerOptions {
@@ -42,6 +45,7 @@ impl Default for RasterizerOptions {
             shadow_map_size: 512,
             shadows: true,
             draw_lights: true,
+            all_adapter_features: false,
         }
     }
 }
@@ -77,7 +81,8 @@ fn usable(adapter: &wgpu::Adapter) -> bool {
 }
 
 /// Open a device on the chosen Vulkan adapter, with the adapter's own limits.
-pub(crate) fn open(options: &RasterizerOptions) -> Result<(wgpu::Instance, wgpu::Adapter, wgpu::Device, wgpu::Queue)> {
+/// Opens the Vulkan device the options choose: (instance, adapter, device, queue).
+pub fn open(options: &RasterizerOptions) -> Result<(wgpu::Instance, wgpu::Adapter, wgpu::Device, wgpu::Queue)> {
     let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
         backends: wgpu::Backends::VULKAN,
         ..wgpu::InstanceDescriptor::new_without_display_handle()
@@ -106,7 +111,11 @@ pub(crate) fn open(options: &RasterizerOptions) -> Result<(wgpu::Instance, wgpu:
         .ok_or_else(|| Error::Internal(format!("{NO_ADAPTER_HELP} (Vulkan adapters found: {})", names.join(", "))))?;
     let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
         label: Some("glassbake-raster"),
-        required_features: wgpu::Features::empty(),
+        required_features: if options.all_adapter_features {
+            adapter.features() - wgpu::Features::MAPPABLE_PRIMARY_BUFFERS
+        } else {
+            wgpu::Features::empty()
+        },
         required_limits: adapter.limits(),
         ..Default::default()
     }))

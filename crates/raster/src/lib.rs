@@ -13,6 +13,7 @@ pub mod device;
 pub mod ltc;
 mod rasterizer;
 mod resources;
+mod unpack;
 
 pub use device::{PowerPreference, RasterizerOptions};
 pub use rasterizer::{Frame, FrameBuffers, Rasterizer, MAX_RESOLUTION};

@@ -284,6 +284,8 @@ pub struct Rasterizer {
     cache: Cache,
     targets: Option<Targets>,
     shadows: Option<ShadowMaps>,
+    /// The compute pass writing buffers into caller-owned storage buffers (made on first use).
+    unpacker: Option<crate::unpack::Unpacker>,
 }
 
 /// All buffers of one frame.
@@ -554,6 +556,7 @@ impl Rasterizer {
             cache: Cache::default(),
             targets: None,
             shadows: None,
+            unpacker: None,
         })
     }
 
@@ -1052,6 +1055,41 @@ impl Frame<'_> {
         self.render_transparent(k)?;
         let r = &*self.rasterizer;
         r.targets.as_ref().expect("targets").transparency.read_into(&r.device, &r.queue, &TRANSPARENT_MAP, self.width, self.height, planes)
+    }
+
+    /// Write the opaque G-buffer into `out` from `byte_offset` on as 17 f32 planes of
+    /// width x height (NCHW, `layout::opaque_channel_names()` order), on the GPU: no host copy.
+    /// `out` must have STORAGE usage, and lives on this rasterizer's device (e.g. a tensor's
+    /// storage when the network shares the device). Submitted; not waited for.
+    pub fn opaque_to_buffer(&mut self, out: &wgpu::Buffer, byte_offset: u64) -> Result<()> {
+        let mut encoder = self.rasterizer.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("opaque to buffer") });
+        self.encode_unpack(&mut encoder, false, out, byte_offset)?;
+        self.rasterizer.queue.submit([encoder.finish()]);
+        Ok(())
+    }
+
+    /// Render transparency buffer `k` and write it into `out` from `byte_offset` on as 16 f32
+    /// planes (`layout::transparent_channel_names(k)` order), on the GPU, in one submission.
+    pub fn transparent_to_buffer(&mut self, k: usize, out: &wgpu::Buffer, byte_offset: u64) -> Result<()> {
+        if k >= self.transparent_count() {
+            return Err(Error::Internal(format!("transparency buffer {k} of {}", self.transparent_count())));
+        }
+        let mut encoder = self.rasterizer.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("transparency to buffer") });
+        self.encode_pass(&mut encoder, PassKind::Transparency(k));
+        self.encode_unpack(&mut encoder, true, out, byte_offset)?;
+        self.rasterizer.queue.submit([encoder.finish()]);
+        Ok(())
+    }
+
+    fn encode_unpack(&mut self, encoder: &mut wgpu::CommandEncoder, transparency: bool, out: &wgpu::Buffer, byte_offset: u64) -> Result<()> {
+        let r = &mut *self.rasterizer;
+        if r.unpacker.is_none() {
+            r.unpacker = Some(crate::unpack::Unpacker::new(&r.device));
+        }
+        let targets = r.targets.as_ref().expect("targets");
+        let (set, map, channels): (&TargetSet, &ChannelMap, usize) =
+            if transparency { (&targets.transparency, &TRANSPARENT_MAP, layout::TRANSPARENT_CHANNELS) } else { (&targets.opaque, &OPAQUE_MAP, layout::OPAQUE_CHANNELS) };
+        r.unpacker.as_ref().expect("made above").encode(&r.device, encoder, &set.views, map, channels, self.width, self.height, out, byte_offset)
     }
 
     /// Render and read back transparency buffer `k`.
