@@ -96,3 +96,24 @@ fn viewer_opens_under_xvfb_and_fails_clearly_without_a_display() {
     colours.dedup();
     assert!(colours.len() > 50, "{} colours", colours.len());
 }
+
+/// With --device wgpu the rasterizer writes GlassNet's inputs straight into tensors on the
+/// shared device; the frame must be the one the host-copy path makes. (On lavapipe here; on a
+/// GPU machine the same code runs on the GPU.)
+#[test]
+fn zero_copy_frames_equal_host_copy_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let bake = tiny_bake(dir.path());
+    let model = bake.join("glassnet");
+    let (shared, host) = (dir.path().join("shared.png"), dir.path().join("host.png"));
+    let (code, out, err) = glassbake(&["render", path(&model), "--device", "wgpu", "--sample", "1", "--res", "32", "--out", path(&shared)]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("ms"), "{out}");
+    let (code, _, err) = glassbake(&["render", path(&model), "--device", "wgpu", "--host-copy", "--sample", "1", "--res", "32", "--out", path(&host)]);
+    assert_eq!(code, 0, "{err}");
+    let (a, b) = (image::open(&shared).unwrap().to_rgb8(), image::open(&host).unwrap().to_rgb8());
+    assert_eq!(a.dimensions(), (32, 32));
+    assert!(a == b, "zero-copy and host-copy frames differ");
+    let first = a.get_pixel(0, 0);
+    assert!(a.pixels().any(|p| p != first), "a rendered frame is not one flat colour");
+}

@@ -6,6 +6,7 @@
 //! wgpu/winit).
 
 pub mod bench;
+pub mod gpu_handover;
 pub mod memory;
 pub mod pipeline;
 pub mod scene_source;

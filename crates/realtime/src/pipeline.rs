@@ -49,6 +49,9 @@ pub struct FramePipeline {
     rasterizer: Rasterizer,
     /// The one host buffer transparency buffers are read back into.
     planes: Vec<f32>,
+    /// GlassNet's inputs are written by the rasterizer straight into tensors on the shared
+    /// wgpu device (`gpu_handover`) instead of going through `planes`.
+    zero_copy: bool,
 }
 
 fn ms(since: Instant) -> f64 {
@@ -57,6 +60,12 @@ fn ms(since: Instant) -> f64 {
 
 impl FramePipeline {
     pub fn new(scene: Scene, glassnet: TrainedModel, naive: Option<TrainedModel>, super_sampler: Option<TrainedSuperSampler>, raster: RasterizerOptions) -> Result<FramePipeline> {
+        FramePipeline::with_rasterizer(scene, glassnet, naive, super_sampler, Rasterizer::new(raster)?, false)
+    }
+
+    /// A pipeline on a given rasterizer. `zero_copy`: the models live on burn's wgpu runtime
+    /// registered on the rasterizer's own device (`gpu_handover::open_shared`).
+    pub fn with_rasterizer(scene: Scene, glassnet: TrainedModel, naive: Option<TrainedModel>, super_sampler: Option<TrainedSuperSampler>, rasterizer: Rasterizer, zero_copy: bool) -> Result<FramePipeline> {
         if glassnet.kind() == ModelKind::Naive {
             return Err(Error::bad_input(glassnet.files.dir.display(), "network", "is a naive baseline; give a GlassNet model (the naive one goes to --naive)"));
         }
@@ -65,7 +74,12 @@ impl FramePipeline {
                 return Err(Error::bad_input(n.files.dir.display(), "network", "is not a naive baseline"));
             }
         }
-        Ok(FramePipeline { scene, glassnet, naive, super_sampler, rasterizer: Rasterizer::new(raster)?, planes: Vec::new() })
+        Ok(FramePipeline { scene, glassnet, naive, super_sampler, rasterizer, planes: Vec::new(), zero_copy })
+    }
+
+    /// Whether frame data stays on the GPU between the rasterizer and the network.
+    pub fn zero_copy(&self) -> bool {
+        self.zero_copy
     }
 
     /// Replaces the scene (the benchmark's object counts); the models stay.
@@ -105,22 +119,35 @@ impl FramePipeline {
                 model.net.check_inputs(lw as usize, lh as usize, if naive { 0 } else { instance.transparent_count() })?;
                 let device = model.device.clone();
                 let raster_start = Instant::now();
+                let zero_copy = self.zero_copy && !naive;
                 let mut frame = self.rasterizer.begin_frame(&instance, camera, lw, lh)?;
-                let gbuffer = if naive { frame.naive()? } else { frame.opaque()? };
+                let (h, w) = (lh as usize, lw as usize);
+                let to_tensor = |data: Vec<f32>, channels: usize| Tensor::<4>::from_data(TensorData::new(data, [1, channels, h, w]), &device);
+                let gbuffer = if zero_copy {
+                    crate::gpu_handover::input_tensor(&device, layout::OPAQUE_CHANNELS, h, w, |buffer, offset| frame.opaque_to_buffer(buffer, offset))?
+                } else {
+                    let image = if naive { frame.naive()? } else { frame.opaque()? };
+                    to_tensor(image.data().to_vec(), layout::OPAQUE_CHANNELS)
+                };
                 let objects = if naive { 0 } else { frame.transparent_count() };
                 times.raster_ms += ms(raster_start);
-                let to_tensor = |data: Vec<f32>, channels: usize| Tensor::<4>::from_data(TensorData::new(data, [1, channels, lh as usize, lw as usize]), &device);
                 let values_tensor = Tensor::<2>::from_data(TensorData::new(normalised.clone(), [1, normalised.len()]), &device);
                 let planes = &mut self.planes;
-                planes.resize(TRANSPARENT_CHANNELS * (lw * lh) as usize, 0.0);
+                if !zero_copy {
+                    planes.resize(TRANSPARENT_CHANNELS * w * h, 0.0);
+                }
                 let mut failure = None;
                 let mut raster_ms = 0.0;
-                let prediction = model.net.forward_streaming(to_tensor(gbuffer.data().to_vec(), layout::OPAQUE_CHANNELS), values_tensor, objects, |k| {
+                let prediction = model.net.forward_streaming(gbuffer, values_tensor, objects, |k| {
                     let t = Instant::now();
-                    let read = frame.transparent_into(k, planes);
+                    let tensor = if zero_copy {
+                        crate::gpu_handover::input_tensor(&device, TRANSPARENT_CHANNELS, h, w, |buffer, offset| frame.transparent_to_buffer(k, buffer, offset))
+                    } else {
+                        frame.transparent_into(k, planes).map(|()| to_tensor(planes.clone(), TRANSPARENT_CHANNELS))
+                    };
                     raster_ms += ms(t);
-                    match read {
-                        Ok(()) => Some(to_tensor(planes.clone(), TRANSPARENT_CHANNELS)),
+                    match tensor {
+                        Ok(tensor) => Some(tensor),
                         Err(e) => {
                             failure = Some(e);
                             None
@@ -136,11 +163,15 @@ impl FramePipeline {
                 if let Some(sampler) = &self.super_sampler {
                     let t = Instant::now();
                     let mut full = self.rasterizer.begin_frame(&instance, camera, width, height)?;
-                    let full_gbuffer = full.opaque()?;
+                    let (fh, fw) = (height as usize, width as usize);
+                    let gbuffer = if self.zero_copy {
+                        crate::gpu_handover::input_tensor(&sampler.device, layout::OPAQUE_CHANNELS, fh, fw, |buffer, offset| full.opaque_to_buffer(buffer, offset))?
+                    } else {
+                        Tensor::<4>::from_data(TensorData::new(full.opaque()?.data().to_vec(), [1, layout::OPAQUE_CHANNELS, fh, fw]), &sampler.device)
+                    };
                     drop(full);
                     times.raster_ms += ms(t);
-                    let gbuffer = Tensor::<4>::from_data(TensorData::new(full_gbuffer.data().to_vec(), [1, layout::OPAQUE_CHANNELS, height as usize, width as usize]), &sampler.device);
-                    let low = Tensor::<4>::from_data(prediction.into_data(), &sampler.device);
+                    let low = prediction.to_device(&sampler.device);
                     prediction = sampler.net.forward(low, gbuffer).clamp(0.0, 1.0);
                 }
                 image_from_tensor(&prediction, 0)?

@@ -12,6 +12,7 @@ use glassbake_net::{select_device, DeviceChoice, TrainedModel, TrainedSuperSampl
 use glassbake_raster::RasterizerOptions;
 use glassbake_realtime::bench::{marginal_ms_per_object, table};
 use glassbake_realtime::viewer::{check_display, run_viewer, ViewerOptions};
+use glassbake_realtime::gpu_handover::open_shared;
 use glassbake_realtime::{run_bench, scene_of_model, BenchOptions, FramePipeline, Output};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -32,9 +33,14 @@ pub struct PipelineArgs {
     /// The scene, when the model's training dataset is not at hand (must be the same scene).
     #[arg(long)]
     pub scene: Option<String>,
-    /// cpu (burn's flex backend) or wgpu (Vulkan) for the networks.
+    /// cpu (burn's flex backend) or wgpu (Vulkan) for the networks. With wgpu the rasterizer
+    /// and the networks share one device and buffers never leave the GPU.
     #[arg(long, default_value = "cpu")]
     pub device: String,
+    /// With --device wgpu: keep separate devices and pass buffers through host memory (for
+    /// comparison).
+    #[arg(long)]
+    pub host_copy: bool,
 }
 
 struct Opened {
@@ -45,13 +51,20 @@ struct Opened {
 
 fn open(args: &PipelineArgs) -> Result<Opened> {
     let choice = DeviceChoice::parse(&args.device)?;
-    let device = select_device(choice, 0, false);
+    let shared = if choice == DeviceChoice::Wgpu && !args.host_copy { Some(open_shared(RasterizerOptions::default())?) } else { None };
+    let device = match &shared {
+        Some(s) => s.device.clone(),
+        None => select_device(choice, 0, false),
+    };
     let glassnet = TrainedModel::load(&args.model, &device)?;
     let scene = scene_of_model(&glassnet, args.scene.as_deref())?;
     let naive = args.naive.as_deref().map(|d| TrainedModel::load(d, &device)).transpose()?;
     let sr = args.sr.as_deref().map(|d| TrainedSuperSampler::load(d, &device)).transpose()?;
-    let pipeline = FramePipeline::new(scene.scene, glassnet, naive, sr, RasterizerOptions::default())?;
-    Ok(Opened { pipeline, dataset_seed: scene.dataset_seed, device: choice.name().to_string() })
+    let (pipeline, name) = match shared {
+        Some(s) => (FramePipeline::with_rasterizer(scene.scene, glassnet, naive, sr, s.rasterizer, true)?, "wgpu, shared with the rasterizer (no host copies)"),
+        None => (FramePipeline::new(scene.scene, glassnet, naive, sr, RasterizerOptions::default())?, if choice == DeviceChoice::Wgpu { "wgpu, buffers through host memory" } else { "cpu" }),
+    };
+    Ok(Opened { pipeline, dataset_seed: scene.dataset_seed, device: name.to_string() })
 }
 
 #[derive(Args)]

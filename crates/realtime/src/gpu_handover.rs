@@ -1,0 +1,53 @@
+//! The zero-copy hand-over on a GPU: the rasterizer and burn's wgpu runtime share one wgpu
+//! device, each network input tensor is allocated by burn, and the rasterizer writes its planes
+//! straight into the tensor's storage buffer (`raster::Frame::opaque_to_buffer` /
+//! `transparent_to_buffer`), so no frame data passes through host memory.
+//!
+//! Ordering: burn queues kernels and submits them in batches; `Device::flush` submits what is
+//! queued before the rasterizer's own submission on the shared queue, and wgpu executes
+//! submissions on one queue in order, so kernels that read the tensor run after the write.
+//! All of it happens on the calling thread (burn's command streams are per thread).
+
+use burn_cubecl::Cube;
+use cubecl_wgpu::{AutoCompiler, WgpuServer};
+use glassbake_core::{Error, Result};
+use glassbake_net::burn::prelude::*;
+use glassbake_net::burn::tensor::wgpu::WgpuSetup;
+use glassbake_raster::{wgpu, Rasterizer, RasterizerOptions};
+
+/// A rasterizer and a burn device on the same wgpu device.
+pub struct SharedDevice {
+    pub rasterizer: Rasterizer,
+    pub device: Device,
+}
+
+/// Opens the rasterizer's Vulkan device with every adapter feature (what burn's runtime
+/// expects) and registers it with burn.
+pub fn open_shared(options: RasterizerOptions) -> Result<SharedDevice> {
+    let options = RasterizerOptions { all_adapter_features: true, ..options };
+    let (instance, adapter, device, queue) = glassbake_raster::device::open(&options)?;
+    let backend = adapter.get_info().backend;
+    let setup = WgpuSetup { instance: instance.clone(), adapter: adapter.clone(), device: device.clone(), queue: queue.clone(), backend };
+    let burn_device = Device::wgpu_options().setup(setup).init().map_err(|e| Error::Internal(format!("registering the rasterizer's device with burn: {e:?}")))?;
+    let rasterizer = Rasterizer::from_device(instance, adapter, device, queue, options)?;
+    Ok(SharedDevice { rasterizer, device: burn_device })
+}
+
+/// A [1, channels, height, width] f32 tensor on `device` whose contents `write(buffer, offset)`
+/// produces on the GPU.
+pub fn input_tensor(device: &Device, channels: usize, height: usize, width: usize, write: impl FnOnce(&wgpu::Buffer, u64) -> Result<()>) -> Result<Tensor<4>> {
+    let tensor = Tensor::<4>::empty([1, channels, height, width], device);
+    let primitive = tensor.try_into_primitive::<Cube>().map_err(|e| Error::Internal(format!("the network's device is not burn's wgpu runtime: {e:?}")))?;
+    if !primitive.is_contiguous() || primitive.dtype != glassbake_net::burn::tensor::DType::F32 {
+        return Err(Error::Internal(format!("a fresh input tensor is not contiguous f32 ({:?})", primitive.dtype)));
+    }
+    let resource = primitive
+        .client
+        .get_resource::<WgpuServer<AutoCompiler>>(primitive.handle.clone())
+        .map_err(|e| Error::Internal(format!("the wgpu buffer behind a tensor: {e:?}")))?;
+    device.flush().map_err(|e| Error::Internal(format!("flushing burn's queued work: {e:?}")))?;
+    let buffer = resource.resource();
+    write(&buffer.buffer, buffer.offset)?;
+    drop(resource);
+    Ok(Tensor::<4>::from_primitive::<Cube>(primitive))
+}
