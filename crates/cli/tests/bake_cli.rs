@@ -74,6 +74,11 @@ fn bake_runs_every_stage_then_skips_them_and_eval_scores_with_lpips() {
     let (code, stdout, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--out", path(&out)]);
     assert_eq!(code, 0, "{err}");
     assert!(stdout.contains("0 frame(s) made") && stdout.matches("already trained").count() == 2 && stdout.contains("up to date"), "{stdout}");
+    // The stage times of the run that did the work are kept for the report.
+    let times: serde_json::Map<String, serde_json::Value> = serde_json::from_str(&std::fs::read_to_string(out.join("stage_times.json")).unwrap()).unwrap();
+    assert_eq!(times.len(), 4, "{times:?}");
+    let report = std::fs::read_to_string(out.join("report/report.md")).unwrap();
+    assert!(report.contains("train glassnet:") && report.contains("done earlier"), "{report}");
 
     // eval on its own, with LPIPS weights.
     let weights = dir.path().join("lpips.safetensors");
@@ -106,4 +111,26 @@ fn eval_refuses_a_model_of_another_scene() {
     let (code, _, err) = glassbake(&["eval", path(&out.join("glassnet")), path(&other), "--out", path(&dir.path().join("e"))]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("config.json") && err.contains("scene_hash"), "{err}");
+}
+
+#[test]
+fn ablations_are_trained_with_their_settings_and_evaluated() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bake");
+    let (code, stdout, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--ablations", "--out", path(&out)]);
+    assert_eq!(code, 0, "{err}");
+    let config = |name: &str| -> serde_json::Value { serde_json::from_str(&std::fs::read_to_string(out.join(name).join("config.json")).unwrap()).unwrap() };
+    assert_eq!(config("glassnet")["network"]["encoding_frequencies"], 2);
+    assert_eq!(config("glassnet-no-encoding")["network"]["encoding_frequencies"], 0);
+    assert_eq!(config("glassnet")["train"]["ssim_weight"], 1.0);
+    assert_eq!(config("glassnet-l1-only")["train"]["ssim_weight"], 0.0);
+    assert_eq!(config("glassnet-l1-only")["network"]["encoding_frequencies"], 2);
+    let metrics: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("eval/metrics.json")).unwrap()).unwrap();
+    let models: Vec<&str> = metrics["models"].as_array().unwrap().iter().map(|m| m["model"].as_str().unwrap()).collect();
+    assert_eq!(models, ["glassnet", "naive", "glassnet-no-encoding", "glassnet-l1-only"]);
+    assert!(stdout.contains("glassnet-l1-only"), "{stdout}");
+
+    let (code, _, err) = glassbake(&["train", path(&out.join("dataset")), "--ablation", "no-ssim", "--preset", "tiny", "--out", path(&dir.path().join("x"))]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--ablation") && err.contains("l1-only"), "{err}");
 }

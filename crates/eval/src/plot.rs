@@ -99,8 +99,10 @@ fn draw_lines<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, x_
         ($chart:expr) => {{
             let mut chart = $chart;
             chart.configure_mesh().x_desc(x_label).y_desc(y_label).light_line_style(WHITE.mix(0.0)).draw().map_err(plot_error)?;
+            // Solid/dashed pairs (training and validation of one model) share a colour.
+            let paired = series.iter().any(|s| s.dashed);
             for (i, s) in series.iter().enumerate() {
-                let colour = COLOURS[(i / 2) % COLOURS.len()];
+                let colour = COLOURS[(if paired { i / 2 } else { i }) % COLOURS.len()];
                 let style = ShapeStyle { color: colour.to_rgba(), filled: false, stroke_width: 2 };
                 let points = s.points.iter().copied().filter(|p| !log_y || p.1 > 0.0);
                 if s.dashed {
@@ -123,7 +125,7 @@ fn draw_lines<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, x_
     Ok(())
 }
 
-/// Line chart (e.g. training curves); series with an even index are solid, their partner dashed.
+/// Line chart. When some series are dashed, series 2i and 2i + 1 are a pair drawn in one colour.
 pub fn line_chart(title: &str, x_label: &str, y_label: &str, series: &[Series], log_y: bool) -> Result<Option<Plot>> {
     render(|r| draw_lines(r, title, x_label, y_label, series, log_y), |r| draw_lines(r, title, x_label, y_label, series, log_y))
 }

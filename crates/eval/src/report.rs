@@ -133,7 +133,7 @@ fn bench_table(bench: &BenchFile) -> String {
     let mut out = String::from("| resolution | transparent objects | ms / frame | FPS | peak RAM (MiB) | peak GPU (MiB) |\n|---|---|---|---|---|---|\n");
     let mib = |v: Option<f64>| v.map(|v| format!("{v:.1}")).unwrap_or_else(|| "-".into());
     for r in &bench.rows {
-        let _ = writeln!(out, "| {}^2 | {} | {:.2} | {:.1} | {} | {} |", r.resolution, r.objects, r.ms_per_frame, r.fps, mib(r.peak_ram_mib), mib(r.peak_gpu_mib));
+        let _ = writeln!(out, "| {0}x{0} | {1} | {2:.2} | {3:.1} | {4} | {5} |", r.resolution, r.objects, r.ms_per_frame, r.fps, mib(r.peak_ram_mib), mib(r.peak_gpu_mib));
     }
     out
 }
@@ -217,7 +217,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
             resolutions
                 .iter()
                 .map(|&res| Series {
-                    name: format!("{res}^2"),
+                    name: format!("{res}x{res}"),
                     points: bench.rows.iter().filter(|r| r.resolution == res).filter_map(|r| f(r).map(|v| (r.objects as f64, v))).collect(),
                     dashed: false,
                 })

@@ -2,6 +2,7 @@
 //! Stages: dataset -> train GlassNet -> train the naive baseline (-> the ablations) -> eval ->
 //! report. Every stage resumes where a killed run stopped and is skipped when already done.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -104,12 +105,23 @@ pub fn run(args: BakeArgs) -> Result<()> {
     overall.enable_steady_tick(Duration::from_millis(500));
     let bar = multi.add(ProgressBar::new(0));
     let mut facts = vec![format!("`glassbake bake {} --preset {}` on {}", args.scene, args.preset, args.device)];
-    let mut stage = |name: String, work: &mut dyn FnMut() -> Result<()>| -> Result<()> {
+    // Wall time of each stage when it last did its work, kept across runs so that a resumed
+    // or repeated bake still reports what the stages cost.
+    let times_path = args.out.join("stage_times.json");
+    let mut times: BTreeMap<String, f64> = std::fs::read_to_string(&times_path).ok().and_then(|t| serde_json::from_str(&t).ok()).unwrap_or_default();
+    let mut stage = |name: String, work: &mut dyn FnMut() -> Result<bool>| -> Result<()> {
         overall.set_message(name.clone());
         let t0 = Instant::now();
-        work()?;
+        let worked = work()?;
         let seconds = t0.elapsed().as_secs_f64();
-        facts.push(format!("{name}: {seconds:.0} s"));
+        if worked || !times.contains_key(&name) {
+            // A resumed stage records only its last run's share.
+            times.insert(name.clone(), seconds);
+            let json = serde_json::to_string_pretty(&times).map_err(|e| Error::Internal(e.to_string()))?;
+            glassbake_core::image::write_bytes_atomically(&times_path, json.as_bytes())?;
+        }
+        let recorded = times[&name];
+        facts.push(if worked { format!("{name}: {recorded:.0} s") } else { format!("{name}: {recorded:.0} s (done earlier; {seconds:.0} s to check now)") });
         overall.inc(1);
         Ok(())
     };
@@ -159,12 +171,13 @@ pub fn run(args: BakeArgs) -> Result<()> {
         if current {
             bar.suspend(|| println!("{} is up to date with the models; not evaluated again", eval_dir.join("metrics.json").display()));
             summary = Some(EvaluationSummary::read(&eval_dir.join("metrics.json"))?);
+            Ok(false)
         } else {
             summary = Some(evaluate(&eval, &bar, &[])?);
+            Ok(true)
         }
-        Ok(())
     })?;
-    facts.push(format!("total {:.0} s", started.elapsed().as_secs_f64()));
+    facts.push(format!("this run: {:.0} s", started.elapsed().as_secs_f64()));
     // The bake's report: the evaluation's, with the stage times.
     let report = glassbake_eval::report::write_report(
         &args.out.join("report"),

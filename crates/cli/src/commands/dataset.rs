@@ -99,7 +99,7 @@ pub fn run(args: DatasetArgs) -> Result<()> {
             let bar = ProgressBar::new(0);
             let result = make_dataset(&make, &bar);
             bar.finish_and_clear();
-            result?
+            result?;
         }
         (None, None) => {
             return Err(glassbake_core::Error::bad_input("glassbake dataset", "arguments", "give a scene and --out, or a subcommand (see glassbake dataset --help)").into())
@@ -109,7 +109,8 @@ pub fn run(args: DatasetArgs) -> Result<()> {
 }
 
 /// Makes (or completes) a dataset as `glassbake dataset` does, showing progress on `bar`.
-pub fn make_dataset(args: &MakeArgs, bar: &ProgressBar) -> Result<()> {
+/// Returns whether any frame was made.
+pub fn make_dataset(args: &MakeArgs, bar: &ProgressBar) -> Result<bool> {
     let scene = load_scene(&args.scene)?;
     let shard = match &args.shard {
         Some(text) => ShardSpec::parse(text)?,
@@ -162,5 +163,5 @@ pub fn make_dataset(args: &MakeArgs, bar: &ProgressBar) -> Result<()> {
         }
         println!("  disk {} ({} per frame)", human_bytes(summary.disk_bytes), human_bytes(summary.disk_bytes / summary.frames_in_shard.max(1)));
     });
-    Ok(())
+    Ok(summary.generated > 0)
 }

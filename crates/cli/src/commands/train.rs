@@ -261,11 +261,12 @@ pub fn run(args: TrainArgs) -> Result<()> {
     let bar = ProgressBar::new(0);
     let result = train_model(&args, &bar);
     bar.finish_and_clear();
-    result
+    result.map(|_| ())
 }
 
-/// Trains one model as `glassbake train` does, showing progress on `bar`.
-pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<()> {
+/// Trains one model as `glassbake train` does, showing progress on `bar`. Returns whether
+/// any step was trained (false: the model was already trained).
+pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<bool> {
     let kind = ModelKind::parse(&args.model).ok_or_else(|| Error::bad_input("--model", "model", format!("{:?} is not glassnet, naive or concat", args.model)))?;
     let device_choice = DeviceChoice::parse(&args.common.device)?;
     let mut train_config = train_config(&args.common)?;
@@ -320,11 +321,11 @@ pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<()> {
     let already_done = summary.already_done;
     bar.suspend(|| report(summary, &files));
     if already_done && files.dir.join("preview").exists() {
-        return Ok(());
+        return Ok(false);
     }
     let previews = write_previews(&files, &mut data.val, naive, device_choice)?;
     bar.suspend(|| println!("  preview {} (model | ground truth)", previews.display()));
-    Ok(())
+    Ok(!already_done)
 }
 
 /// `DIR/preview/val_NNN.png`: the model's image beside the path-traced ground truth for the
