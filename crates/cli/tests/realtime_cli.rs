@@ -61,6 +61,10 @@ fn render_and_bench() {
     assert_eq!(rows.len(), 4);
     assert_eq!((rows[1]["resolution"].as_u64(), rows[1]["objects"].as_u64()), (Some(32), Some(3)));
     assert!(rows.iter().all(|r| r["ms_per_frame"].as_f64().unwrap() > 0.0));
+    // The report stage reads the same file through its own type (the JSON is the contract).
+    let for_report: glassbake_eval::report::BenchFile = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(for_report.rows.len(), 4);
+    assert!(for_report.rows.iter().all(|r| r.peak_ram_mib.is_some_and(|m| m > 0.0)));
 }
 
 #[test]

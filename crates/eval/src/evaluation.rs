@@ -204,42 +204,45 @@ impl EvaluationSummary {
         out
     }
 
+    /// Per model, the averaged metrics as table cells: model, MAE, PSNR, DSSIM, T.MAE, T.PSNR,
+    /// FLIP, LPIPS.
+    fn table_cells(&self) -> Vec<[String; 8]> {
+        self.models
+            .iter()
+            .map(|m| {
+                [
+                    m.model.clone(),
+                    format!("{:.4}", m.mae),
+                    format!("{:.2}", m.psnr),
+                    format!("{:.4}", m.dssim),
+                    cell(m.t_mae, 4),
+                    cell(m.t_psnr, 2),
+                    format!("{:.4}", m.flip),
+                    m.lpips.map(|v| format!("{v:.4}")).unwrap_or_else(|| "skipped".into()),
+                ]
+            })
+            .collect()
+    }
+
     /// The averaged metrics as a Markdown table (arrows say which way is better).
     pub fn markdown_table(&self) -> String {
         let mut out = String::from("| model | MAE ↓ | PSNR ↑ | DSSIM ↓ | T.MAE ↓ | T.PSNR ↑ | FLIP ↓ | LPIPS ↓ |\n|---|---|---|---|---|---|---|---|\n");
-        for m in &self.models {
-            let _ = writeln!(
-                out,
-                "| {} | {:.4} | {:.2} | {:.4} | {} | {} | {:.4} | {} |",
-                m.model,
-                m.mae,
-                m.psnr,
-                m.dssim,
-                cell(m.t_mae, 4),
-                cell(m.t_psnr, 2),
-                m.flip,
-                m.lpips.map(|v| format!("{v:.4}")).unwrap_or_else(|| "skipped".into())
-            );
+        for row in self.table_cells() {
+            let _ = writeln!(out, "| {} |", row.join(" | "));
         }
         out
     }
 
     /// A plain-text table for the terminal.
     pub fn text_table(&self) -> String {
-        let mut out = format!("{:<22} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>8}\n", "model", "MAE", "PSNR", "DSSIM", "T.MAE", "T.PSNR", "FLIP", "LPIPS");
-        for m in &self.models {
-            let _ = writeln!(
-                out,
-                "{:<22} {:>7.4} {:>7.2} {:>7.4} {:>7} {:>7} {:>7.4} {:>8}",
-                m.model,
-                m.mae,
-                m.psnr,
-                m.dssim,
-                cell(m.t_mae, 4),
-                cell(m.t_psnr, 2),
-                m.flip,
-                m.lpips.map(|v| format!("{v:.4}")).unwrap_or_else(|| "skipped".into())
-            );
+        let header = ["model", "MAE", "PSNR", "DSSIM", "T.MAE", "T.PSNR", "FLIP", "LPIPS"].map(String::from);
+        let mut out = String::new();
+        for row in std::iter::once(header).chain(self.table_cells()) {
+            let _ = write!(out, "{:<22}", row[0]);
+            for value in &row[1..] {
+                let _ = write!(out, " {value:>8}");
+            }
+            out.push('\n');
         }
         out
     }

@@ -23,7 +23,10 @@ pub struct TrainingLog {
     pub path: PathBuf,
 }
 
-/// `bench.json` as written by `glassbake bench` (the real-time stage).
+/// The part of `bench.json` (written by `glassbake bench`, `realtime::bench::BenchReport`)
+/// the report reads. eval and realtime are sibling stages and do not import each other: the
+/// JSON is the contract, and `crates/cli/tests/realtime_cli.rs` reads a real bench.json with
+/// this type.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct BenchFile {
     pub device: String,
