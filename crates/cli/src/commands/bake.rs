@@ -114,14 +114,17 @@ pub fn run(args: BakeArgs) -> Result<()> {
         let t0 = Instant::now();
         let worked = work()?;
         let seconds = t0.elapsed().as_secs_f64();
-        if worked || !times.contains_key(&name) {
+        if worked {
             // A resumed stage records only its last run's share.
             times.insert(name.clone(), seconds);
             let json = serde_json::to_string_pretty(&times).map_err(|e| Error::Internal(e.to_string()))?;
             glassbake_core::image::write_bytes_atomically(&times_path, json.as_bytes())?;
         }
-        let recorded = times[&name];
-        facts.push(if worked { format!("{name}: {recorded:.0} s") } else { format!("{name}: {recorded:.0} s (done earlier; {seconds:.0} s to check now)") });
+        facts.push(match (worked, times.get(&name)) {
+            (true, _) => format!("{name}: {seconds:.0} s"),
+            (false, Some(recorded)) => format!("{name}: {recorded:.0} s (done earlier; {seconds:.0} s to check now)"),
+            (false, None) => format!("{name}: done earlier (time not recorded; {seconds:.0} s to check now)"),
+        });
         overall.inc(1);
         Ok(())
     };
