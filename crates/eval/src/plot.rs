@@ -89,45 +89,40 @@ fn range_of(values: impl Iterator<Item = f64>) -> (f64, f64) {
     }
 }
 
-fn draw_lines<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, x_label: &str, y_label: &str, series: &[Series], log_y: bool) -> Result<()> {
+fn draw_lines<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Result<()> {
     root.fill(&WHITE).map_err(plot_error)?;
     let (x0, x1) = range_of(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
-    let (y0, y1) = range_of(series.iter().flat_map(|s| s.points.iter().map(|p| p.1)).filter(|&y| !log_y || y > 0.0));
-    let mut builder = ChartBuilder::on(root);
-    builder.caption(title, ("sans-serif", 20)).margin(12).x_label_area_size(40).y_label_area_size(60);
-    macro_rules! finish {
-        ($chart:expr) => {{
-            let mut chart = $chart;
-            chart.configure_mesh().x_desc(x_label).y_desc(y_label).light_line_style(WHITE.mix(0.0)).draw().map_err(plot_error)?;
-            // Solid/dashed pairs (training and validation of one model) share a colour.
-            let paired = series.iter().any(|s| s.dashed);
-            for (i, s) in series.iter().enumerate() {
-                let colour = COLOURS[(if paired { i / 2 } else { i }) % COLOURS.len()];
-                let style = ShapeStyle { color: colour.to_rgba(), filled: false, stroke_width: 2 };
-                let points = s.points.iter().copied().filter(|p| !log_y || p.1 > 0.0);
-                if s.dashed {
-                    chart.draw_series(DashedLineSeries::new(points, 6, 4, style)).map_err(plot_error)?
-                } else {
-                    chart.draw_series(LineSeries::new(points, style)).map_err(plot_error)?
-                }
-                .label(&s.name)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
-            }
-            chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(plot_error)?;
-        }};
+    let (y0, y1) = range_of(series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
+    let pad = 0.05 * (y1 - y0);
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(x0..x1, y0 - pad..y1 + pad)
+        .map_err(plot_error)?;
+    chart.configure_mesh().x_desc(x_label).y_desc(y_label).light_line_style(WHITE.mix(0.0)).draw().map_err(plot_error)?;
+    // Solid/dashed pairs (training and validation of one model) share a colour.
+    let paired = series.iter().any(|s| s.dashed);
+    for (i, s) in series.iter().enumerate() {
+        let colour = COLOURS[(if paired { i / 2 } else { i }) % COLOURS.len()];
+        let style = ShapeStyle { color: colour.to_rgba(), filled: false, stroke_width: 2 };
+        let points = s.points.iter().copied();
+        if s.dashed {
+            chart.draw_series(DashedLineSeries::new(points, 6, 4, style)).map_err(plot_error)?
+        } else {
+            chart.draw_series(LineSeries::new(points, style)).map_err(plot_error)?
+        }
+        .label(&s.name)
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
     }
-    if log_y {
-        finish!(builder.build_cartesian_2d(x0..x1, (y0 * 0.9..y1 * 1.1).log_scale()).map_err(plot_error)?);
-    } else {
-        let pad = 0.05 * (y1 - y0);
-        finish!(builder.build_cartesian_2d(x0..x1, y0 - pad..y1 + pad).map_err(plot_error)?);
-    }
+    chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(plot_error)?;
     Ok(())
 }
 
 /// Line chart. When some series are dashed, series 2i and 2i + 1 are a pair drawn in one colour.
-pub fn line_chart(title: &str, x_label: &str, y_label: &str, series: &[Series], log_y: bool) -> Result<Option<Plot>> {
-    render(|r| draw_lines(r, title, x_label, y_label, series, log_y), |r| draw_lines(r, title, x_label, y_label, series, log_y))
+pub fn line_chart(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Result<Option<Plot>> {
+    render(|r| draw_lines(r, title, x_label, y_label, series), |r| draw_lines(r, title, x_label, y_label, series))
 }
 
 fn draw_bars<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, y_label: &str, groups: &[String], bars: &[(String, Vec<f64>)]) -> Result<()> {

@@ -207,7 +207,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
         }
     }
     if !curves.is_empty() {
-        let figures = figure("Training curves", "training_curves.png", line_chart("Training curves", "step", "loss (L1 + SSIM term)", &curves, false)?).into_iter().collect();
+        let figures = figure("Training curves", "training_curves.png", line_chart("Training curves", "step", "loss (L1 + SSIM term)", &curves)?).into_iter().collect();
         sections.push(("Training".into(), "Loss per step (solid: training batches, dashed: validation frames).\n".into(), figures));
     }
 
@@ -227,9 +227,9 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
                 .collect()
         };
         let mut figures = Vec::new();
-        figures.extend(figure("Time per frame", "speed.png", line_chart(&format!("Time per frame ({})", bench.device), "transparent objects", "ms / frame", &per_res(&|r| Some(r.ms_per_frame)), false)?));
+        figures.extend(figure("Time per frame", "speed.png", line_chart(&format!("Time per frame ({})", bench.device), "transparent objects", "ms / frame", &per_res(&|r| Some(r.ms_per_frame)))?));
         let memory = per_res(&|r| r.peak_gpu_mib.or(r.peak_ram_mib));
-        figures.extend(figure("Peak memory", "memory.png", line_chart("Peak memory", "transparent objects", "MiB", &memory, false)?));
+        figures.extend(figure("Peak memory", "memory.png", line_chart("Peak memory", "transparent objects", "MiB", &memory)?));
         sections.push(("Speed and memory".into(), format!("{} on {}.\n\n{}", path.display(), bench.device, bench_table(&bench)), figures));
     }
 

@@ -74,7 +74,6 @@ pub fn run_bench(pipeline: &mut FramePipeline, device: &str, options: &BenchOpti
             let mut totals = Vec::new();
             let mut raster = Vec::new();
             let mut network = Vec::new();
-            let mut peak = None;
             for i in 0..options.warmup + options.frames {
                 if i == options.warmup {
                     // Measure what the timed frames need, not what earlier configurations left.
@@ -90,9 +89,7 @@ pub fn run_bench(pipeline: &mut FramePipeline, device: &str, options: &BenchOpti
                 done += 1;
                 progress(done, total);
             }
-            if options.frames > 0 {
-                peak = peak_rss_mib();
-            }
+            let peak = peak_rss_mib();
             let ms_per_frame = median(&mut totals);
             rows.push(BenchRow {
                 resolution,

@@ -173,7 +173,7 @@ pub fn bench(args: BenchArgs) -> Result<()> {
         .map(|&res| Series { name: format!("{res}x{res}"), points: report.rows.iter().filter(|r| r.resolution == res).map(|r| (r.objects as f64, r.ms_per_frame)).collect(), dashed: false })
         .collect();
     let plot_path = out.with_extension("png");
-    if let Some(plot) = line_chart("Frame time", "transparent objects", "ms / frame (median)", &series, false)? {
+    if let Some(plot) = line_chart("Frame time", "transparent objects", "ms / frame (median)", &series)? {
         glassbake_core::image::write_bytes_atomically(&plot_path, &plot.png)?;
         println!("  plot  {}", plot_path.display());
     }
