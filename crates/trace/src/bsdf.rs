@@ -160,6 +160,14 @@ impl Bsdf {
             || (self.glass_weight > 0.0 && !matches!(self.dielectric, Dielectric::None) && !self.dielectric.is_delta())
     }
 
+    /// Whether a learned distribution of incident light should steer sampling here: the
+    /// surface is mostly the diffuse-and-glossy base and has no delta lobe (a mirror or a
+    /// smooth pane sends light one way only; nothing learned could help).
+    pub fn suits_guiding(&self) -> bool {
+        let delta_glass = self.glass_weight > 0.0 && self.dielectric.is_delta();
+        self.base_weight >= 0.5 && !delta_glass
+    }
+
     /// Probabilities of picking the diffuse, specular (base), conductor and dielectric lobes
     /// when sampling from `wo` (local).
     fn lobe_probabilities(&self, wo: Vec3) -> [f32; 4] {

@@ -2,16 +2,23 @@
 //! (Veach 1997, power heuristic), Russian roulette, a maximum path length, and shadow rays
 //! that pass straight through smooth thin panes (exact for a pane, since it does not bend
 //! light), with MIS that counts the pane crossings on both strategies.
+//!
+//! With a learned [`SdTree`] (the guided estimator), diffuse and glossy vertices draw their
+//! next direction from a one-sample mixture of the BSDF and the learned incident light
+//! (Müller et al. 2017); the mixture's density is what MIS and the path weight use, so the
+//! estimate stays unbiased whatever was learned. While learning, every such vertex leaves a
+//! [`GuidingRecord`] of the radiance that the rest of its path brought back.
 
 use glam::{Vec2, Vec3};
 use glassbake_core::Ray;
 use glassbake_scene::Scene;
 
-use crate::bsdf::{Bsdf, MaterialModel, SurfaceMaterial};
+use crate::bsdf::{Bsdf, BsdfSample, MaterialModel, SurfaceMaterial};
 use crate::geometry::{Hit, Owner, SceneGeometry};
+use crate::guiding::{GuidingRecord, SdTree};
 use crate::lights::LightSampler;
 use crate::rng::Pcg32;
-use crate::sampling::power_heuristic;
+use crate::sampling::{luminance, power_heuristic};
 
 /// How a path is traced.
 #[derive(Clone, Copy, Debug)]
@@ -22,6 +29,72 @@ pub struct PathSettings {
     /// Russian roulette applies to paths longer than this many segments.
     pub rr_depth: u32,
     pub material_model: MaterialModel,
+}
+
+/// Which light-transport estimator traces the paths. All three are unbiased and converge
+/// to the same image; `docs/trace.md` has their measured efficiency. Plain stays the default
+/// because, at the 64-256 px and 128-1024 spp of glassbake's datasets, neither alternative
+/// has yet paid for its cost (`examples/trace_convergence`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Integrator {
+    /// Rectangle lights sampled by area, BSDF sampling only (the default).
+    #[default]
+    Plain,
+    /// Rectangle lights sampled by solid angle, no guiding.
+    SolidAngle,
+    /// Rectangle lights sampled by solid angle and path guiding learned over the first
+    /// quarter of the samples.
+    Guided,
+}
+
+impl Integrator {
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::Plain => "plain",
+            Integrator::SolidAngle => "solid-angle",
+            Integrator::Guided => "guided",
+        }
+    }
+
+    pub fn parse(name: &str) -> Option<Self> {
+        match name {
+            "plain" => Some(Integrator::Plain),
+            "solid-angle" => Some(Integrator::SolidAngle),
+            "guided" => Some(Integrator::Guided),
+            _ => None,
+        }
+    }
+}
+
+/// Share of a guided vertex's samples drawn from the learned distribution (the rest from
+/// the BSDF); Müller et al. use one half.
+const GUIDED_FRACTION: f32 = 0.5;
+
+/// What a path learns from and records into.
+#[derive(Default)]
+pub struct Guide<'a> {
+    /// The distribution learned so far; `None` samples BSDFs only.
+    pub tree: Option<&'a SdTree>,
+    /// Where to leave records while learning.
+    pub records: Option<&'a mut Vec<GuidingRecord>>,
+}
+
+/// Reusable per-thread storage for [`PreparedScene::trace_path`].
+#[derive(Default)]
+pub struct PathScratch {
+    pub(crate) hits: Vec<Hit>,
+    vertices: Vec<PendingRecord>,
+}
+
+/// A guided vertex waiting for its path to end to learn the radiance that came back.
+#[derive(Clone, Copy)]
+struct PendingRecord {
+    position: Vec3,
+    direction: Vec3,
+    /// The path's radiance when this vertex scattered, and its throughput just after.
+    radiance_before: Vec3,
+    throughput_after: Vec3,
+    pdf: f32,
 }
 
 /// A scene ready to trace: geometry, BVH, lights.
@@ -49,8 +122,13 @@ pub struct SurfaceHit {
 const MAX_VERTICES: u32 = 4096;
 
 impl<'a> PreparedScene<'a> {
+    /// Ready for the default estimator's light sampling.
     pub fn new(scene: &'a Scene) -> Self {
-        let lights = LightSampler::new(scene);
+        Self::for_integrator(scene, Integrator::default())
+    }
+
+    pub fn for_integrator(scene: &'a Scene, integrator: Integrator) -> Self {
+        let lights = LightSampler::new(scene, integrator != Integrator::Plain);
         let geometry = SceneGeometry::build(scene, &|owner, index| lights.emitter_of(owner, index));
         PreparedScene { scene, geometry, lights }
     }
@@ -105,7 +183,23 @@ impl<'a> PreparedScene<'a> {
     }
 
     /// Radiance arriving at the camera along `ray`, one path sample.
-    pub fn trace_path(&self, ray: &Ray, rng: &mut Pcg32, settings: &PathSettings, scratch: &mut Vec<Hit>) -> Vec3 {
+    pub fn trace_path(&self, ray: &Ray, rng: &mut Pcg32, settings: &PathSettings, guide: &mut Guide, scratch: &mut PathScratch) -> Vec3 {
+        scratch.vertices.clear();
+        let radiance = self.trace_path_inner(ray, rng, settings, guide, scratch);
+        if let Some(records) = guide.records.as_deref_mut() {
+            for v in &scratch.vertices {
+                // Radiance that arrived along the sampled direction: what the path gathered
+                // after this vertex, divided by the throughput it had then.
+                let gathered = radiance - v.radiance_before;
+                let incident = Vec3::select(v.throughput_after.cmpgt(Vec3::ZERO), gathered / v.throughput_after, Vec3::ZERO);
+                let value = luminance(incident).max(0.0) / v.pdf;
+                records.push(GuidingRecord { position: v.position, direction: v.direction, value: if value.is_finite() { value } else { 0.0 } });
+            }
+        }
+        radiance
+    }
+
+    fn trace_path_inner(&self, ray: &Ray, rng: &mut Pcg32, settings: &PathSettings, guide: &Guide, scratch: &mut PathScratch) -> Vec3 {
         let background = self.scene.background;
         let mut radiance = Vec3::ZERO;
         let mut throughput = Vec3::ONE;
@@ -154,6 +248,12 @@ impl<'a> PreparedScene<'a> {
             let ng = hit.geometric_normal;
             let wo_side = wo.dot(ng);
 
+            // The learned distribution here, if this vertex is one to guide.
+            let guided = match guide.tree {
+                Some(tree) if !at_depth_limit && bsdf.suits_guiding() => tree.directions_at(hit.position),
+                _ => None,
+            };
+
             // Next-event estimation.
             if !at_depth_limit && bsdf.has_non_delta() {
                 let u_select = rng.next_f32();
@@ -172,9 +272,9 @@ impl<'a> PreparedScene<'a> {
                         let shadow_distance = to_light.length();
                         let t_max = shadow_distance * (1.0 - 1e-4) - ray_epsilon(light.point);
                         if let Some((transmittance, crossing_probability)) =
-                            self.transmittance(shadow_origin, to_light / shadow_distance, t_max, settings, scratch)
+                            self.transmittance(shadow_origin, to_light / shadow_distance, t_max, settings, &mut scratch.hits)
                         {
-                            let bsdf_pdf = pdf * crossing_probability;
+                            let bsdf_pdf = guided_pdf(guided, pdf, wi) * crossing_probability;
                             let weight = power_heuristic(light.pdf, bsdf_pdf);
                             let cos = wi.dot(hit.shading_normal).abs();
                             radiance += throughput * f * cos * transmittance * light.radiance * (weight / light.pdf);
@@ -184,10 +284,36 @@ impl<'a> PreparedScene<'a> {
             }
 
             // Continue the path.
+            // Drawn only at guided vertices, so the plain estimator's random streams are
+            // what they always were.
+            let u_guide = if guided.is_some() { rng.next_f32() } else { 1.0 };
             let u_lobe = rng.next_f32();
             let u_event = rng.next_f32();
             let u = rng.next_vec2();
-            let Some(sample) = bsdf.sample(wo, u_lobe, u_event, u) else { break };
+            let sample = match guided {
+                Some(directions) => {
+                    // One sample of the mixture: the learned light or the BSDF, then the
+                    // mixture's density for the weight.
+                    let wi = if u_guide < GUIDED_FRACTION {
+                        directions.sample(u).0
+                    } else {
+                        let Some(s) = bsdf.sample(wo, u_lobe, u_event, u) else { break };
+                        s.wi
+                    };
+                    let (f, bsdf_pdf) = bsdf.eval_pdf(wo, wi);
+                    let pdf = GUIDED_FRACTION * directions.pdf(wi) + (1.0 - GUIDED_FRACTION) * bsdf_pdf;
+                    if !(pdf > 0.0) || f == Vec3::ZERO {
+                        break;
+                    }
+                    let transmitted = wi.dot(hit.shading_normal) * wo.dot(hit.shading_normal) < 0.0;
+                    let weight = f * wi.dot(hit.shading_normal).abs() / pdf;
+                    BsdfSample { wi, weight, pdf, delta: false, transmitted, etap: 1.0, pass_through: false }
+                }
+                None => {
+                    let Some(s) = bsdf.sample(wo, u_lobe, u_event, u) else { break };
+                    s
+                }
+            };
             if at_depth_limit && !sample.pass_through {
                 break;
             }
@@ -200,6 +326,15 @@ impl<'a> PreparedScene<'a> {
                 break;
             }
             throughput *= sample.weight;
+            if guide.records.is_some() && bsdf.suits_guiding() && !at_depth_limit {
+                scratch.vertices.push(PendingRecord {
+                    position: hit.position,
+                    direction: sample.wi,
+                    radiance_before: radiance,
+                    throughput_after: throughput,
+                    pdf: sample.pdf,
+                });
+            }
             if sample.transmitted && sample.etap != 1.0 {
                 eta_scale *= sample.etap * sample.etap;
             }
@@ -265,6 +400,15 @@ impl<'a> PreparedScene<'a> {
             probability *= p;
         }
         Some((transmittance, probability))
+    }
+}
+
+/// The density of a direction under the sampling a vertex uses: the BSDF's alone, or its
+/// mixture with the learned distribution.
+fn guided_pdf(guided: Option<&crate::guiding::DirectionalTree>, bsdf_pdf: f32, wi: Vec3) -> f32 {
+    match guided {
+        Some(directions) => GUIDED_FRACTION * directions.pdf(wi) + (1.0 - GUIDED_FRACTION) * bsdf_pdf,
+        None => bsdf_pdf,
     }
 }
 

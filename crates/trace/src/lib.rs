@@ -3,23 +3,26 @@
 //! It owns everything between a scene instance plus a camera and a linear-RGB radiance
 //! image: the BVH over the scene's triangles (obvhs), the BSDFs of the scene model (glTF
 //! metallic-roughness, smooth / rough / thin dielectrics), rectangle and emissive-mesh
-//! lights, a unidirectional path tracer with next-event estimation, MIS and Russian
-//! roulette, and the tiling over threads that keeps images bit-identical whatever the
-//! thread count. The dataset stage calls [`render`] once per sample; the CLI's `trace`
+//! lights (rectangles sampled by solid angle), a unidirectional path tracer with
+//! next-event estimation, MIS, Russian roulette and path guiding (an SD-tree learned over
+//! the first passes), and the tiling over threads that keeps images bit-identical whatever
+//! the thread count. The dataset stage calls [`render`] once per sample; the CLI's `trace`
 //! command wraps it.
 
 pub mod bsdf;
 pub mod geometry;
+pub mod guiding;
 pub mod integrator;
 pub mod lights;
 pub mod microfacet;
 pub mod render;
 pub mod rng;
 pub mod sampling;
+pub mod spherical_rect;
 
 #[cfg(test)]
 mod bsdf_tests;
 
 pub use bsdf::{Bsdf, MaterialModel, SurfaceMaterial};
-pub use integrator::{PreparedScene, SurfaceHit};
+pub use integrator::{Integrator, PreparedScene, SurfaceHit};
 pub use render::{render, sample_trace_seed, Progress, TraceOutput, TraceSettings};

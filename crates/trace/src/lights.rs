@@ -1,6 +1,8 @@
 //! Emitters and their sampling for next-event estimation: rectangle lights and the
-//! triangles of emissive-mesh objects, picked in proportion to their power and sampled
-//! uniformly by area.
+//! triangles of emissive-mesh objects, picked in proportion to their power. Rectangles are
+//! sampled uniformly in the solid angle they subtend ([`crate::spherical_rect`]) unless the
+//! plain estimator asks for area sampling; triangles and non-rectangular parallelograms are
+//! sampled uniformly by area.
 
 use std::f32::consts::PI;
 
@@ -9,6 +11,7 @@ use glassbake_scene::Scene;
 
 use crate::geometry::Owner;
 use crate::sampling::{luminance, uniform_triangle};
+use crate::spherical_rect::SphericalRect;
 
 #[derive(Clone, Copy, Debug)]
 enum Shape {
@@ -70,10 +73,12 @@ pub struct LightSampler {
     /// object's triangles follow in mesh order), for [`crate::geometry::SceneGeometry`].
     rect_light_emitter: Vec<Option<u32>>,
     object_first_emitter: Vec<Option<u32>>,
+    /// Sample rectangles by solid angle (false: by area, the plain estimator).
+    solid_angle_rectangles: bool,
 }
 
 impl LightSampler {
-    pub fn new(scene: &Scene) -> Self {
+    pub fn new(scene: &Scene, solid_angle_rectangles: bool) -> Self {
         let mut emitters = Vec::new();
         let mut rect_light_emitter = Vec::new();
         for light in &scene.rect_lights {
@@ -133,7 +138,7 @@ impl LightSampler {
         if total <= 0.0 {
             cdf.clear();
         }
-        LightSampler { emitters, pmf, cdf, rect_light_emitter, object_first_emitter }
+        LightSampler { emitters, pmf, cdf, rect_light_emitter, object_first_emitter, solid_angle_rectangles }
     }
 
     /// Whether next-event estimation has anything to sample.
@@ -155,6 +160,21 @@ impl LightSampler {
         }
         let index = self.cdf.partition_point(|&c| c <= u_select as f64).min(self.cdf.len() - 1);
         let emitter = &self.emitters[index];
+        if let Some(rect) = self.spherical_rect(emitter, from) {
+            let point = rect.sample(u);
+            let to_light = point - from;
+            let distance = to_light.length();
+            if distance <= 0.0 {
+                return None;
+            }
+            let wi = to_light / distance;
+            let radiance = emitter.emitted(-wi);
+            let pdf = (self.pmf[index] as f64 / rect.solid_angle) as f32;
+            if radiance == Vec3::ZERO {
+                return None;
+            }
+            return (pdf.is_finite() && pdf > 0.0).then_some(LightSample { point, wi, distance, radiance, pdf });
+        }
         let point = match emitter.shape {
             Shape::Parallelogram { corner, edge_u, edge_v } => corner + u.x * edge_u + u.y * edge_v,
             Shape::Triangle { v0, edge1, edge2 } => {
@@ -178,9 +198,32 @@ impl LightSampler {
         (pdf.is_finite() && pdf > 0.0).then_some(LightSample { point, wi, distance, radiance, pdf })
     }
 
+    /// The emitter as a spherical rectangle seen from `from`, when it is a rectangle lit
+    /// towards `from` and solid-angle sampling is on.
+    fn spherical_rect(&self, emitter: &Emitter, from: Vec3) -> Option<SphericalRect> {
+        let Shape::Parallelogram { corner, edge_u, edge_v } = emitter.shape else { return None };
+        if !self.solid_angle_rectangles || !self.is_rectangle(emitter) {
+            return None;
+        }
+        // Seen from its dark side a one-sided light sends nothing: no sample, density 0.
+        let facing = emitter.normal.dot(from - corner);
+        if !emitter.two_sided && facing <= 0.0 {
+            return None;
+        }
+        SphericalRect::new(corner, edge_u, edge_v, from)
+    }
+
     /// The solid-angle density with which `sample` from `from` picks `point` on `emitter`.
     pub fn pdf(&self, emitter: u32, from: Vec3, point: Vec3) -> f32 {
         let e = &self.emitters[emitter as usize];
+        if let Shape::Parallelogram { .. } = e.shape {
+            if self.solid_angle_rectangles && self.is_rectangle(e) {
+                return match self.spherical_rect(e, from) {
+                    Some(rect) => (self.pmf[emitter as usize] as f64 / rect.solid_angle) as f32,
+                    None => 0.0,
+                };
+            }
+        }
         let to_light = point - from;
         let distance2 = to_light.length_squared();
         let cos_light = e.normal.dot(to_light).abs() / distance2.sqrt();
@@ -188,5 +231,12 @@ impl LightSampler {
             return 0.0;
         }
         self.pmf[emitter as usize] * distance2 / (cos_light * e.area)
+    }
+
+    fn is_rectangle(&self, e: &Emitter) -> bool {
+        match e.shape {
+            Shape::Parallelogram { edge_u, edge_v, .. } => edge_u.dot(edge_v).abs() <= 1e-4 * edge_u.length() * edge_v.length(),
+            Shape::Triangle { .. } => false,
+        }
     }
 }

@@ -1,5 +1,11 @@
 //! Whole images: settings, validation, tiles over rayon, deterministic per-pixel sampling,
-//! and the discarding of non-finite samples.
+//! the discarding of non-finite samples, and the guided estimator's learning passes.
+//!
+//! The guided estimator (opt-in) spends the first quarter of the sample budget learning: passes of
+//! 1, 2, 4, ... samples per pixel, each rendered with the tree the previous one built; their
+//! images are thrown away and the rest of the budget renders the image with the last tree.
+//! Every pass is deterministic (per-pixel streams, records gathered in tile order), so the
+//! image is bit-identical whatever the thread count.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
@@ -11,7 +17,8 @@ use glassbake_scene::Scene;
 use rayon::prelude::*;
 
 use crate::bsdf::MaterialModel;
-use crate::integrator::{PathSettings, PreparedScene};
+use crate::guiding::{GuidingRecord, SdTree};
+use crate::integrator::{Guide, Integrator, PathScratch, PathSettings, PreparedScene};
 use crate::rng::Pcg32;
 
 /// Side of the square tiles rayon schedules. Tiles only decide who computes a pixel, never
@@ -33,7 +40,15 @@ pub struct TraceSettings {
     /// Worker threads; `None` uses the current rayon pool. The image does not depend on it.
     pub threads: Option<usize>,
     pub material_model: MaterialModel,
+    pub integrator: Integrator,
 }
+
+/// The guided estimator learns over 1/LEARNING_SHARE of the samples (Müller et al. train
+/// for up to about half the budget).
+const LEARNING_SHARE: u32 = 4;
+/// Most camera paths one learning pass may trace: bounds the records held in memory
+/// (about 4 per path, 28 bytes each) at large resolutions.
+const MAX_LEARNING_PATHS: u64 = 1 << 20;
 
 impl TraceSettings {
     pub const DEFAULT_MAX_DEPTH: u32 = 64;
@@ -49,6 +64,7 @@ impl TraceSettings {
             rr_depth: Self::DEFAULT_RR_DEPTH,
             threads: None,
             material_model: MaterialModel::Gltf,
+            integrator: Integrator::default(),
         }
     }
 
@@ -81,6 +97,9 @@ pub struct TraceOutput {
     pub warnings: Vec<String>,
     /// Wall time of the render, BVH build included.
     pub elapsed: Duration,
+    /// Samples per pixel the guided estimator spent learning (included in `samples`, not in
+    /// the image).
+    pub learning_spp: u32,
 }
 
 impl TraceOutput {
@@ -95,7 +114,8 @@ pub fn sample_trace_seed(sample_seed: u64) -> u64 {
     glassbake_core::seed::purpose_seed(sample_seed, "trace")
 }
 
-/// Progress callback: (pixels done, pixels in all). Called from worker threads.
+/// Progress callback: (pixel samples done, pixel samples in all, learning passes included).
+/// Called from worker threads.
 pub type Progress<'a> = &'a (dyn Fn(u64, u64) + Sync);
 
 /// Path trace `scene` as seen by `camera`.
@@ -130,7 +150,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
     let samples = total_pixels * settings.spp as u64;
     let mut warnings = Vec::new();
 
-    let prepared = PreparedScene::new(scene);
+    let prepared = PreparedScene::for_integrator(scene, settings.integrator);
     if prepared.lights.is_empty() && scene.background == Vec3::ZERO {
         let has_emissive = scene.rect_lights.iter().any(|l| l.radiance.max_element() > 0.0) || !scene.emissive_objects().is_empty();
         if !has_emissive {
@@ -138,9 +158,9 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
             tracing::warn!("{warning}");
             warnings.push(warning);
             if let Some(p) = progress {
-                p(total_pixels, total_pixels);
+                p(samples, samples);
             }
-            return Ok(TraceOutput { image, discarded_samples: 0, samples, warnings, elapsed: start.elapsed() });
+            return Ok(TraceOutput { image, discarded_samples: 0, samples, warnings, elapsed: start.elapsed(), learning_spp: 0 });
         }
     }
 
@@ -153,31 +173,56 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         }
     }
     let done = AtomicU64::new(0);
-    let results: Vec<(Vec<Vec3>, u64)> = tiles
-        .par_iter()
-        .map(|tile| {
-            let mut pixels = Vec::with_capacity(((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize);
-            let mut discarded = 0;
-            let mut scratch = Vec::new();
-            for y in tile.y0..tile.y1 {
-                for x in tile.x0..tile.x1 {
-                    let (value, bad) = render_pixel(&prepared, camera, settings, &path_settings, x, y, &mut scratch);
-                    pixels.push(value);
-                    discarded += bad;
+    let pass = |spp: u32, seed: u64, tree: Option<&SdTree>, learn: bool| -> Vec<TileResult> {
+        tiles
+            .par_iter()
+            .map(|tile| {
+                let pixel_count = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
+                let mut result = TileResult { pixels: Vec::with_capacity(pixel_count), discarded: 0, records: Vec::new() };
+                let mut scratch = PathScratch::default();
+                for y in tile.y0..tile.y1 {
+                    for x in tile.x0..tile.x1 {
+                        let mut guide = Guide { tree, records: learn.then_some(&mut result.records) };
+                        let (value, bad) = render_pixel(&prepared, camera, (settings.width, settings.height, spp, seed), &path_settings, x, y, &mut guide, &mut scratch);
+                        result.pixels.push(value);
+                        result.discarded += bad;
+                    }
                 }
-            }
-            let finished = done.fetch_add(pixels.len() as u64, Ordering::Relaxed) + pixels.len() as u64;
-            if let Some(p) = progress {
-                p(finished, total_pixels);
-            }
-            (pixels, discarded)
-        })
-        .collect();
+                let tile_samples = pixel_count as u64 * spp as u64;
+                let finished = done.fetch_add(tile_samples, Ordering::Relaxed) + tile_samples;
+                if let Some(p) = progress {
+                    p(finished, samples);
+                }
+                result
+            })
+            .collect()
+    };
+
+    // Learning passes (guided only): 1, 2, 4, ... spp within a quarter of the budget.
+    let mut tree = None;
+    let mut learning_spp = 0u32;
+    if settings.integrator == Integrator::Guided {
+        let mut pass_spp = 1u32;
+        let mut index = 0u32;
+        while learning_spp + pass_spp <= settings.spp / LEARNING_SHARE && total_pixels * pass_spp as u64 <= MAX_LEARNING_PATHS {
+            let pass_seed = glassbake_core::seed::purpose_seed(settings.seed, &format!("guiding pass {index}"));
+            let records: Vec<GuidingRecord> = pass(pass_spp, pass_seed, tree.as_ref(), true).into_iter().flat_map(|r| r.records).collect();
+            tree = SdTree::build(records);
+            learning_spp += pass_spp;
+            pass_spp *= 2;
+            index += 1;
+        }
+        if let Some(t) = &tree {
+            let (leaves, cells) = t.stats();
+            tracing::debug!("guiding: learned over {learning_spp} spp, {leaves} guiding leaves, {cells} direction nodes");
+        }
+    }
+    let results = pass(settings.spp - learning_spp, settings.seed, tree.as_ref(), false);
 
     let mut discarded_samples = 0;
-    for (tile, (pixels, discarded)) in tiles.iter().zip(results) {
-        discarded_samples += discarded;
-        let mut values = pixels.into_iter();
+    for (tile, result) in tiles.iter().zip(results) {
+        discarded_samples += result.discarded;
+        let mut values = result.pixels.into_iter();
         for y in tile.y0..tile.y1 {
             for x in tile.x0..tile.x1 {
                 let v = values.next().expect("one value per tile pixel");
@@ -192,28 +237,38 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         tracing::warn!("{warning}");
         warnings.push(warning);
     }
-    Ok(TraceOutput { image, discarded_samples, samples, warnings, elapsed: start.elapsed() })
+    Ok(TraceOutput { image, discarded_samples, samples, warnings, elapsed: start.elapsed(), learning_spp })
+}
+
+/// One tile's pixels of one pass, and its guiding records when learning.
+struct TileResult {
+    pixels: Vec<Vec3>,
+    discarded: u64,
+    records: Vec<GuidingRecord>,
 }
 
 /// One pixel: its own random stream, its samples in a fixed order, a box filter over the
-/// pixel. Returns the mean of the finite samples and how many were not finite.
+/// pixel. `(image width, height, spp, seed)` of the pass. Returns the mean of the finite samples and
+/// how many were not finite.
+#[allow(clippy::too_many_arguments)]
 fn render_pixel(
     prepared: &PreparedScene,
     camera: &Camera,
-    settings: &TraceSettings,
+    (width, height, spp, seed): (u32, u32, u32, u64),
     path_settings: &PathSettings,
     x: u32,
     y: u32,
-    scratch: &mut Vec<crate::geometry::Hit>,
+    guide: &mut Guide,
+    scratch: &mut PathScratch,
 ) -> (Vec3, u64) {
-    let pixel_index = y as u64 * settings.width as u64 + x as u64;
-    let mut rng = Pcg32::for_pixel(settings.seed, pixel_index);
+    let pixel_index = y as u64 * width as u64 + x as u64;
+    let mut rng = Pcg32::for_pixel(seed, pixel_index);
     let mut sum = [0.0f64; 3];
     let mut finite = 0u32;
-    for _ in 0..settings.spp {
+    for _ in 0..spp {
         let jitter = rng.next_vec2();
-        let ray = camera.ray(x as f32 + jitter.x, y as f32 + jitter.y, settings.width, settings.height);
-        let radiance = prepared.trace_path(&ray, &mut rng, path_settings, scratch);
+        let ray = camera.ray(x as f32 + jitter.x, y as f32 + jitter.y, width, height);
+        let radiance = prepared.trace_path(&ray, &mut rng, path_settings, guide, scratch);
         if radiance.is_finite() {
             for (s, c) in sum.iter_mut().zip(radiance.to_array()) {
                 *s += c as f64;
@@ -221,7 +276,7 @@ fn render_pixel(
             finite += 1;
         }
     }
-    let discarded = (settings.spp - finite) as u64;
+    let discarded = (spp - finite) as u64;
     if finite == 0 {
         return (Vec3::ZERO, discarded);
     }

@@ -9,7 +9,7 @@ use glam::{Affine3A, Vec2, Vec3};
 use glassbake_core::{Camera, Error};
 use glassbake_scene::shapes::{rect, uv_sphere};
 use glassbake_scene::{Material, Mesh, Object, RectLight, Scene};
-use glassbake_trace::{render, MaterialModel, PreparedScene, TraceSettings};
+use glassbake_trace::{render, Integrator, MaterialModel, PreparedScene, TraceSettings};
 
 /// The exact value of a box-filtered pixel of a Lambertian `object` (albedo `albedo`, facing
 /// `normal`) lit only by the polygon `corners` of radiance `radiance`: the mean over a 4x4
@@ -192,7 +192,9 @@ fn diffuse_plane_under_a_rectangle_light_matches_exact_irradiance() {
     let corners = [Vec3::new(-0.5, 1.0, -0.5), Vec3::new(0.5, 1.0, -0.5), Vec3::new(0.5, 1.0, 0.5), Vec3::new(-0.5, 1.0, 0.5)];
     let camera = Camera::look_at(Vec3::new(2.2, 1.7, 2.6), Vec3::new(0.0, 0.0, 0.0), 55.0);
     let (w, h) = (32u32, 32u32);
-    for light_kind in ["rect light", "emissive mesh"] {
+    for (light_kind, integrator) in
+        [("rect light", Integrator::Plain), ("rect light", Integrator::SolidAngle), ("rect light", Integrator::Guided), ("emissive mesh", Integrator::Plain)]
+    {
         let mut scene = empty_scene(light_kind);
         let plane = add_object(&mut scene, "plane", rect(Vec3::ZERO, Vec3::X * 20.0, Vec3::NEG_Z * 20.0, Vec2::ONE), Material::diffuse("plane", Vec3::splat(albedo)));
         if light_kind == "rect light" {
@@ -209,10 +211,11 @@ fn diffuse_plane_under_a_rectangle_light_matches_exact_irradiance() {
             // rect() faces u x v = X x Z = -Y: down, onto the plane.
             add_object(&mut scene, "emitter", rect(Vec3::new(0.0, 1.0, 0.0), Vec3::X, Vec3::Z, Vec2::ONE), emitter);
         }
-        let settings = TraceSettings { material_model: MaterialModel::Lambertian, ..TraceSettings::new(w, h, 256, 17) };
+        let settings = TraceSettings { material_model: MaterialModel::Lambertian, integrator, ..TraceSettings::new(w, h, 256, 17) };
         let out = render(&scene, &camera, &settings, None).unwrap();
         assert_eq!(out.discarded_samples, 0);
         let prepared = PreparedScene::new(&scene);
+        let light_kind = format!("{light_kind}, {}", integrator.name());
         let (mut relative_sum, mut count, mut worst) = (0.0f64, 0, 0.0f64);
         for (expected, rendered) in lit_pixels(&out.image, &prepared, &camera, plane, Vec3::Y, &corners, radiance, albedo) {
             let relative = rendered as f64 / expected - 1.0;
@@ -313,6 +316,65 @@ fn images_are_bit_identical_whatever_the_thread_count() {
     assert_eq!(images[0], images[2]);
     let other_seed = bits(&render(&scene, &camera, &TraceSettings { seed: 43, threads: Some(2), ..base.clone() }, None).unwrap().image);
     assert_ne!(images[0], other_seed);
+}
+
+/// The guided estimator's learned tree is built from records gathered in tile order, so its
+/// images do not depend on the thread count either.
+#[test]
+fn guided_images_are_bit_identical_whatever_the_thread_count() {
+    let scene = glassbake_scene::builtin::builtin("cornellbox").unwrap();
+    let sample = scene.sample(0, 0);
+    let instance = scene.instantiate(&sample.values).unwrap();
+    // 16 spp: learning passes of 1 and 2 spp, then 13 spp with the tree.
+    let base = TraceSettings { integrator: Integrator::Guided, ..TraceSettings::new(40, 36, 16, 5) };
+    let renders: Vec<_> = [Some(1), Some(2), Some(3)]
+        .into_iter()
+        .map(|threads| render(&instance, &sample.camera, &TraceSettings { threads, ..base.clone() }, None).unwrap())
+        .collect();
+    assert_eq!(renders[0].learning_spp, 3);
+    assert_eq!(bits(&renders[0].image), bits(&renders[1].image));
+    assert_eq!(bits(&renders[0].image), bits(&renders[2].image));
+    let plain = render(&instance, &sample.camera, &TraceSettings { integrator: Integrator::Plain, ..base.clone() }, None).unwrap();
+    assert_ne!(bits(&renders[0].image), bits(&plain.image), "the guided estimator must differ from the plain one");
+}
+
+/// No bias: on every built-in scene the solid-angle and guided estimators converge to the
+/// plain one's image. A z-test on the image means: each estimator renders two independent
+/// images, whose per-pixel differences give the standard error of their mean (about 1% of
+/// the mean here: caustics); the means must agree within 4 standard errors.
+#[test]
+fn every_estimator_converges_to_the_same_image() {
+    for name in glassbake_scene::builtin::BUILTIN_NAMES {
+        let scene = glassbake_scene::builtin::builtin(name).unwrap();
+        let sample = scene.sample(0, 0);
+        let instance = scene.instantiate(&sample.values).unwrap();
+        // (mean of two independent renders, variance of that mean)
+        // Each estimator gets seeds of its own: shared random streams would correlate the
+        // errors and hide a bias.
+        let estimate = |integrator: Integrator, seed_base: u64| {
+            let [a, b] = [seed_base, seed_base + 1].map(|seed| {
+                let settings = TraceSettings { integrator, ..TraceSettings::new(32, 32, 256, seed) };
+                render(&instance, &sample.camera, &settings, None).unwrap().image
+            });
+            let n = a.data().len() as f64;
+            let mean = a.data().iter().chain(b.data()).map(|&v| v as f64).sum::<f64>() / (2.0 * n);
+            let pixel_variance_sum: f64 = a.data().iter().zip(b.data()).map(|(&x, &y)| (x as f64 - y as f64).powi(2) / 2.0).sum();
+            (mean, pixel_variance_sum / (n * n) / 2.0)
+        };
+        let (plain, plain_variance) = estimate(Integrator::Plain, 20);
+        for (integrator, seed_base) in [(Integrator::SolidAngle, 30), (Integrator::Guided, 40)] {
+            let (other, other_variance) = estimate(integrator, seed_base);
+            let standard_error = (plain_variance + other_variance).sqrt();
+            let z = (other - plain).abs() / standard_error;
+            eprintln!(
+                "{name}: plain {plain:.5}, {} {other:.5}, difference {:+.2}%, standard error {:.2}%, z {z:.2}",
+                integrator.name(),
+                100.0 * (other / plain - 1.0),
+                100.0 * standard_error / plain
+            );
+            assert!(z < 4.0, "{name}: {} mean {other} vs plain {plain}: z = {z:.2}", integrator.name());
+        }
+    }
 }
 
 #[test]

@@ -9,7 +9,7 @@ use glassbake_core::image::ExrPrecision;
 use glassbake_core::seed::purpose_seed;
 use glassbake_scene::load_scene;
 use super::camera_arg::parse_camera;
-use glassbake_trace::{render, sample_trace_seed, TraceSettings};
+use glassbake_trace::{render, sample_trace_seed, Integrator, TraceSettings};
 use indicatif::{ProgressBar, ProgressStyle};
 
 #[derive(Args)]
@@ -39,12 +39,22 @@ pub struct TraceArgs {
     /// Longest path in segments (1 = emitters seen directly, 2 = direct light).
     #[arg(long, default_value_t = TraceSettings::DEFAULT_MAX_DEPTH)]
     max_depth: u32,
+    /// Light-transport estimator: `plain` (area light sampling; what datasets use),
+    /// `solid-angle` (rectangle lights sampled by solid angle) or `guided` (solid angle plus
+    /// path guiding learned over the first quarter of the samples). All three converge to
+    /// the same image; docs/trace.md has their measured efficiency.
+    #[arg(long, default_value = "plain", value_parser = parse_integrator)]
+    integrator: Integrator,
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long)]
     threads: Option<usize>,
     /// Output EXR; the PNG preview goes beside it with the extension .png.
     #[arg(long)]
     out: PathBuf,
+}
+
+fn parse_integrator(name: &str) -> std::result::Result<Integrator, String> {
+    Integrator::parse(name).ok_or_else(|| format!("unknown estimator {name:?}: expected plain, solid-angle or guided"))
 }
 
 pub fn run(args: TraceArgs) -> Result<()> {
@@ -76,16 +86,18 @@ pub fn run(args: TraceArgs) -> Result<()> {
     let settings = TraceSettings {
         max_depth: args.max_depth,
         threads: args.threads,
+        integrator: args.integrator,
         ..TraceSettings::new(args.res, args.res, args.spp, image_seed)
     };
 
-    let bar = ProgressBar::new(args.res as u64 * args.res as u64);
+    // In pixel samples, learning passes included.
+    let bar = ProgressBar::new(args.res as u64 * args.res as u64 * args.spp as u64);
     bar.set_style(
         ProgressStyle::with_template("{msg} [{bar:40}] {percent:>3}%  {elapsed_precise} elapsed, ETA {eta_precise}")
             .expect("static template")
             .progress_chars("=> "),
     );
-    bar.set_message(format!("tracing {} {}x{} @ {} spp", scene.name, args.res, args.res, args.spp));
+    bar.set_message(format!("tracing {} {}x{} @ {} spp ({})", scene.name, args.res, args.res, args.spp, args.integrator.name()));
     let progress = |done: u64, _total: u64| bar.set_position(done);
     let output = render(&instance, &camera, &settings, Some(&progress))?;
     bar.finish_and_clear();

@@ -1,0 +1,210 @@
+//! Convergence of the plain and the guided estimator on the built-in scenes at equal spp:
+//! per-pixel variance (from two renders with independent seeds), seconds, and efficiency =
+//! 1 / (variance x seconds), overall, on transparent pixels and on pixels lit through glass.
+//! Prints a Markdown table; with --out DIR also writes each render as PNG.
+//!
+//! cargo run --release -p glassbake-trace --example trace_convergence -- \
+//!     [--res 128] [--spp 256] [--sample 0] [--scenes cornellbox,desk] [--out DIR]
+//!
+//! Variance of a pixel's estimate is E[(a - b)^2] / 2 for two independent renders a, b of
+//! it, averaged over the pixel's RGB channels and then over the pixels of a mask.
+//! "Transparent" pixels see a transmissive object first; "lit through glass" pixels see an
+//! opaque surface first whose straight line to the centre of some rectangle light crosses a
+//! transmissive object (the paths plain NEE cannot take). Seconds are wall time of one render
+//! with all threads, learning passes and BVH build included.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use glam::Vec3;
+use glassbake_core::{Camera, PlanarImage, Ray};
+use glassbake_scene::builtin::builtin;
+use glassbake_scene::Scene;
+use glassbake_trace::geometry::Owner;
+use glassbake_trace::{render, Integrator, PreparedScene, TraceSettings};
+
+struct Args {
+    res: u32,
+    spp: u32,
+    sample: u64,
+    scenes: Vec<String>,
+    out: Option<PathBuf>,
+    max_depth: u32,
+}
+
+fn parse_args() -> Args {
+    let mut args = Args {
+        res: 128,
+        spp: 256,
+        sample: 0,
+        scenes: ["cornell-glass", "cornellbox", "cornellbox8", "desk", "bathroom"].map(String::from).to_vec(),
+        out: None,
+        max_depth: TraceSettings::DEFAULT_MAX_DEPTH,
+    };
+    let argv: Vec<String> = std::env::args().skip(1).collect();
+    let usage = || -> ! {
+        eprintln!("usage: trace_convergence [--res N] [--spp N] [--sample I] [--scenes a,b] [--out DIR] [--max-depth N]");
+        std::process::exit(2)
+    };
+    let mut i = 0;
+    while i < argv.len() {
+        let value = argv.get(i + 1).cloned().unwrap_or_else(|| usage());
+        match argv[i].as_str() {
+            "--res" => args.res = value.parse().unwrap_or_else(|_| usage()),
+            "--spp" => args.spp = value.parse().unwrap_or_else(|_| usage()),
+            "--sample" => args.sample = value.parse().unwrap_or_else(|_| usage()),
+            "--scenes" => args.scenes = value.split(',').map(String::from).collect(),
+            "--out" => args.out = Some(PathBuf::from(value)),
+            "--max-depth" => args.max_depth = value.parse().unwrap_or_else(|_| usage()),
+            _ => usage(),
+        }
+        i += 2;
+    }
+    args
+}
+
+fn is_transmissive(scene: &Scene, owner: Owner) -> bool {
+    match owner {
+        Owner::Object { material, .. } => scene.materials[material as usize].transmission.is_some_and(|t| t.weight > 0.0),
+        Owner::RectLight { .. } => false,
+    }
+}
+
+/// Whether the first surface on the segment from `from` to `to` is transmissive.
+fn first_blocker_is_glass(prepared: &PreparedScene, scene: &Scene, from: Vec3, to: Vec3) -> bool {
+    let to_target = to - from;
+    let distance = to_target.length();
+    let direction = to_target / distance;
+    match prepared.intersect(&Ray { origin: from + direction * 1e-4, direction }) {
+        Some(hit) => hit.distance < distance - 2e-4 && is_transmissive(scene, hit.owner),
+        None => false,
+    }
+}
+
+/// (surfaces, transparent, lit through glass) per pixel. "Surfaces" leaves out pixels with
+/// an emitter or the background in their 3x3 neighbourhood: their variance is the box
+/// filter's over a bright edge, the same for every estimator, and would swamp the mean.
+fn masks(scene: &Scene, camera: &Camera, res: u32) -> (Vec<bool>, Vec<bool>, Vec<bool>) {
+    let prepared = PreparedScene::new(scene);
+    let mut transparent = Vec::new();
+    let mut through_glass = Vec::new();
+    let mut sees_surface = Vec::new();
+    for y in 0..res {
+        for x in 0..res {
+            let ray = camera.ray(x as f32 + 0.5, y as f32 + 0.5, res, res);
+            let hit = prepared.intersect(&ray);
+            sees_surface.push(matches!(hit, Some(h) if h.emitter.is_none() && matches!(h.owner, Owner::Object { .. })));
+            let (t, g) = match hit {
+                Some(h) if is_transmissive(scene, h.owner) => (true, false),
+                Some(h) if matches!(h.owner, Owner::Object { .. }) => {
+                    let lit = scene.rect_lights.iter().any(|l| first_blocker_is_glass(&prepared, scene, h.position + h.geometric_normal * 1e-4, l.center()));
+                    (false, lit)
+                }
+                _ => (false, false),
+            };
+            transparent.push(t);
+            through_glass.push(g);
+        }
+    }
+    let r = res as i64;
+    let surfaces = (0..r * r)
+        .map(|i| {
+            let (x, y) = (i % r, i / r);
+            (-1..=1).all(|dy| (-1..=1).all(|dx| {
+                let (nx, ny) = ((x + dx).clamp(0, r - 1), (y + dy).clamp(0, r - 1));
+                sees_surface[(ny * r + nx) as usize]
+            }))
+        })
+        .collect();
+    (surfaces, transparent, through_glass)
+}
+
+fn pixel_variances(a: &PlanarImage, b: &PlanarImage) -> Vec<f64> {
+    let n = (a.width() * a.height()) as usize;
+    (0..n)
+        .map(|i| {
+            let (x, y) = (i as u32 % a.width(), i as u32 / a.width());
+            (0..3).map(|c| (a.get(c, x, y) as f64 - b.get(c, x, y) as f64).powi(2) / 2.0).sum::<f64>() / 3.0
+        })
+        .collect()
+}
+
+fn masked_mean(values: &[f64], mask: Option<&[bool]>) -> Option<f64> {
+    let (sum, count) = values
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| mask.is_none_or(|m| m[*i]))
+        .fold((0.0, 0usize), |(s, c), (_, v)| (s + v, c + 1));
+    (count > 0).then(|| sum / count as f64)
+}
+
+fn image_mean(a: &PlanarImage, b: &PlanarImage) -> f64 {
+    let n = (a.width() * a.height()) as f64 * 3.0;
+    let mut sum = 0.0;
+    for c in 0..3 {
+        for y in 0..a.height() {
+            for x in 0..a.width() {
+                sum += (a.get(c, x, y) + b.get(c, x, y)) as f64 * 0.5;
+            }
+        }
+    }
+    sum / n
+}
+
+fn main() {
+    let args = parse_args();
+    if let Some(out) = &args.out {
+        std::fs::create_dir_all(out).expect("create --out");
+    }
+    println!(
+        "{}x{}, {} spp, sample {} of seed 0, seeds 1 and 2; variance of a pixel's estimate (mean of RGB); efficiency = 1 / (variance x seconds), relative to plain\n",
+        args.res, args.res, args.spp, args.sample
+    );
+    println!("| scene | estimator | seconds | image mean | surface px | variance | efficiency | transparent px | variance | efficiency | lit through glass px | variance | efficiency |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for name in &args.scenes {
+        let scene = builtin(name).unwrap_or_else(|| panic!("no built-in scene {name}"));
+        let sample = scene.sample(0, args.sample);
+        let instance = scene.instantiate(&sample.values).expect("sampled values are in range");
+        let (surfaces, transparent, through_glass) = masks(&instance, &sample.camera, args.res);
+        let mut plain_efficiency = [None; 3];
+        for integrator in [Integrator::Plain, Integrator::SolidAngle, Integrator::Guided] {
+            let mut images = Vec::new();
+            let mut seconds = 0.0;
+            for seed in [1u64, 2] {
+                let settings = TraceSettings { integrator, max_depth: args.max_depth, ..TraceSettings::new(args.res, args.res, args.spp, seed) };
+                let start = Instant::now();
+                let output = render(&instance, &sample.camera, &settings, None).expect("render");
+                seconds += start.elapsed().as_secs_f64() / 2.0;
+                if let Some(out) = &args.out {
+                    let path = out.join(format!("{name}_{}_{}spp_seed{seed}.png", integrator.name(), args.spp));
+                    output.image.write_png_rgb(&path, [0, 1, 2]).expect("write png");
+                }
+                images.push(output.image);
+            }
+            let variances = pixel_variances(&images[0], &images[1]);
+            let mut cells = Vec::new();
+            for (k, mask) in [Some(&surfaces[..]), Some(&transparent[..]), Some(&through_glass[..])].into_iter().enumerate() {
+                let count = mask.map_or(variances.len(), |m| m.iter().filter(|&&b| b).count());
+                let variance = masked_mean(&variances, mask);
+                let efficiency = variance.map(|v| 1.0 / (v * seconds));
+                if integrator == Integrator::Plain {
+                    plain_efficiency[k] = efficiency;
+                }
+                let relative = match (efficiency, plain_efficiency[k]) {
+                    (Some(e), Some(p)) => format!("{:.2}x", e / p),
+                    _ => "n/a".into(),
+                };
+                cells.push(count.to_string());
+                cells.push(variance.map_or("n/a".into(), |v| format!("{v:.3e}")));
+                cells.push(relative);
+            }
+            println!(
+                "| {name} | {} | {seconds:.1} | {:.4} | {} |",
+                integrator.name(),
+                image_mean(&images[0], &images[1]),
+                cells.join(" | ")
+            );
+        }
+    }
+}
