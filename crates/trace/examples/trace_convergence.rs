@@ -5,6 +5,7 @@
 //!
 //! cargo run --release -p glassbake-trace --example trace_convergence -- \
 //!     [--res 128] [--spp 256] [--sample 0] [--scenes cornellbox,desk] [--out DIR]
+//!     [--estimators plain,solid-angle,guided] [--max-depth N]
 //!
 //! Variance of a pixel's estimate is E[(a - b)^2] / 2 for two independent renders a, b of
 //! it, averaged over the pixel's RGB channels and then over the pixels of a mask.
@@ -30,6 +31,7 @@ struct Args {
     scenes: Vec<String>,
     out: Option<PathBuf>,
     max_depth: u32,
+    estimators: Vec<Integrator>,
 }
 
 fn parse_args() -> Args {
@@ -40,10 +42,11 @@ fn parse_args() -> Args {
         scenes: ["cornell-glass", "cornellbox", "cornellbox8", "desk", "bathroom"].map(String::from).to_vec(),
         out: None,
         max_depth: TraceSettings::DEFAULT_MAX_DEPTH,
+        estimators: vec![Integrator::Plain, Integrator::SolidAngle, Integrator::Guided],
     };
     let argv: Vec<String> = std::env::args().skip(1).collect();
     let usage = || -> ! {
-        eprintln!("usage: trace_convergence [--res N] [--spp N] [--sample I] [--scenes a,b] [--out DIR] [--max-depth N]");
+        eprintln!("usage: trace_convergence [--res N] [--spp N] [--sample I] [--scenes a,b] [--estimators plain,solid-angle,guided] [--out DIR] [--max-depth N]");
         std::process::exit(2)
     };
     let mut i = 0;
@@ -56,6 +59,9 @@ fn parse_args() -> Args {
             "--scenes" => args.scenes = value.split(',').map(String::from).collect(),
             "--out" => args.out = Some(PathBuf::from(value)),
             "--max-depth" => args.max_depth = value.parse().unwrap_or_else(|_| usage()),
+            "--estimators" => {
+                args.estimators = value.split(',').map(|e| Integrator::parse(e).unwrap_or_else(|| usage())).collect();
+            }
             _ => usage(),
         }
         i += 2;
@@ -168,7 +174,7 @@ fn main() {
         let instance = scene.instantiate(&sample.values).expect("sampled values are in range");
         let (surfaces, transparent, through_glass) = masks(&instance, &sample.camera, args.res);
         let mut plain_efficiency = [None; 3];
-        for integrator in [Integrator::Plain, Integrator::SolidAngle, Integrator::Guided] {
+        for &integrator in &args.estimators {
             let mut images = Vec::new();
             let mut seconds = 0.0;
             for seed in [1u64, 2] {

@@ -239,7 +239,7 @@ impl SdTree {
         let origin = (min + max) * 0.5 - Vec3::splat(size * 0.5);
         // PPG splits a leaf at c * sqrt(2^k) records for 2^k samples per pixel; with the
         // pass size folded in, the threshold grows as the square root of the records.
-        let split_threshold = (4.0 * (records.len() as f64).sqrt()).max(256.0) as usize;
+        let split_threshold = (16.0 * (records.len() as f64).sqrt()).max(256.0) as usize;
         let mut tree = SdTree { origin, size, nodes: Vec::new(), directions: Vec::new() };
         tree.build_node(&mut records, origin, size, 0, split_threshold);
         Some(tree)

@@ -68,7 +68,7 @@ impl Integrator {
 
 /// Share of a guided vertex's samples drawn from the learned distribution (the rest from
 /// the BSDF); Müller et al. use one half.
-const GUIDED_FRACTION: f32 = 0.5;
+const GUIDED_FRACTION: f32 = 0.25;
 
 /// What a path learns from and records into.
 #[derive(Default)]

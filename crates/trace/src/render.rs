@@ -2,8 +2,9 @@
 //! the discarding of non-finite samples, and the guided estimator's learning passes.
 //!
 //! The guided estimator (opt-in) spends the first quarter of the sample budget learning: passes of
-//! 1, 2, 4, ... samples per pixel, each rendered with the tree the previous one built; their
-//! images are thrown away and the rest of the budget renders the image with the last tree.
+//! 1, 2, 4, ... samples per pixel, each rendered with the tree the previous one built; the
+//! rest of the budget renders with the last tree, and the image averages every pass's
+//! samples (all are unbiased).
 //! Every pass is deterministic (per-pixel streams, records gathered in tile order), so the
 //! image is bit-identical whatever the thread count.
 
@@ -97,8 +98,8 @@ pub struct TraceOutput {
     pub warnings: Vec<String>,
     /// Wall time of the render, BVH build included.
     pub elapsed: Duration,
-    /// Samples per pixel the guided estimator spent learning (included in `samples`, not in
-    /// the image).
+    /// Samples per pixel the guided estimator traced while learning (part of `spp`, and
+    /// averaged into the image like the others).
     pub learning_spp: u32,
 }
 
@@ -178,14 +179,13 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
             .par_iter()
             .map(|tile| {
                 let pixel_count = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
-                let mut result = TileResult { pixels: Vec::with_capacity(pixel_count), discarded: 0, records: Vec::new() };
+                let mut result = TileResult { pixels: Vec::with_capacity(pixel_count), records: Vec::new() };
                 let mut scratch = PathScratch::default();
                 for y in tile.y0..tile.y1 {
                     for x in tile.x0..tile.x1 {
                         let mut guide = Guide { tree, records: learn.then_some(&mut result.records) };
-                        let (value, bad) = render_pixel(&prepared, camera, (settings.width, settings.height, spp, seed), &path_settings, x, y, &mut guide, &mut scratch);
-                        result.pixels.push(value);
-                        result.discarded += bad;
+                        let sums = render_pixel(&prepared, camera, (settings.width, settings.height, spp, seed), &path_settings, x, y, &mut guide, &mut scratch);
+                        result.pixels.push(sums);
                     }
                 }
                 let tile_samples = pixel_count as u64 * spp as u64;
@@ -198,6 +198,20 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
             .collect()
     };
 
+    // Every pass's samples are unbiased, so the image averages all of them, learning passes
+    // included (per-pixel sums in pass order, so the result is deterministic).
+    let mut sums = vec![PixelSums::default(); total_pixels as usize];
+    let mut accumulate = |results: Vec<TileResult>| {
+        for (tile, result) in tiles.iter().zip(results) {
+            let mut values = result.pixels.into_iter();
+            for y in tile.y0..tile.y1 {
+                for x in tile.x0..tile.x1 {
+                    sums[(y * width + x) as usize].add(&values.next().expect("one value per tile pixel"));
+                }
+            }
+        }
+    };
+
     // Learning passes (guided only): 1, 2, 4, ... spp within a quarter of the budget.
     let mut tree = None;
     let mut learning_spp = 0u32;
@@ -206,7 +220,9 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         let mut index = 0u32;
         while learning_spp + pass_spp <= settings.spp / LEARNING_SHARE && total_pixels * pass_spp as u64 <= MAX_LEARNING_PATHS {
             let pass_seed = glassbake_core::seed::purpose_seed(settings.seed, &format!("guiding pass {index}"));
-            let records: Vec<GuidingRecord> = pass(pass_spp, pass_seed, tree.as_ref(), true).into_iter().flat_map(|r| r.records).collect();
+            let mut results = pass(pass_spp, pass_seed, tree.as_ref(), true);
+            let records: Vec<GuidingRecord> = results.iter_mut().flat_map(|r| std::mem::take(&mut r.records)).collect();
+            accumulate(results);
             tree = SdTree::build(records);
             learning_spp += pass_spp;
             pass_spp *= 2;
@@ -217,18 +233,15 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
             tracing::debug!("guiding: learned over {learning_spp} spp, {leaves} guiding leaves, {cells} direction nodes");
         }
     }
-    let results = pass(settings.spp - learning_spp, settings.seed, tree.as_ref(), false);
+    accumulate(pass(settings.spp - learning_spp, settings.seed, tree.as_ref(), false));
 
     let mut discarded_samples = 0;
-    for (tile, result) in tiles.iter().zip(results) {
-        discarded_samples += result.discarded;
-        let mut values = result.pixels.into_iter();
-        for y in tile.y0..tile.y1 {
-            for x in tile.x0..tile.x1 {
-                let v = values.next().expect("one value per tile pixel");
-                for (channel, component) in v.to_array().into_iter().enumerate() {
-                    image.set(channel, x, y, component);
-                }
+    for y in 0..height {
+        for x in 0..width {
+            let pixel = &sums[(y * width + x) as usize];
+            discarded_samples += pixel.discarded;
+            for (channel, component) in pixel.mean().to_array().into_iter().enumerate() {
+                image.set(channel, x, y, component);
             }
         }
     }
@@ -242,14 +255,38 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
 
 /// One tile's pixels of one pass, and its guiding records when learning.
 struct TileResult {
-    pixels: Vec<Vec3>,
-    discarded: u64,
+    pixels: Vec<PixelSums>,
     records: Vec<GuidingRecord>,
 }
 
+/// A pixel's finite samples summed in f64, and how many samples were not finite.
+#[derive(Clone, Default)]
+struct PixelSums {
+    sum: [f64; 3],
+    finite: u64,
+    discarded: u64,
+}
+
+impl PixelSums {
+    fn add(&mut self, other: &PixelSums) {
+        for (s, o) in self.sum.iter_mut().zip(other.sum) {
+            *s += o;
+        }
+        self.finite += other.finite;
+        self.discarded += other.discarded;
+    }
+
+    fn mean(&self) -> Vec3 {
+        if self.finite == 0 {
+            return Vec3::ZERO;
+        }
+        let n = self.finite as f64;
+        Vec3::new((self.sum[0] / n) as f32, (self.sum[1] / n) as f32, (self.sum[2] / n) as f32)
+    }
+}
+
 /// One pixel: its own random stream, its samples in a fixed order, a box filter over the
-/// pixel. `(image width, height, spp, seed)` of the pass. Returns the mean of the finite samples and
-/// how many were not finite.
+/// pixel. `(image width, height, spp, seed)` of the pass.
 #[allow(clippy::too_many_arguments)]
 fn render_pixel(
     prepared: &PreparedScene,
@@ -260,26 +297,22 @@ fn render_pixel(
     y: u32,
     guide: &mut Guide,
     scratch: &mut PathScratch,
-) -> (Vec3, u64) {
+) -> PixelSums {
     let pixel_index = y as u64 * width as u64 + x as u64;
     let mut rng = Pcg32::for_pixel(seed, pixel_index);
-    let mut sum = [0.0f64; 3];
-    let mut finite = 0u32;
+    let mut sums = PixelSums::default();
     for _ in 0..spp {
         let jitter = rng.next_vec2();
         let ray = camera.ray(x as f32 + jitter.x, y as f32 + jitter.y, width, height);
         let radiance = prepared.trace_path(&ray, &mut rng, path_settings, guide, scratch);
         if radiance.is_finite() {
-            for (s, c) in sum.iter_mut().zip(radiance.to_array()) {
+            for (s, c) in sums.sum.iter_mut().zip(radiance.to_array()) {
                 *s += c as f64;
             }
-            finite += 1;
+            sums.finite += 1;
+        } else {
+            sums.discarded += 1;
         }
     }
-    let discarded = (spp - finite) as u64;
-    if finite == 0 {
-        return (Vec3::ZERO, discarded);
-    }
-    let n = finite as f64;
-    (Vec3::new((sum[0] / n) as f32, (sum[1] / n) as f32, (sum[2] / n) as f32), discarded)
+    sums
 }
