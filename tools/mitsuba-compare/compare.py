@@ -5,6 +5,9 @@ the wall time, samples per second and image statistics of both.
     python3 tools/mitsuba-compare/compare.py --glassbake target/release/glassbake \
         --scene cornellbox --sample 0 --res 128 --spp 256 [--variant scalar_rgb] [--threads N]
 
+--scene is anything `glassbake` accepts: a built-in name or a manifest / glTF / OBJ path
+(make_scenes.py beside this file writes two glTF test scenes with manifests).
+
 Both renderers use all cores unless --threads is given, max depth 64, Russian roulette from
 depth 5. The scene goes to Mitsuba through `glassbake scene mitsuba` (docs/design.md §7).
 Mitsuba's `principled` BSDF (opaque surfaces) uses Disney diffuse, not glTF's Lambertian
@@ -60,7 +63,9 @@ def main():
     print(f"scene {a.scene} sample {a.sample}, {a.res}x{a.res}, {a.spp} spp, threads {a.threads or 'all'}")
     print(f"  glassbake trace : {gb_time:7.2f} s  {samples / gb_time:12,.0f} samples/s (process wall time, BVH build and EXR write included)")
     print(f"  mitsuba {a.variant:<8}: {mi_time:7.2f} s  {samples / mi_time:12,.0f} samples/s (render call only)")
-    print(f"  mean RGB glassbake {gb_img.mean(axis=(0, 1))}, mitsuba {mi_img.mean(axis=(0, 1))}")
+    gb_mean, mi_mean = gb_img.mean(axis=(0, 1)), mi_img.mean(axis=(0, 1))
+    print(f"  mean RGB glassbake {gb_mean}, mitsuba {mi_mean}")
+    print(f"  ratio glassbake / mitsuba per channel: {' / '.join(f'{r:.4f}' for r in gb_mean / mi_mean)}")
     print(f"  images in {work}")
 
 

@@ -146,6 +146,16 @@ fn gltf_document(scene: &Scene) -> (Value, Vec<u8>) {
                     extensions.insert("KHR_materials_emissive_strength".into(), json!({"emissiveStrength": strength}));
                 }
             }
+            if !m.has_default_specular() {
+                let mut specular = json!({"specularFactor": m.specular, "specularColorFactor": m.specular_color.to_array()});
+                if let Some(t) = m.specular_texture {
+                    specular["specularTexture"] = json!({"index": t});
+                }
+                if let Some(t) = m.specular_color_texture {
+                    specular["specularColorTexture"] = json!({"index": t});
+                }
+                extensions.insert("KHR_materials_specular".into(), specular);
+            }
             if let Some(t) = m.transmission {
                 extensions.insert("KHR_materials_transmission".into(), json!({"transmissionFactor": t.weight}));
                 extensions.insert("KHR_materials_ior".into(), json!({"ior": t.ior}));
@@ -224,7 +234,7 @@ pub fn manifest_of(scene: &Scene, geometry: &str) -> Manifest {
         .objects
         .iter()
         .filter(|o| o.transparent != scene.materials[o.material].is_transmissive())
-        .map(|o| (o.name.clone(), ObjectOverride { transparent: Some(o.transparent) }))
+        .map(|o| (o.name.clone(), ObjectOverride { transparent: Some(o.transparent), thin: None }))
         .collect();
     Manifest {
         name: Some(scene.name.clone()),

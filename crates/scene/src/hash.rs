@@ -47,6 +47,12 @@ impl Scene {
             floats(&mut h, &[m.roughness, m.metallic]);
             floats(&mut h, &m.emission.to_array());
             h.update(format!("{:?}{:?}{:?}", m.base_color_texture, m.roughness_texture, m.transmission).as_bytes());
+            // Only when set, so scenes without a specular layer keep their old hash.
+            if !m.has_default_specular() {
+                floats(&mut h, &[m.specular]);
+                floats(&mut h, &m.specular_color.to_array());
+                h.update(format!("specular {:?}{:?}", m.specular_texture, m.specular_color_texture).as_bytes());
+            }
         }
         for o in &self.objects {
             h.update(o.name.as_bytes());

@@ -9,6 +9,7 @@
 pub mod builtin;
 pub mod camera_spec;
 pub mod export;
+pub mod gltf_extensions;
 pub mod hash;
 pub mod instance;
 pub mod load;

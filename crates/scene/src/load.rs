@@ -5,12 +5,13 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use glam::{Affine3A, Mat4, Vec2, Vec3, Vec4};
+use glam::{Affine2, Affine3A, Mat4, Vec2, Vec3, Vec4};
 use glassbake_core::color::srgb_to_linear;
 use glassbake_core::{Error, Result};
 
 use crate::builtin::{builtin, BUILTIN_NAMES};
 use crate::camera_spec::{CameraPosition, CameraSpec, Interval};
+use crate::gltf_extensions;
 use crate::manifest::{parse_manifest, Manifest, NumberOrRange, PositionManifest, TargetManifest};
 use crate::model::{Material, Mesh, Object, RectLight, Scene, Texture, Transmission};
 use crate::variables::{Variable, VariableTarget};
@@ -172,31 +173,52 @@ fn gltf_texture(
     Ok(index)
 }
 
+/// A glTF material, and the KHR_texture_transform its textures share (baked into the UVs of
+/// the primitives that use it, since glassbake's materials sample one UV set).
 fn gltf_material(
     m: &gltf::Material,
     scene: &mut Scene,
     cache: &mut HashMap<(usize, bool), usize>,
     images: &[gltf::image::Data],
     label: &str,
-) -> Result<Material> {
+) -> Result<(Material, Option<Affine2>)> {
     let pbr = m.pbr_metallic_roughness();
     let base = pbr.base_color_factor();
     let name = m.name().map(str::to_string).unwrap_or_else(|| format!("material{}", m.index().unwrap_or(0)));
-    let mut warn_uv = |info_uv: u32| {
-        if info_uv != 0 {
-            scene.load_warnings.push(format!("material {name}: texture uses TEXCOORD_{info_uv}; only TEXCOORD_0 is read"));
+    let mut warnings = Vec::new();
+    // Each texture slot used: (field name, image index, is colour, its transform).
+    let mut slot = |field: &str, info: Option<gltf::texture::Info>| -> Option<(usize, Option<Affine2>)> {
+        let info = info?;
+        let transform = info.texture_transform().map(|t| {
+            if t.tex_coord().is_some_and(|c| c != 0) {
+                warnings.push(format!("material {name}: {field} KHR_texture_transform selects another UV set; only TEXCOORD_0 is read"));
+            }
+            gltf_extensions::texture_transform_matrix(t.offset(), t.rotation(), t.scale())
+        });
+        if info.tex_coord() != 0 {
+            warnings.push(format!("material {name}: {field} uses TEXCOORD_{}; only TEXCOORD_0 is read", info.tex_coord()));
         }
+        Some((info.texture().source().index(), transform))
     };
-    let base_tex = pbr.base_color_texture().map(|t| {
-        warn_uv(t.tex_coord());
-        t.texture().source().index()
-    });
-    let rough_tex = pbr.metallic_roughness_texture().map(|t| {
-        warn_uv(t.tex_coord());
-        t.texture().source().index()
-    });
-    let base_color_texture = base_tex.map(|i| gltf_texture(scene, cache, images, i, true, label)).transpose()?;
-    let roughness_texture = rough_tex.map(|i| gltf_texture(scene, cache, images, i, false, label)).transpose()?;
+    let specular_ext = m.specular();
+    let base_slot = slot("baseColorTexture", pbr.base_color_texture());
+    let rough_slot = slot("metallicRoughnessTexture", pbr.metallic_roughness_texture());
+    let specular_slot = slot("specularTexture", specular_ext.as_ref().and_then(|s| s.specular_texture()));
+    let specular_color_slot = slot("specularColorTexture", specular_ext.as_ref().and_then(|s| s.specular_color_texture()));
+    let slots = [base_slot, rough_slot, specular_slot, specular_color_slot];
+    // The first textured slot's transform is baked; any other must agree.
+    let transform = slots.iter().flatten().map(|(_, t)| *t).next().flatten();
+    if slots.iter().flatten().any(|(_, t)| *t != transform) {
+        warnings.push(format!("material {name}: its textures have different KHR_texture_transforms; all use the first one's"));
+    }
+    scene.load_warnings.append(&mut warnings);
+    let mut texture = |slot: Option<(usize, Option<Affine2>)>, is_color: bool| slot.map(|(i, _)| gltf_texture(scene, cache, images, i, is_color, label)).transpose();
+    let base_color_texture = texture(base_slot, true)?;
+    let roughness_texture = texture(rough_slot, false)?;
+    // KHR_materials_specular: the factor's texture is read from its alpha channel (linear),
+    // the colour's from RGB (sRGB).
+    let specular_texture = texture(specular_slot, false)?;
+    let specular_color_texture = texture(specular_color_slot, true)?;
     let strength = m.emissive_strength().unwrap_or(1.0);
     let transmission = m.transmission().map(|t| Transmission {
         weight: t.transmission_factor(),
@@ -204,34 +226,54 @@ fn gltf_material(
         // glTF: without KHR_materials_volume (or with zero thickness) the surface is thin-walled.
         thin: m.volume().is_none_or(|v| v.thickness_factor() <= 0.0),
     });
-    Ok(Material {
+    if m.ior().is_some_and(|ior| (ior - 1.5).abs() > 1e-6) && transmission.is_none() {
+        scene.load_warnings.push(format!("material {name}: KHR_materials_ior on an opaque material is ignored (F0 stays 0.04 x specular colour)"));
+    }
+    let material = Material {
         name,
         base_color: Vec3::new(base[0], base[1], base[2]),
         base_color_texture,
         roughness: pbr.roughness_factor(),
         roughness_texture,
         metallic: pbr.metallic_factor(),
+        specular: specular_ext.as_ref().map_or(1.0, |s| s.specular_factor()),
+        specular_texture,
+        specular_color: specular_ext.as_ref().map_or(Vec3::ONE, |s| Vec3::from(s.specular_color_factor())),
+        specular_color_texture,
         emission: Vec3::from(m.emissive_factor()) * strength,
         transmission: transmission.filter(|t| t.weight > 0.0),
-    })
+    };
+    Ok((material, transform))
 }
 
 /// Load a glTF 2.0 file (.gltf or .glb) with its buffers and textures.
 pub fn load_gltf(path: &Path) -> Result<Scene> {
     let label = path.display().to_string();
-    let (document, buffers, images) =
-        gltf::import(path).map_err(|e| Error::bad_input(&label, "glTF", e.to_string().replace('\n', " ")))?;
+    let bytes = std::fs::read(path).map_err(|e| Error::bad_input(&label, "file", e.to_string()))?;
+    let (used, required) = gltf_extensions::declared_extensions(&bytes, &label)?;
+    let extension_warnings = gltf_extensions::check_extensions(&used, &required, &label)?;
+    let gltf_error = |e: gltf::Error| Error::bad_input(&label, "glTF", e.to_string().replace('\n', " "));
+    // The required extensions are checked above against what glassbake renders; the gltf
+    // crate's own check (gltf 1.4.1) also refuses KHR_materials_specular and _volume, which
+    // it parses, so it validates the document with that list emptied.
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(&bytes).map_err(gltf_error)?;
+    let mut root = document.into_json();
+    root.extensions_required.clear();
+    let document = gltf::Document::from_json(root).map_err(gltf_error)?;
+    let base = path.parent();
+    let buffers = gltf::import_buffers(&document, base, blob).map_err(gltf_error)?;
+    let images = gltf::import_images(&document, base, &buffers).map_err(gltf_error)?;
     let mut scene = empty_scene(path);
-    if document.extensions_used().any(|e| e == "KHR_lights_punctual") {
-        scene.load_warnings.push("KHR_lights_punctual lights are ignored: declare rectangle lights in a manifest".into());
-    }
+    scene.load_warnings.extend(extension_warnings);
     let mut texture_cache = HashMap::new();
     // Materials keep the file's order, so indices match the file's material indices.
     let mut material_names = HashMap::new();
+    let mut uv_transforms = Vec::new();
     for m in document.materials() {
-        let mut material = gltf_material(&m, &mut scene, &mut texture_cache, &images, &label)?;
+        let (mut material, uv_transform) = gltf_material(&m, &mut scene, &mut texture_cache, &images, &label)?;
         material.name = unique_name(&mut material_names, &material.name);
         scene.materials.push(material);
+        uv_transforms.push(uv_transform);
     }
     let mut default_material = None;
     let mut names = HashMap::new();
@@ -277,13 +319,20 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
                 None => match default_material {
                     Some(i) => i,
                     None => {
-                        let m = gltf_material(&primitive.material(), &mut scene, &mut texture_cache, &images, &label)?;
+                        let (m, uv_transform) = gltf_material(&primitive.material(), &mut scene, &mut texture_cache, &images, &label)?;
                         let name = unique_name(&mut material_names, "default");
                         scene.materials.push(Material { name, ..m });
+                        uv_transforms.push(uv_transform);
                         *default_material.insert(scene.materials.len() - 1)
                     }
                 },
             };
+            let mut mesh = mesh;
+            if let Some(t) = uv_transforms[material] {
+                for uv in &mut mesh.uvs {
+                    *uv = t.transform_point2(*uv);
+                }
+            }
             scene.meshes.push(Arc::new(mesh));
             let transparent = scene.materials[material].is_transmissive();
             scene.objects.push(Object {
@@ -355,6 +404,18 @@ pub fn load_obj(path: &Path) -> Result<Scene> {
             }
             None => None,
         };
+        // The specular layer by illumination model: 0 and 1 have none (Lambertian); 2 and
+        // the others take Ks as the reflectance at normal incidence (F0 = 0.04 x colour, so
+        // colour = Ks / 0.04), or glTF's default 4% where Ks is absent. Ks of zero is none.
+        let (specular, specular_color) = match (illum, m.specular) {
+            (0 | 1, _) => (0.0, Vec3::ONE),
+            (_, Some(ks)) if Vec3::from(ks).max_element() <= 0.0 => (0.0, Vec3::ONE),
+            (_, Some(ks)) => (1.0, Vec3::from(ks).max(Vec3::ZERO) / 0.04),
+            (_, None) => (1.0, Vec3::ONE),
+        };
+        if !matches!(illum, 0..=2 | 4 | 6 | 7 | 9) {
+            scene.load_warnings.push(format!("{field}: illum {illum} is read as illum 2 (diffuse + specular)"));
+        }
         let mut material = Material {
             name: if m.name.is_empty() { format!("material{i}") } else { m.name.clone() },
             base_color: kd,
@@ -362,9 +423,10 @@ pub fn load_obj(path: &Path) -> Result<Scene> {
             // glTF roughness is sqrt(alpha).
             roughness: alpha.sqrt().clamp(0.0, 1.0),
             roughness_texture: None,
-            metallic: 0.0,
+            specular,
+            specular_color,
             emission: m.emissive.map(Vec3::from).unwrap_or(Vec3::ZERO),
-            transmission: None,
+            ..Material::diffuse("", kd)
         };
         if glass {
             material.base_color = unknown("Tf").unwrap_or(Vec3::ONE);
@@ -454,6 +516,18 @@ pub fn apply_manifest(scene: &mut Scene, manifest: &Manifest, file: &str) -> Res
         let i = scene.object_index(name).ok_or_else(|| {
             Error::bad_input(file, format!("objects.{name}"), format!("no object of that name (objects: {})", name_list(scene.objects.iter().map(|o| o.name.as_str()))))
         })?;
+        if let Some(thin) = o.thin {
+            let field = format!("objects.{name}.thin");
+            let material = &scene.materials[scene.objects[i].material];
+            let Some(mut transmission) = material.transmission else {
+                return Err(Error::bad_input(file, field, format!("material {} is not transmissive: thin applies to glass only", material.name)));
+            };
+            transmission.thin = thin;
+            // A material of its own, so other objects sharing the file's material keep theirs.
+            let own = Material { name: format!("{}.{}", material.name, scene.objects[i].name), transmission: Some(transmission), ..material.clone() };
+            scene.materials.push(own);
+            scene.objects[i].material = scene.materials.len() - 1;
+        }
         if let Some(t) = o.transparent {
             scene.objects[i].transparent = t;
         }

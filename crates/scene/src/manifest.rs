@@ -138,6 +138,9 @@ fn default_brightness() -> f32 {
 pub struct ObjectOverride {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub transparent: Option<bool>,
+    /// Make the object's glass a thin pane (true) or a solid (false): OBJ cannot say which.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thin: Option<bool>,
 }
 
 /// Parse manifest text. On failure returns (field or location, one-line message).

@@ -75,8 +75,18 @@ fn bsdf_xml(m: &Material, texture_files: &[String]) -> String {
                 ),
                 None => format!("<rgb name=\"base_color\" value=\"{}\"/>", rgb(m.base_color)),
             };
+            if m.specular <= 0.0 && m.metallic <= 0.0 {
+                // No specular layer: exactly Mitsuba's Lambertian `diffuse`.
+                let reflectance = base.replace("name=\"base_color\"", "name=\"reflectance\"");
+                return format!("<bsdf type=\"diffuse\">{reflectance}</bsdf>");
+            }
+            // The dielectric base has no exact Mitsuba counterpart (glassbake weights the
+            // diffuse lobe by 1 - F(wo.n), `principled` uses Disney diffuse); `specular` maps
+            // principled's F0 = 0.08 x specular to glassbake's 0.04 x weight x colour.
+            let specular = (0.5 * m.specular * m.specular_color.max_element()).clamp(0.0, 1.0);
             format!(
-                "<bsdf type=\"principled\">{base}<float name=\"roughness\" value=\"{}\"/><float name=\"metallic\" value=\"{}\"/></bsdf>",
+                "<bsdf type=\"principled\">{base}<float name=\"roughness\" value=\"{}\"/><float name=\"metallic\" value=\"{}\"/>\
+                 <float name=\"specular\" value=\"{specular}\"/></bsdf>",
                 m.roughness, m.metallic
             )
         }

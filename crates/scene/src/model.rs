@@ -171,6 +171,16 @@ pub struct Material {
     /// Its green channel multiplies `roughness` (glTF metallic-roughness convention).
     pub roughness_texture: Option<usize>,
     pub metallic: f32,
+    /// Strength of the dielectric specular layer over the diffuse base (glTF
+    /// KHR_materials_specular `specularFactor`, default 1): 0 is a pure Lambertian surface.
+    pub specular: f32,
+    /// Its alpha channel multiplies `specular`.
+    pub specular_texture: Option<usize>,
+    /// Tints the dielectric reflectance at normal incidence: F0 = min(0.04 x colour, 1)
+    /// (`specularColorFactor`, linear RGB, default white).
+    pub specular_color: Vec3,
+    /// Its RGB (sRGB-decoded) multiplies `specular_color`.
+    pub specular_color_texture: Option<usize>,
     /// Emitted radiance (glTF emissiveFactor x emissive strength).
     pub emission: Vec3,
     pub transmission: Option<Transmission>,
@@ -185,9 +195,23 @@ impl Material {
             roughness: 1.0,
             roughness_texture: None,
             metallic: 0.0,
+            specular: 1.0,
+            specular_texture: None,
+            specular_color: Vec3::ONE,
+            specular_color_texture: None,
             emission: Vec3::ZERO,
             transmission: None,
         }
+    }
+
+    /// A pure Lambertian surface: no specular layer (glTF specularFactor 0, OBJ illum 0/1).
+    pub fn lambertian(name: &str, base_color: Vec3) -> Self {
+        Material { specular: 0.0, ..Material::diffuse(name, base_color) }
+    }
+
+    /// Whether the specular layer has its glTF defaults (so older scene hashes still hold).
+    pub fn has_default_specular(&self) -> bool {
+        self.specular == 1.0 && self.specular_color == Vec3::ONE && self.specular_texture.is_none() && self.specular_color_texture.is_none()
     }
 
     pub fn glass(name: &str, tint: Vec3, roughness: f32, ior: f32, thin: bool) -> Self {

@@ -563,3 +563,115 @@ fn texture_sampling_is_bilinear_top_down_and_repeats() {
     assert_eq!(t.sample(glam::Vec2::new(1.25, 0.75)), Vec4::splat(2.0));
     assert_eq!(t.sample(glam::Vec2::new(0.0, 0.25)), Vec4::splat(0.5));
 }
+
+/// The quad glTF with its wall material given KHR_materials_specular (factor, colour and both
+/// textures) and a KHR_texture_transform on every texture.
+fn specular_gltf(dir: &Path, extra_used: &[&str], required: &[&str]) -> PathBuf {
+    write_poster(dir);
+    write(&dir.join("quad.bin"), quad_buffer());
+    let mut doc = quad_gltf(Some("quad.bin"), false);
+    let transform = json!({"KHR_texture_transform": {"offset": [0.5, 0.0], "scale": [2.0, 2.0]}});
+    doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"] = transform.clone();
+    doc["materials"][0]["extensions"]["KHR_materials_specular"] = json!({
+        "specularFactor": 0.25,
+        "specularColorFactor": [1.0, 0.5, 2.0],
+        "specularTexture": {"index": 0, "extensions": transform.clone()},
+        "specularColorTexture": {"index": 0, "extensions": transform},
+    });
+    let mut used: Vec<&str> = vec!["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_emissive_strength", "KHR_materials_specular", "KHR_texture_transform"];
+    used.extend(extra_used);
+    doc["extensionsUsed"] = json!(used);
+    if !required.is_empty() {
+        doc["extensionsRequired"] = json!(required);
+    }
+    let path = dir.join("specular.gltf");
+    write(&path, serde_json::to_vec(&doc).unwrap());
+    path
+}
+
+#[test]
+fn gltf_specular_extension_and_texture_transform() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = specular_gltf(dir.path(), &[], &["KHR_materials_specular"]);
+    let scene = load_scene(path.to_str().unwrap()).unwrap();
+    let wall = &scene.objects[scene.object_index("wall").unwrap()];
+    let m = &scene.materials[wall.material];
+    assert_eq!(m.specular, 0.25);
+    assert_eq!(m.specular_color, Vec3::new(1.0, 0.5, 2.0));
+    // The factor's texture is linear (its alpha is read), the colour's sRGB.
+    let (factor_tex, color_tex) = (m.specular_texture.unwrap(), m.specular_color_texture.unwrap());
+    assert!(!scene.textures[factor_tex].is_color && scene.textures[color_tex].is_color);
+    // KHR_texture_transform is baked into the wall's UVs: uv' = (0.5, 0) + 2 uv.
+    let uvs = &scene.meshes[wall.mesh].uvs;
+    assert_eq!(uvs[0], glam::Vec2::new(0.5, 2.0), "{uvs:?}");
+    assert_eq!(uvs[1], glam::Vec2::new(2.5, 2.0), "{uvs:?}");
+    // The glass without textures keeps its UVs (none) and the glTF default specular layer.
+    let glass = &scene.materials[scene.objects[scene.object_index("glass").unwrap()].material];
+    assert!(glass.has_default_specular());
+    assert!(scene.warnings().is_empty(), "{:?}", scene.warnings());
+    // specularFactor 0 is a Lambertian surface, and the content hash sees the difference.
+    let lambertian = glassbake_scene::model::Material::lambertian("white", Vec3::ONE);
+    assert_eq!(lambertian.specular, 0.0);
+    let mut other = scene.clone();
+    let material = wall.material;
+    other.materials[material].specular = 0.0;
+    assert_ne!(scene.content_hash(), other.content_hash());
+}
+
+#[test]
+fn unsupported_gltf_extensions_are_refused_or_warned_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = specular_gltf(dir.path(), &["KHR_draco_mesh_compression"], &["KHR_materials_specular", "KHR_draco_mesh_compression"]);
+    expect_bad_input(load_scene(path.to_str().unwrap()), "specular.gltf", "extensionsRequired[1]");
+    match load_scene(path.to_str().unwrap()) {
+        Err(e) => assert!(e.to_string().contains("KHR_draco_mesh_compression"), "{e}"),
+        Ok(_) => unreachable!(),
+    }
+    let path = specular_gltf(dir.path(), &["KHR_materials_clearcoat", "KHR_materials_sheen"], &[]);
+    let scene = load_scene(path.to_str().unwrap()).unwrap();
+    let warnings = scene.warnings();
+    assert!(warnings.iter().any(|w| w.contains("KHR_materials_clearcoat")), "{warnings:?}");
+    assert!(warnings.iter().any(|w| w.contains("KHR_materials_sheen")), "{warnings:?}");
+}
+
+#[test]
+fn obj_illumination_models_set_the_specular_layer() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        &dir.path().join("m.mtl"),
+        "newmtl chalk\nKd 0.8 0.8 0.8\nillum 1\nnewmtl flat\nKd 0.5 0.5 0.5\nillum 0\n\
+         newmtl plastic\nKd 0.2 0.3 0.4\nKs 0.08 0.04 0.02\nNs 100\nillum 2\nnewmtl matte\nKd 0.5 0.5 0.5\nKs 0 0 0\nillum 2\n\
+         newmtl plain\nKd 0.5 0.5 0.5\n\
+         newmtl pane\nKd 0 0 0\nTf 0.9 0.9 0.9\nNi 1.5\nillum 7\n",
+    );
+    let mut obj = String::from("mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\n");
+    for name in ["chalk", "flat", "plastic", "matte", "plain", "pane"] {
+        obj.push_str(&format!("o {name}\nusemtl {name}\nf 1 2 3\n"));
+    }
+    let path = dir.path().join("m.obj");
+    write(&path, &obj);
+    let scene = load_scene(path.to_str().unwrap()).unwrap();
+    let material = |object: &str| scene.materials[scene.objects[scene.object_index(object).unwrap()].material].clone();
+    assert_eq!(material("chalk").specular, 0.0, "illum 1 is Lambertian");
+    assert_eq!(material("flat").specular, 0.0, "illum 0 is Lambertian");
+    let plastic = material("plastic");
+    assert_eq!(plastic.specular, 1.0);
+    // Ks is the reflectance at normal incidence: F0 = 0.04 x colour = Ks.
+    assert!((plastic.specular_color * 0.04 - Vec3::new(0.08, 0.04, 0.02)).abs().max_element() < 1e-6, "{}", plastic.specular_color);
+    assert_eq!(material("matte").specular, 0.0, "Ks 0 has no specular layer");
+    assert!(material("plain").has_default_specular(), "no illum, no Ks: glTF's default layer");
+    assert_eq!(material("pane").dielectric_kind(), Some(DielectricKind::Smooth));
+
+    // A manifest makes the OBJ pane thin, for that object only.
+    let manifest = dir.path().join("m.toml");
+    write(
+        &manifest,
+        format!("{}\n[objects.pane]\nthin = true\n", manifest_text("m.obj", "")),
+    );
+    let scene = load_scene(manifest.to_str().unwrap()).unwrap();
+    let pane = &scene.materials[scene.objects[scene.object_index("pane").unwrap()].material];
+    assert_eq!(pane.dielectric_kind(), Some(DielectricKind::Thin));
+    // thin on an opaque object is refused, naming the field.
+    write(&manifest, format!("{}\n[objects.chalk]\nthin = true\n", manifest_text("m.obj", "")));
+    expect_bad_input(load_scene(manifest.to_str().unwrap()), "m.toml", "objects.chalk.thin");
+}

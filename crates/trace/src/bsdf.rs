@@ -1,5 +1,6 @@
 //! Scattering at a surface point: glTF metallic-roughness (Lambertian diffuse + GGX
-//! specular over a dielectric base, a GGX conductor for metals, lerped by `metallic`), mixed
+//! specular over a dielectric base whose strength and F0 colour KHR_materials_specular sets,
+//! a GGX conductor for metals, lerped by `metallic`), mixed
 //! by `transmission.weight` with one of three dielectrics: smooth (Fresnel + Snell), rough
 //! (GGX microfacet transmission, Walter et al. 2007) and thin (a pane; both faces, internal
 //! reflections summed, no offset).
@@ -25,7 +26,7 @@ use glam::{Vec2, Vec3};
 use glassbake_scene::model::SMOOTH_ROUGHNESS;
 use glassbake_scene::Transmission;
 
-use crate::microfacet::{fresnel_dielectric, reflect, refract, schlick, schlick_scalar, thin_slab_reflectance, Ggx};
+use crate::microfacet::{fresnel_dielectric, reflect, refract, schlick, thin_slab_reflectance, Ggx};
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf, luminance, Frame};
 
 /// Specular reflectance at normal incidence of glTF's dielectric base (IOR 1.5).
@@ -52,7 +53,18 @@ pub struct SurfaceMaterial {
     /// Perceptual roughness (alpha = roughness^2).
     pub roughness: f32,
     pub metallic: f32,
+    /// KHR_materials_specular: the specular layer's strength (0 = Lambertian base) and F0
+    /// tint, textures applied.
+    pub specular: f32,
+    pub specular_color: Vec3,
     pub transmission: Option<Transmission>,
+}
+
+impl SurfaceMaterial {
+    /// A material without a specular extension (specular 1, white specular colour).
+    pub fn new(base_color: Vec3, roughness: f32, metallic: f32, transmission: Option<Transmission>) -> Self {
+        SurfaceMaterial { base_color, roughness, metallic, specular: 1.0, specular_color: Vec3::ONE, transmission }
+    }
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -80,6 +92,10 @@ pub struct Bsdf {
     /// Mixture weights of the dielectric base (diffuse + specular), the conductor and the
     /// transmissive dielectric; they sum to 1.
     base_weight: f32,
+    /// The dielectric base's specular layer: F0 colour (0.04 x specular colour, at most 1)
+    /// and the layer's weight (glTF's fresnel_mix).
+    specular_f0: Vec3,
+    specular_weight: f32,
     metal_weight: f32,
     glass_weight: f32,
     dielectric: Dielectric,
@@ -119,6 +135,8 @@ impl Bsdf {
                 ggx,
                 lambertian: true,
                 base_weight: 1.0,
+                specular_f0: Vec3::ZERO,
+                specular_weight: 0.0,
                 metal_weight: 0.0,
                 glass_weight: 0.0,
                 dielectric: Dielectric::None,
@@ -147,6 +165,8 @@ impl Bsdf {
             ggx,
             lambertian: false,
             base_weight: (1.0 - metallic) * (1.0 - transmission_weight),
+            specular_f0: (DIELECTRIC_F0 * material.specular_color.max(Vec3::ZERO)).min(Vec3::ONE),
+            specular_weight: material.specular.clamp(0.0, 1.0),
             metal_weight: metallic,
             glass_weight: (1.0 - metallic) * transmission_weight,
             dielectric,
@@ -175,7 +195,7 @@ impl Bsdf {
             return [1.0, 0.0, 0.0, 0.0];
         }
         let cos_o = wo.z.abs();
-        let fresnel = schlick_scalar(DIELECTRIC_F0, cos_o);
+        let fresnel = self.specular_weight * schlick(self.specular_f0, cos_o).max_element();
         let diffuse = self.base_weight * (1.0 - fresnel) * luminance(self.base_color);
         let specular = self.base_weight * fresnel;
         let glass = if matches!(self.dielectric, Dielectric::None) { 0.0 } else { self.glass_weight };
@@ -359,11 +379,12 @@ impl Bsdf {
                         // the view angle, 1 - F(wo.n), rather than of each microfacet,
                         // 1 - F(wo.h): with F(wo.h) a white base reflects up to 15% more
                         // than it receives at grazing angles.
-                        let diffuse_fresnel = schlick_scalar(DIELECTRIC_F0, o.z);
-                        let specular_fresnel = schlick_scalar(DIELECTRIC_F0, cos_oh);
+                        // KHR_materials_specular scales the layer by its weight and tints F0;
+                        // the diffuse part keeps what the strongest channel leaves.
+                        let diffuse_fresnel = self.specular_weight * schlick(self.specular_f0, o.z).max_element();
+                        let specular_fresnel = schlick(self.specular_f0, cos_oh) * self.specular_weight;
                         f += self.base_weight
-                            * ((1.0 - diffuse_fresnel) * self.base_color * FRAC_1_PI
-                                + Vec3::splat(specular_fresnel * specular));
+                            * ((1.0 - diffuse_fresnel) * self.base_color * FRAC_1_PI + specular_fresnel * specular);
                     }
                     if self.metal_weight > 0.0 {
                         f += self.metal_weight * schlick(self.base_color, cos_oh) * specular;

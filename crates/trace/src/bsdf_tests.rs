@@ -10,16 +10,11 @@ use crate::bsdf::{Bsdf, MaterialModel, SurfaceMaterial};
 use crate::rng::Pcg32;
 
 fn opaque(base: Vec3, roughness: f32, metallic: f32) -> SurfaceMaterial {
-    SurfaceMaterial { base_color: base, roughness, metallic, transmission: None }
+    SurfaceMaterial::new(base, roughness, metallic, None)
 }
 
 fn glass(roughness: f32, thin: bool, weight: f32) -> SurfaceMaterial {
-    SurfaceMaterial {
-        base_color: Vec3::ONE,
-        roughness,
-        metallic: 0.0,
-        transmission: Some(Transmission { weight, ior: 1.5, thin }),
-    }
+    SurfaceMaterial::new(Vec3::ONE, roughness, 0.0, Some(Transmission { weight, ior: 1.5, thin }))
 }
 
 /// A normal that is not an axis, so the frame code is exercised too.
@@ -49,8 +44,15 @@ fn non_delta_cases() -> Vec<(String, Bsdf)> {
         cases.push((format!("rough dielectric r={r}"), Bsdf::new(&glass(r, false, 1.0), n, MaterialModel::Gltf)));
         cases.push((format!("rough thin dielectric r={r}"), Bsdf::new(&glass(r, true, 1.0), n, MaterialModel::Gltf)));
         cases.push((format!("half-transmissive rough dielectric r={r}"), Bsdf::new(&glass(r, false, 0.5), n, MaterialModel::Gltf)));
+        cases.push((format!("coloured specular layer r={r}"), Bsdf::new(&specular_layer(Vec3::new(0.3, 0.6, 0.5), r, 0.6, Vec3::new(8.0, 1.0, 0.2)), n, MaterialModel::Gltf)));
     }
     cases
+}
+
+/// KHR_materials_specular: a dielectric base with a specular layer of weight `specular`
+/// and F0 = min(0.04 x colour, 1).
+fn specular_layer(base: Vec3, roughness: f32, specular: f32, specular_color: Vec3) -> SurfaceMaterial {
+    SurfaceMaterial { specular, specular_color, ..opaque(base, roughness, 0.0) }
 }
 
 /// Upper tail of the chi-square distribution by the Wilson-Hilferty normal approximation,
@@ -199,6 +201,8 @@ fn energy_is_conserved_at_every_roughness() {
             ("rough dielectric", glass(roughness, false, 1.0)),
             ("rough thin dielectric", glass(roughness, true, 1.0)),
             ("half-transmissive dielectric", glass(roughness, false, 0.5)),
+            ("specular layer, F0 clamped to 1 in red", specular_layer(Vec3::ONE, roughness, 1.0, Vec3::new(40.0, 5.0, 1.0))),
+            ("no specular layer", specular_layer(Vec3::ONE, roughness, 0.0, Vec3::ONE)),
         ];
         for (name, material) in materials {
             let bsdf = Bsdf::new(&material, n, MaterialModel::Gltf);
@@ -213,7 +217,7 @@ fn energy_is_conserved_at_every_roughness() {
                 // alpha = roughness^2 <= 0.0625 away from grazing angles. (At roughness 1
                 // it loses up to 70% at normal incidence: half the reflected directions of
                 // cosine-distributed microfacets point below the horizon.)
-                if name != "gltf dielectric base" && roughness <= 0.25 && cos_o.abs() > 0.2 {
+                if !name.contains("dielectric base") && !name.contains("specular") && roughness <= 0.25 && cos_o.abs() > 0.2 {
                     assert!(total > 0.9, "{name} r={roughness} cos_o={cos_o}: R+T = {total}");
                 }
             }
@@ -328,5 +332,59 @@ fn conductor_matches_an_independent_ggx_and_is_reciprocal() {
             let back = bsdf.eval(wi, wo);
             assert!((got - back).abs().max_element() <= 1e-4 * got.max_element(), "not reciprocal: {got} vs {back}");
         }
+    }
+}
+
+/// specularFactor 0 is exactly a Lambertian surface: every direction pair evaluates to
+/// albedo / pi with the cosine density, whatever the roughness.
+#[test]
+fn specular_factor_zero_is_lambertian() {
+    let n = test_normal();
+    let base = Vec3::new(0.6, 0.4, 0.2);
+    let mut rng = Pcg32::new(5, 3);
+    for roughness in [0.05f32, 0.5, 1.0] {
+        let bsdf = Bsdf::new(&specular_layer(base, roughness, 0.0, Vec3::ONE), n, MaterialModel::Gltf);
+        let lambert = Bsdf::new(&opaque(base, roughness, 0.0), n, MaterialModel::Lambertian);
+        for _ in 0..200 {
+            let wo = crate::sampling::cosine_hemisphere(rng.next_vec2());
+            let wi = crate::sampling::cosine_hemisphere(rng.next_vec2());
+            let (wo, wi) = (bsdf.frame.to_world(wo), bsdf.frame.to_world(wi));
+            let (f, pdf) = bsdf.eval_pdf(wo, wi);
+            let (f_lambert, pdf_lambert) = lambert.eval_pdf(wo, wi);
+            assert!((f - base / std::f32::consts::PI).abs().max_element() < 1e-6, "r={roughness}: f = {f}");
+            assert!((f - f_lambert).abs().max_element() < 1e-6 && (pdf - pdf_lambert).abs() < 1e-5 * pdf_lambert, "r={roughness}: {pdf} vs {pdf_lambert}");
+        }
+    }
+}
+
+/// The specular layer against an independent evaluation of glTF's fresnel_mix: with base
+/// colour black only the layer remains, F = s (F0 + (1 - F0)(1 - wo.h)^5) with
+/// F0 = min(0.04 c, 1) per channel, times the GGX lobe D G / (4 cos_o cos_i).
+#[test]
+fn specular_layer_matches_fresnel_mix() {
+    let n = Vec3::Z;
+    let (roughness, specular, color) = (0.4f32, 0.7f32, Vec3::new(10.0, 2.0, 0.5));
+    let bsdf = Bsdf::new(&specular_layer(Vec3::ZERO, roughness, specular, color), n, MaterialModel::Gltf);
+    let alpha = roughness * roughness;
+    let ggx_d = |h: Vec3| {
+        let t = h.z * h.z * (alpha * alpha - 1.0) + 1.0;
+        alpha * alpha / (std::f32::consts::PI * t * t)
+    };
+    // Height-correlated Smith G2 for GGX.
+    let lambda = |w: Vec3| {
+        let tan2 = (1.0 - w.z * w.z) / (w.z * w.z);
+        0.5 * ((1.0 + alpha * alpha * tan2).sqrt() - 1.0)
+    };
+    for (wo, wi) in [
+        (Vec3::new(0.3, 0.1, 0.9).normalize(), Vec3::new(-0.2, 0.0, 0.95).normalize()),
+        (Vec3::new(0.8, 0.0, 0.2).normalize(), Vec3::new(-0.7, 0.1, 0.4).normalize()),
+    ] {
+        let h = (wo + wi).normalize();
+        let f0 = (0.04 * color).min(Vec3::ONE);
+        let fresnel = specular * (f0 + (Vec3::ONE - f0) * (1.0 - wo.dot(h)).powi(5));
+        let g2 = 1.0 / (1.0 + lambda(wo) + lambda(wi));
+        let expected = fresnel * ggx_d(h) * g2 / (4.0 * wo.z * wi.z);
+        let f = bsdf.eval(wo, wi);
+        assert!((f - expected).abs().max_element() <= 1e-4 * expected.max_element(), "{f} vs {expected}");
     }
 }

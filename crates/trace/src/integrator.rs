@@ -24,7 +24,9 @@ use crate::sampling::{luminance, power_heuristic};
 #[derive(Clone, Copy, Debug)]
 pub struct PathSettings {
     /// Longest path, counted in segments as Mitsuba does: 1 = emitters seen directly,
-    /// 2 = direct lighting, ... Straight crossings of smooth thin panes do not count.
+    /// 2 = direct lighting, ... Every surface interaction starts a new segment, straight
+    /// crossings of smooth thin panes included (Mitsuba's `thindielectric` is a BSDF like
+    /// any other); Russian roulette counts them the same way.
     pub max_depth: u32,
     /// Russian roulette applies to paths longer than this many segments.
     pub rr_depth: u32,
@@ -179,7 +181,15 @@ impl<'a> PreparedScene<'a> {
         if let Some(t) = m.roughness_texture.and_then(|t| self.scene.textures.get(t)) {
             roughness *= t.sample(uv).y;
         }
-        SurfaceMaterial { base_color, roughness, metallic: m.metallic, transmission: m.transmission }
+        let mut specular = m.specular;
+        if let Some(t) = m.specular_texture.and_then(|t| self.scene.textures.get(t)) {
+            specular *= t.sample(uv).w;
+        }
+        let mut specular_color = m.specular_color;
+        if let Some(t) = m.specular_color_texture.and_then(|t| self.scene.textures.get(t)) {
+            specular_color *= t.sample(uv).truncate();
+        }
+        SurfaceMaterial { base_color, roughness, metallic: m.metallic, specular, specular_color, transmission: m.transmission }
     }
 
     /// Radiance arriving at the camera along `ray`, one path sample.
@@ -238,24 +248,23 @@ impl<'a> PreparedScene<'a> {
             let Owner::Object { material, .. } = hit.owner else { break };
             let surface = self.surface_material(material, hit.uv);
             let bsdf = Bsdf::new(&surface, hit.shading_normal, settings.material_model);
-            // At the length limit a path may still cross smooth thin panes, which do not
-            // count as segments: shadow rays cross them too, and MIS assumes BSDF sampling
-            // can follow.
-            let at_depth_limit = depth >= settings.max_depth;
-            if at_depth_limit && bsdf.pass_through(wo).is_none() {
+            if depth >= settings.max_depth {
                 break;
             }
+            // Segments a shadow ray from here may still cross panes with: a path of
+            // `depth + 1 + crossings` segments must fit, as the BSDF-sampled one must.
+            let crossings_allowed = settings.max_depth - depth - 1;
             let ng = hit.geometric_normal;
             let wo_side = wo.dot(ng);
 
             // The learned distribution here, if this vertex is one to guide.
             let guided = match guide.tree {
-                Some(tree) if !at_depth_limit && bsdf.suits_guiding() => tree.directions_at(hit.position),
+                Some(tree) if bsdf.suits_guiding() => tree.directions_at(hit.position),
                 _ => None,
             };
 
             // Next-event estimation.
-            if !at_depth_limit && bsdf.has_non_delta() {
+            if bsdf.has_non_delta() {
                 let u_select = rng.next_f32();
                 let u_light = rng.next_vec2();
                 if let Some(light) = self.lights.sample(hit.position, u_select, u_light) {
@@ -271,9 +280,14 @@ impl<'a> PreparedScene<'a> {
                         let to_light = light.point - shadow_origin;
                         let shadow_distance = to_light.length();
                         let t_max = shadow_distance * (1.0 - 1e-4) - ray_epsilon(light.point);
-                        if let Some((transmittance, crossing_probability)) =
-                            self.transmittance(shadow_origin, to_light / shadow_distance, t_max, settings, &mut scratch.hits)
-                        {
+                        if let Some((transmittance, crossing_probability)) = self.transmittance(
+                            shadow_origin,
+                            to_light / shadow_distance,
+                            t_max,
+                            crossings_allowed,
+                            settings,
+                            &mut scratch.hits,
+                        ) {
                             let bsdf_pdf = guided_pdf(guided, pdf, wi) * crossing_probability;
                             let weight = power_heuristic(light.pdf, bsdf_pdf);
                             let cos = wi.dot(hit.shading_normal).abs();
@@ -314,9 +328,6 @@ impl<'a> PreparedScene<'a> {
                     s
                 }
             };
-            if at_depth_limit && !sample.pass_through {
-                break;
-            }
             let reflection = sample.wi.dot(ng) * wo_side > 0.0;
             if reflection == sample.transmitted && !sample.delta {
                 // The shading normal claims a side the geometry contradicts: following the
@@ -326,7 +337,7 @@ impl<'a> PreparedScene<'a> {
                 break;
             }
             throughput *= sample.weight;
-            if guide.records.is_some() && bsdf.suits_guiding() && !at_depth_limit {
+            if guide.records.is_some() && bsdf.suits_guiding() {
                 scratch.vertices.push(PendingRecord {
                     position: hit.position,
                     direction: sample.wi,
@@ -338,10 +349,10 @@ impl<'a> PreparedScene<'a> {
             if sample.transmitted && sample.etap != 1.0 {
                 eta_scale *= sample.etap * sample.etap;
             }
+            depth += 1;
             if sample.pass_through {
                 mis_pdf *= sample.pdf;
             } else {
-                depth += 1;
                 specular = sample.delta;
                 mis_pdf = sample.pdf;
                 mis_origin = hit.position;
@@ -364,14 +375,16 @@ impl<'a> PreparedScene<'a> {
         radiance
     }
 
-    /// Light transport along a shadow segment: `None` if something opaque blocks it,
-    /// otherwise the product of the smooth thin panes' transmittances and the product of
-    /// the probabilities with which BSDF sampling would have crossed them.
+    /// Light transport along a shadow segment: `None` if something opaque blocks it or it
+    /// crosses more than `max_crossings` panes, otherwise the product of the smooth thin
+    /// panes' transmittances and the product of the probabilities with which BSDF sampling
+    /// would have crossed them.
     fn transmittance(
         &self,
         origin: Vec3,
         direction: Vec3,
         t_max: f32,
+        max_crossings: u32,
         settings: &PathSettings,
         scratch: &mut Vec<Hit>,
     ) -> Option<(Vec3, f32)> {
@@ -386,12 +399,17 @@ impl<'a> PreparedScene<'a> {
         let mut transmittance = Vec3::ONE;
         let mut probability = 1.0;
         let mut previous_t = f32::NEG_INFINITY;
+        let mut crossings = 0u32;
         for hit in scratch.iter() {
             // A ray through a shared edge reports both triangles; the pane is crossed once.
             if hit.t - previous_t < 1e-6 * hit.t.max(1.0) {
                 continue;
             }
             previous_t = hit.t;
+            crossings += 1;
+            if crossings > max_crossings {
+                return None;
+            }
             let surface = self.surface_hit(hit);
             let Owner::Object { material, .. } = surface.owner else { return None };
             let bsdf = Bsdf::new(&self.surface_material(material, surface.uv), surface.shading_normal, settings.material_model);
