@@ -185,12 +185,28 @@ fn polygon_irradiance(p: Vec3, n: Vec3, corners: &[Vec3], radiance: f32) -> f64 
     0.5 * radiance as f64 * sum.abs()
 }
 
+/// The irradiance tests' set-up: a 1 m^2 light 1 m above a plane, seen from above.
+struct PlaneUnderLight {
+    albedo: f32,
+    radiance: f32,
+    corners: [Vec3; 4],
+    camera: Camera,
+}
+
+impl PlaneUnderLight {
+    fn new() -> Self {
+        PlaneUnderLight {
+            albedo: 0.5,
+            radiance: 2.0,
+            corners: [Vec3::new(-0.5, 1.0, -0.5), Vec3::new(0.5, 1.0, -0.5), Vec3::new(0.5, 1.0, 0.5), Vec3::new(-0.5, 1.0, 0.5)],
+            camera: Camera::look_at(Vec3::new(2.2, 1.7, 2.6), Vec3::new(0.0, 0.0, 0.0), 55.0),
+        }
+    }
+}
+
 #[test]
 fn diffuse_plane_under_a_rectangle_light_matches_exact_irradiance() {
-    let albedo = 0.5f32;
-    let radiance = 2.0f32;
-    let corners = [Vec3::new(-0.5, 1.0, -0.5), Vec3::new(0.5, 1.0, -0.5), Vec3::new(0.5, 1.0, 0.5), Vec3::new(-0.5, 1.0, 0.5)];
-    let camera = Camera::look_at(Vec3::new(2.2, 1.7, 2.6), Vec3::new(0.0, 0.0, 0.0), 55.0);
+    let PlaneUnderLight { albedo, radiance, corners, camera } = PlaneUnderLight::new();
     let (w, h) = (32u32, 32u32);
     for (light_kind, integrator) in
         [("rect light", Integrator::Plain), ("rect light", Integrator::SolidAngle), ("rect light", Integrator::Guided), ("emissive mesh", Integrator::Plain)]
@@ -236,10 +252,7 @@ fn diffuse_plane_under_a_rectangle_light_matches_exact_irradiance() {
 /// albedo / pi within 0.5% on average.
 #[test]
 fn specular_factor_zero_plane_matches_exact_irradiance() {
-    let albedo = 0.5f32;
-    let radiance = 2.0f32;
-    let corners = [Vec3::new(-0.5, 1.0, -0.5), Vec3::new(0.5, 1.0, -0.5), Vec3::new(0.5, 1.0, 0.5), Vec3::new(-0.5, 1.0, 0.5)];
-    let camera = Camera::look_at(Vec3::new(2.2, 1.7, 2.6), Vec3::new(0.0, 0.0, 0.0), 55.0);
+    let PlaneUnderLight { albedo, radiance, corners, camera } = PlaneUnderLight::new();
     let (w, h) = (32u32, 32u32);
     let mut scene = empty_scene("lambertian plane");
     let plane = add_object(&mut scene, "plane", rect(Vec3::ZERO, Vec3::X * 20.0, Vec3::NEG_Z * 20.0, Vec2::ONE), Material::lambertian("plane", Vec3::splat(albedo)));
