@@ -8,10 +8,11 @@ the wall time, samples per second and image statistics of both.
 --scene is anything `glassbake` accepts: a built-in name or a manifest / glTF / OBJ path
 (make_scenes.py beside this file writes two glTF test scenes with manifests).
 
-Both renderers use all cores unless --threads is given, max depth 64, Russian roulette from
+Both renderers use all cores unless --threads is given, max depth 64 unless --max-depth, Russian roulette from
 depth 5. The scene goes to Mitsuba through `glassbake scene mitsuba` (docs/design.md §7).
-Mitsuba's `principled` BSDF (opaque surfaces) uses Disney diffuse, not glTF's Lambertian
-diffuse, so image means differ by design on rough opaque surfaces; glass maps one to one.
+Lambertian surfaces and glass map one to one; glassbake's default opaque material goes out
+as a blend that is 1-3% brighter in Mitsuba (docs/trace.md), metals as `principled` (Disney
+diffuse), so image means differ by design there.
 """
 import argparse
 import os
@@ -30,6 +31,7 @@ def main():
     p.add_argument("--spp", type=int, default=256)
     p.add_argument("--variant", default="scalar_rgb")
     p.add_argument("--threads", type=int, default=0)
+    p.add_argument("--max-depth", type=int, default=64, help="path vertices as Mitsuba counts them (2 = direct light only)")
     a = p.parse_args()
 
     import mitsuba as mi
@@ -43,14 +45,14 @@ def main():
     xml = os.path.join(work, "scene.xml")
     subprocess.run([a.glassbake, "scene", "mitsuba", a.scene, "--sample", str(a.sample), "--out", xml], check=True, stdout=subprocess.DEVNULL)
     gb_exr = os.path.join(work, "glassbake.exr")
-    cmd = [a.glassbake, "trace", a.scene, "--sample", str(a.sample), "--res", str(a.res), "--spp", str(a.spp), "--out", gb_exr]
+    cmd = [a.glassbake, "trace", a.scene, "--sample", str(a.sample), "--res", str(a.res), "--spp", str(a.spp), "--max-depth", str(a.max_depth), "--out", gb_exr]
     if a.threads:
         cmd += ["--threads", str(a.threads)]
     t0 = time.time()
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     gb_time = time.time() - t0
 
-    scene = mi.load_file(xml, res=a.res, spp=a.spp, max_depth=64)
+    scene = mi.load_file(xml, res=a.res, spp=a.spp, max_depth=a.max_depth)
     mi.render(scene, spp=1)  # warm-up: kernel compilation on JIT variants
     t0 = time.time()
     img = mi.render(scene, spp=a.spp)

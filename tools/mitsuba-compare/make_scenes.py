@@ -8,6 +8,8 @@ KHR_materials_transmission / _ior / _volume / _specular, plus a glassbake manife
 Scenes (each OUT_DIR/NAME/manifest.toml):
   lambertian-box      Cornell-style box, every wall KHR_materials_specular specularFactor 0
                       (Lambertian), a thin-walled glass pane (transmission without volume)
+  default-box         the same box without KHR_materials_specular: glTF's default opaque
+                      material (a 4% dielectric specular layer over the diffuse base)
   transmission-test   after Khronos' TransmissionTest idea: a Lambertian floor and back wall,
                       a row of solid glass spheres (KHR_materials_volume) with IOR 1.5 and
                       1.33 and a thin-walled sphere, and a tinted thin pane
@@ -150,11 +152,11 @@ radiance = [12.0, 12.0, 12.0]
 """
 
 
-def lambertian_box(out):
+def box(out, scene_name, specular):
     b = Builder()
-    white = b.material("white", (0.75, 0.75, 0.75), specular=0.0)
-    red = b.material("red", (0.65, 0.06, 0.05), specular=0.0)
-    green = b.material("green", (0.12, 0.45, 0.15), specular=0.0)
+    white = b.material("white", (0.75, 0.75, 0.75), specular=specular)
+    red = b.material("red", (0.65, 0.06, 0.05), specular=specular)
+    green = b.material("green", (0.12, 0.45, 0.15), specular=specular)
     pane = b.material("pane", (0.95, 0.97, 1.0), roughness=0.0, transmission=1.0, ior=1.5)
     s = 2.0
     for name, (c, u, v), m in [
@@ -174,10 +176,10 @@ def lambertian_box(out):
     b.mesh("pane", p, n, i, pane)
     bx, by, bz = sphere(0.25, 16, 32)
     b.mesh("ball", bx, by, bz, white, translation=(0.45, 0.25, -0.45))
-    d = os.path.join(out, "lambertian-box")
+    d = os.path.join(out, scene_name)
     b.write(d)
     with open(os.path.join(d, "manifest.toml"), "w") as f:
-        f.write(MANIFEST.format(name="lambertian-box", target="[0.0, 0.9, 0.0]", position="[0.0, 1.0, 3.4]", light_corner="[-0.3, 1.99, -0.3]"))
+        f.write(MANIFEST.format(name=scene_name, target="[0.0, 0.9, 0.0]", position="[0.0, 1.0, 3.4]", light_corner="[-0.3, 1.99, -0.3]"))
 
 
 def transmission_test(out):
@@ -207,7 +209,8 @@ def main():
     if len(sys.argv) != 2:
         print(__doc__)
         return 2
-    lambertian_box(sys.argv[1])
+    box(sys.argv[1], "lambertian-box", specular=0.0)
+    box(sys.argv[1], "default-box", specular=None)
     transmission_test(sys.argv[1])
     return 0
 

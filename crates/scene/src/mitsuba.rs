@@ -80,9 +80,12 @@ fn bsdf_xml(m: &Material, texture_files: &[String]) -> String {
                 let reflectance = base.replace("name=\"base_color\"", "name=\"reflectance\"");
                 return format!("<bsdf type=\"diffuse\">{reflectance}</bsdf>");
             }
-            // The dielectric base has no exact Mitsuba counterpart (glassbake weights the
-            // diffuse lobe by 1 - F(wo.n), `principled` uses Disney diffuse); `specular` maps
-            // principled's F0 = 0.08 x specular to glassbake's 0.04 x weight x colour.
+            if m.metallic <= 0.0 {
+                return dielectric_base_blend_xml(m, &base);
+            }
+            // Metals: `principled` is the closest stock plugin (Disney diffuse for the
+            // non-metallic part, so a partly metallic surface is approximate);
+            // `specular` maps principled's F0 = 0.08 x specular to glassbake's 0.04 x weight x colour.
             let specular = (0.5 * m.specular * m.specular_color.max_element()).clamp(0.0, 1.0);
             format!(
                 "<bsdf type=\"principled\">{base}<float name=\"roughness\" value=\"{}\"/><float name=\"metallic\" value=\"{}\"/>\
@@ -93,12 +96,46 @@ fn bsdf_xml(m: &Material, texture_files: &[String]) -> String {
     }
 }
 
+/// Cosine-weighted hemispherical mean of Schlick's Fresnel term: F0 + (1 - F0) x 2 x
+/// integral of (1 - mu)^5 mu over [0, 1] = F0 + (1 - F0) / 21.
+fn mean_schlick(f0: f32) -> f32 {
+    f0 + (1.0 - f0) / 21.0
+}
+
+/// glassbake's non-metallic opaque material, (1 - F(wo.n)) x base / pi + F(wo.h) x GGX
+/// specular (crates/trace/src/bsdf.rs), as Mitsuba's `blendbsdf` of a `diffuse` and a
+/// `roughconductor` with k = 0 (a dielectric's Fresnel reflection of IOR 1.5, F0 = 0.04).
+/// A blend weight cannot depend on the view angle, so the diffuse part's 1 - F(wo.n) becomes
+/// its cosine-weighted mean; the conductor's weight is folded into its (unbounded) reflectance
+/// so that the specular lobe keeps its full strength. The tint scales the whole Fresnel curve
+/// where glassbake's Schlick term tints F0 only. Measured against glassbake on a glTF box in
+/// docs/trace.md.
+fn dielectric_base_blend_xml(m: &Material, base: &str) -> String {
+    let f0 = (0.04 * m.specular_color.max_element()).min(1.0);
+    let specular_blend = (m.specular * mean_schlick(f0)).clamp(1e-4, 1.0);
+    let specular_tint = (0.04 * m.specular_color).min(glam::Vec3::ONE) / 0.04 * (m.specular / specular_blend);
+    let reflectance = base.replace("name=\"base_color\"", "name=\"reflectance\"");
+    format!(
+        "<bsdf type=\"blendbsdf\"><float name=\"weight\" value=\"{specular_blend}\"/>\
+         <bsdf type=\"diffuse\">{reflectance}</bsdf>\
+         <bsdf type=\"roughconductor\"><string name=\"distribution\" value=\"ggx\"/>\
+         <float name=\"alpha\" value=\"{}\"/><float name=\"eta\" value=\"1.5\"/><float name=\"k\" value=\"0\"/>\
+         <texture type=\"srgb\" name=\"specular_reflectance\"><rgb name=\"color\" value=\"{}\"/>\
+         <boolean name=\"unbounded\" value=\"true\"/></texture></bsdf></bsdf>",
+        (m.roughness * m.roughness).max(1e-3),
+        rgb(specular_tint)
+    )
+}
+
 /// Write `out` (XML) and, beside it, `meshes/*.ply` and `textures/*.png`. Resolution and
 /// samples per pixel are XML defaults (`-Dres=512 -Dspp=1024` on Mitsuba's command line).
 pub fn write_mitsuba(scene: &Scene, camera: &Camera, out: &Path) -> Result<()> {
     for m in &scene.materials {
         if m.base_color_texture.is_some() && m.base_color != glam::Vec3::ONE {
             tracing::warn!("material {}: the base colour factor of a textured material is not exported to Mitsuba", m.name);
+        }
+        if m.specular_texture.is_some() || m.specular_color_texture.is_some() {
+            tracing::warn!("material {}: specular textures are not exported to Mitsuba (their factors are)", m.name);
         }
         if m.transmission.is_some_and(|t| t.weight < 1.0) {
             tracing::warn!("material {}: partial transmission exported as full transmission", m.name);
@@ -176,4 +213,51 @@ pub fn write_mitsuba(scene: &Scene, camera: &Camera, out: &Path) -> Result<()> {
     }
     let _ = writeln!(xml, "</scene>");
     write_bytes_atomically(out, xml.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    fn float_attribute(xml: &str, name: &str) -> f32 {
+        let key = format!("name=\"{name}\" value=\"");
+        let start = xml.find(&key).unwrap_or_else(|| panic!("{name} in {xml}")) + key.len();
+        let end = start + xml[start..].find('"').unwrap();
+        xml[start..end].split(',').next().unwrap().trim().parse().unwrap()
+    }
+
+    #[test]
+    fn mean_schlick_matches_quadrature() {
+        for f0 in [0.0f32, 0.04, 0.5] {
+            let n = 100_000;
+            let quadrature: f64 = (0..n)
+                .map(|i| {
+                    let mu = (i as f64 + 0.5) / n as f64;
+                    let f = f0 as f64 + (1.0 - f0 as f64) * (1.0 - mu).powi(5);
+                    2.0 * f * mu / n as f64
+                })
+                .sum();
+            assert!((mean_schlick(f0) as f64 - quadrature).abs() < 1e-6, "{f0}: {} vs {quadrature}", mean_schlick(f0));
+        }
+    }
+
+    #[test]
+    fn lambertian_exports_as_diffuse_and_the_default_opaque_as_a_blend() {
+        let xml = bsdf_xml(&Material::lambertian("wall", Vec3::splat(0.5)), &[]);
+        assert!(xml.starts_with("<bsdf type=\"diffuse\">"), "{xml}");
+        let mut m = Material::diffuse("wall", Vec3::splat(0.5));
+        m.specular = 0.5;
+        m.roughness = 0.6;
+        let xml = bsdf_xml(&m, &[]);
+        assert!(xml.starts_with("<bsdf type=\"blendbsdf\">"), "{xml}");
+        // The diffuse part keeps 1 - (mean Fresnel x weight); the specular part, once the
+        // blend weight multiplies its reflectance, has exactly the layer's weight.
+        let weight = float_attribute(&xml, "weight");
+        assert!((weight - 0.5 * mean_schlick(0.04)).abs() < 1e-6);
+        assert!((weight * float_attribute(&xml, "color") - 0.5).abs() < 1e-5);
+        assert!((float_attribute(&xml, "alpha") - 0.36).abs() < 1e-6);
+        m.metallic = 1.0;
+        assert!(bsdf_xml(&m, &[]).starts_with("<bsdf type=\"principled\">"));
+    }
 }
