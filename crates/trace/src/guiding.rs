@@ -83,7 +83,7 @@ impl DirectionalTree {
     /// Built from the records of one spatial leaf; `None` if they carry no energy.
     fn build(records: &mut [GuidingRecord]) -> Option<Self> {
         let total: f64 = records.iter().map(|r| r.value as f64).sum();
-        if !(total > 0.0) || !total.is_finite() {
+        if !total.is_finite() || total <= 0.0 {
             return None;
         }
         let mut points: Vec<(Vec2, f32)> = records.iter().map(|r| (direction_to_square(r.direction), r.value)).collect();

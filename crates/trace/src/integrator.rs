@@ -316,7 +316,7 @@ impl<'a> PreparedScene<'a> {
                     };
                     let (f, bsdf_pdf) = bsdf.eval_pdf(wo, wi);
                     let pdf = GUIDED_FRACTION * directions.pdf(wi) + (1.0 - GUIDED_FRACTION) * bsdf_pdf;
-                    if !(pdf > 0.0) || f == Vec3::ZERO {
+                    if pdf.is_nan() || pdf <= 0.0 || f == Vec3::ZERO {
                         break;
                     }
                     let transmitted = wi.dot(hit.shading_normal) * wo.dot(hit.shading_normal) < 0.0;

@@ -70,7 +70,7 @@ impl SphericalRect {
         let g3 = (-n3.dot(n0)).clamp(-1.0, 1.0).acos();
         let k = 2.0 * PI - g2 - g3;
         let solid_angle = g0 + g1 - k;
-        if !(solid_angle > 1e-12) || !solid_angle.is_finite() {
+        if !solid_angle.is_finite() || solid_angle <= 1e-12 {
             return None;
         }
         Some(SphericalRect { origin, x, y, z, x0, x1, y0, y1, z0, b0: n0.z, b1: n2.z, k, solid_angle })
