@@ -24,7 +24,7 @@ enum Command {
     Buffers(commands::buffers::BuffersArgs),
     /// Make a dataset of sampled frames (buffers + path-traced ground truth); merge shards; info.
     Dataset(commands::dataset::DatasetArgs),
-    /// Train GlassNet or a baseline (naive, concat) on a dataset; resumes after a kill.
+    /// Train GlassNet or a baseline (naive, concat, pixelgen) on a dataset; resumes after a kill.
     Train(commands::train::TrainArgs),
     /// Train the x2 super-sampler from a trained GlassNet's images to ground truth at 2x.
     TrainSr(commands::train::TrainSrArgs),

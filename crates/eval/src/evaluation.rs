@@ -36,6 +36,10 @@ pub struct ModelMetrics {
     pub t_frames: usize,
     pub flip: f64,
     pub lpips: Option<f64>,
+    /// Mean wall time to render one frame, where the caller timed it (network inference; for
+    /// the path-traced baselines tracing, plus denoising for `+oidn`).
+    #[serde(default)]
+    pub seconds_per_frame: Option<f64>,
 }
 
 /// GlassNet rendered with its transparent objects in other orders than the dataset's.
@@ -76,6 +80,8 @@ pub struct Evaluation {
     resolution: usize,
     frames: Vec<FrameRecord>,
     order_test: Option<OrderTest>,
+    /// Per model: (seconds summed, frames timed).
+    render_times: Vec<(f64, usize)>,
 }
 
 fn mean(values: impl Iterator<Item = f64>) -> Option<f64> {
@@ -89,7 +95,8 @@ impl Evaluation {
         for sub in ["frames", "grids"] {
             std::fs::create_dir_all(dir.join(sub)).map_err(|e| Error::io(&dir.join(sub), e))?;
         }
-        Ok(Evaluation { dir: dir.to_path_buf(), models, lpips, dataset, split, resolution: 0, frames: Vec::new(), order_test: None })
+        let render_times = vec![(0.0, 0); models.len()];
+        Ok(Evaluation { dir: dir.to_path_buf(), models, lpips, dataset, split, resolution: 0, frames: Vec::new(), order_test: None, render_times })
     }
 
     pub fn grid_path(&self, index: u64) -> PathBuf {
@@ -121,6 +128,14 @@ impl Evaluation {
         Ok(self.frames.last().expect("just pushed"))
     }
 
+    /// Records that model `model` (index in the order given to `new`) took `seconds` to
+    /// render one frame.
+    pub fn add_render_time(&mut self, model: usize, seconds: f64) {
+        let t = &mut self.render_times[model];
+        t.0 += seconds;
+        t.1 += 1;
+    }
+
     pub fn set_order_test(&mut self, test: OrderTest) {
         self.order_test = Some(test);
     }
@@ -145,6 +160,10 @@ impl Evaluation {
                     t_frames: self.frames.iter().filter(|r| r.metrics[m].t_mae.is_some()).count(),
                     flip: of(&|x| x.flip),
                     lpips: t(&|x| x.lpips),
+                    seconds_per_frame: match self.render_times[m] {
+                        (_, 0) => None,
+                        (total, n) => Some(total / n as f64),
+                    },
                 }
             })
             .collect();
@@ -180,12 +199,12 @@ impl EvaluationSummary {
 
     /// One row per frame and model, then one `mean` row per model.
     pub fn csv(&self) -> String {
-        let mut out = String::from("frame,model,mae,psnr,dssim,t_mae,t_psnr,flip,lpips\n");
+        let mut out = String::from("frame,model,mae,psnr,dssim,t_mae,t_psnr,flip,lpips,seconds_per_frame\n");
         for record in &self.frames {
             for (model, m) in self.models.iter().zip(&record.metrics) {
                 let _ = writeln!(
                     out,
-                    "{},{},{:.6},{:.4},{:.6},{},{},{:.6},{}",
+                    "{},{},{:.6},{:.4},{:.6},{},{},{:.6},{},",
                     record.index,
                     model.model,
                     m.mae,
@@ -199,14 +218,26 @@ impl EvaluationSummary {
             }
         }
         for m in &self.models {
-            let _ = writeln!(out, "mean,{},{:.6},{:.4},{:.6},{},{},{:.6},{}", m.model, m.mae, m.psnr, m.dssim, cell(m.t_mae, 6), cell(m.t_psnr, 4), m.flip, cell(m.lpips, 6));
+            let _ = writeln!(
+                out,
+                "mean,{},{:.6},{:.4},{:.6},{},{},{:.6},{},{}",
+                m.model,
+                m.mae,
+                m.psnr,
+                m.dssim,
+                cell(m.t_mae, 6),
+                cell(m.t_psnr, 4),
+                m.flip,
+                cell(m.lpips, 6),
+                cell(m.seconds_per_frame, 4)
+            );
         }
         out
     }
 
     /// Per model, the averaged metrics as table cells: model, MAE, PSNR, DSSIM, T.MAE, T.PSNR,
-    /// FLIP, LPIPS.
-    fn table_cells(&self) -> Vec<[String; 8]> {
+    /// FLIP, LPIPS, seconds per frame.
+    fn table_cells(&self) -> Vec<[String; 9]> {
         self.models
             .iter()
             .map(|m| {
@@ -219,6 +250,7 @@ impl EvaluationSummary {
                     cell(m.t_psnr, 2),
                     format!("{:.4}", m.flip),
                     m.lpips.map(|v| format!("{v:.4}")).unwrap_or_else(|| "skipped".into()),
+                    cell(m.seconds_per_frame, 3),
                 ]
             })
             .collect()
@@ -226,7 +258,7 @@ impl EvaluationSummary {
 
     /// The averaged metrics as a Markdown table (arrows say which way is better).
     pub fn markdown_table(&self) -> String {
-        let mut out = String::from("| model | MAE ↓ | PSNR ↑ | DSSIM ↓ | T.MAE ↓ | T.PSNR ↑ | FLIP ↓ | LPIPS ↓ |\n|---|---|---|---|---|---|---|---|\n");
+        let mut out = String::from("| model | MAE ↓ | PSNR ↑ | DSSIM ↓ | T.MAE ↓ | T.PSNR ↑ | FLIP ↓ | LPIPS ↓ | s/frame |\n|---|---|---|---|---|---|---|---|---|\n");
         for row in self.table_cells() {
             let _ = writeln!(out, "| {} |", row.join(" | "));
         }
@@ -235,7 +267,7 @@ impl EvaluationSummary {
 
     /// A plain-text table for the terminal.
     pub fn text_table(&self) -> String {
-        let header = ["model", "MAE", "PSNR", "DSSIM", "T.MAE", "T.PSNR", "FLIP", "LPIPS"].map(String::from);
+        let header = ["model", "MAE", "PSNR", "DSSIM", "T.MAE", "T.PSNR", "FLIP", "LPIPS", "s/frame"].map(String::from);
         let mut out = String::new();
         for row in std::iter::once(header).chain(self.table_cells()) {
             let _ = write!(out, "{:<22}", row[0]);

@@ -3,8 +3,10 @@
 //! the tone map they are computed on, the comparison grids and error heat-maps, the
 //! `metrics.json`/`metrics.csv` files and the HTML/Markdown/PNG report. It sees only images:
 //! the CLI renders frames with the network crate and hands them over, so nothing here
-//! depends on burn.
+//! depends on burn. The path-traced + denoised baseline's denoiser (Intel Open Image Denoise,
+//! the optional `oidn` feature) lives here too.
 
+pub mod denoise;
 pub mod evaluation;
 pub mod grid;
 pub mod lpips;

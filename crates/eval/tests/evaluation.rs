@@ -29,6 +29,9 @@ fn metrics_files_grids_and_report() {
     assert!(record.metrics[0].flip < record.metrics[1].flip);
     // Frame 8: no glass, exact match for glassnet.
     evaluation.add_frame(8, &truth, &vec![false; w * h], &[truth.clone(), frame(w, h, 0.7)]).unwrap();
+    // Render times: glassnet timed on both frames, naive on none.
+    evaluation.add_render_time(0, 0.25);
+    evaluation.add_render_time(0, 0.75);
     evaluation.set_order_test(OrderTest { model: "glassnet".into(), frames: 2, reversed_max_abs_diff: 0.0, shuffled_max_abs_diff: 0.0 });
     let summary = evaluation.finish().unwrap();
 
@@ -39,6 +42,8 @@ fn metrics_files_grids_and_report() {
     assert!((g.t_psnr.unwrap() - 24.771_21).abs() < 1e-3, "T.PSNR only over the frame with glass");
     assert_eq!(g.lpips, None);
     assert_eq!(summary.lpips, "skipped: no weights");
+    assert_eq!((g.seconds_per_frame, summary.models[1].seconds_per_frame), (Some(0.5), None));
+    assert!(summary.text_table().lines().nth(1).unwrap().trim_end().ends_with("0.500"), "{}", summary.text_table());
 
     // metrics.json reads back to the summary (to the last digit or so: serde_json's default
     // float parsing may differ from the written value in the last bit).
@@ -46,7 +51,7 @@ fn metrics_files_grids_and_report() {
     let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(1.0);
     assert_eq!(read.models.len(), summary.models.len());
     for (r, m) in read.models.iter().zip(&summary.models) {
-        assert_eq!((&r.model, r.frames, r.t_frames, r.lpips), (&m.model, m.frames, m.t_frames, m.lpips));
+        assert_eq!((&r.model, r.frames, r.t_frames, r.lpips, r.seconds_per_frame), (&m.model, m.frames, m.t_frames, m.lpips, m.seconds_per_frame));
         for (a, b) in [(r.mae, m.mae), (r.psnr, m.psnr), (r.dssim, m.dssim), (r.flip, m.flip), (r.t_mae.unwrap(), m.t_mae.unwrap()), (r.t_psnr.unwrap(), m.t_psnr.unwrap())] {
             assert!(close(a, b), "{a} vs {b}");
         }

@@ -6,7 +6,7 @@ use burn::nn::PaddingConfig2d;
 use burn::prelude::*;
 use burn::tensor::activation::leaky_relu;
 
-use crate::config::{CnnConfig, RendererConfig, UNetConfig};
+use crate::config::{CnnConfig, PixelGeneratorConfig, RendererConfig, UNetConfig};
 
 /// Leaky slope of every hidden activation: small nets lose too many units to plain ReLU.
 const LEAK: f64 = 0.1;
@@ -162,6 +162,43 @@ impl Renderer {
         let x = self.large.forward(x);
         let x = self.layers.iter().fold(x, |x, layer| layer.forward(x));
         let x = self.pointwise.iter().fold(x, |x, layer| layer.forward(x));
+        self.head.forward(x)
+    }
+}
+
+/// The `pixelgen` baseline's per-pixel MLP (Diolatzis et al. 2022, "Active Exploration for
+/// Neural Global Illumination of Variable Scenes"): 1x1 convolutions only, so every pixel is
+/// computed from its own G-buffer texel; the encoded input joins the hidden state again at
+/// layer `skip_at`, then a 1x1 projection to RGB.
+#[derive(Module, Debug)]
+pub struct PixelGenerator {
+    pub layers: Vec<ConvAct>,
+    pub head: Conv2d,
+    #[module(skip)]
+    pub skip_at: usize,
+}
+
+impl PixelGenerator {
+    pub fn new(in_channels: usize, config: &PixelGeneratorConfig, out_channels: usize, device: &Device) -> Self {
+        let w = config.width;
+        let layers = (0..config.layers)
+            .map(|i| match i {
+                0 => ConvAct::new(in_channels, w, 1, device),
+                i if i == config.skip_at => ConvAct::new(w + in_channels, w, 1, device),
+                _ => ConvAct::new(w, w, 1, device),
+            })
+            .collect();
+        PixelGenerator { layers, head: conv(w, out_channels, 1, device), skip_at: config.skip_at }
+    }
+
+    pub fn forward(&self, input: Tensor<4>) -> Tensor<4> {
+        let mut x = input.clone();
+        for (i, layer) in self.layers.iter().enumerate() {
+            if i == self.skip_at {
+                x = Tensor::cat(vec![x, input.clone()], 1);
+            }
+            x = layer.forward(x);
+        }
         self.head.forward(x)
     }
 }

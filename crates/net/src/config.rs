@@ -17,6 +17,9 @@ pub enum ModelKind {
     /// Baseline: all transparency buffers concatenated in a fixed order (order-dependent,
     /// memory grows with the number of objects).
     Concat,
+    /// Baseline after Active Exploration's PixelGenerator (Diolatzis et al. 2022): a per-pixel
+    /// MLP on the naive G-buffer, no convolution across pixels, no F/B/R.
+    Pixelgen,
 }
 
 impl ModelKind {
@@ -25,7 +28,16 @@ impl ModelKind {
             ModelKind::Glassnet => "glassnet",
             ModelKind::Naive => "naive",
             ModelKind::Concat => "concat",
+            ModelKind::Pixelgen => "pixelgen",
         }
+    }
+
+    pub const ALL: [ModelKind; 4] = [ModelKind::Glassnet, ModelKind::Naive, ModelKind::Concat, ModelKind::Pixelgen];
+
+    /// Whether the network reads the naive G-buffer (glass overwrites what is behind it)
+    /// and no transparency buffers.
+    pub fn reads_naive_gbuffer(self) -> bool {
+        matches!(self, ModelKind::Naive | ModelKind::Pixelgen)
     }
 
     pub fn parse(name: &str) -> Option<ModelKind> {
@@ -33,6 +45,7 @@ impl ModelKind {
             "glassnet" => Some(ModelKind::Glassnet),
             "naive" => Some(ModelKind::Naive),
             "concat" => Some(ModelKind::Concat),
+            "pixelgen" => Some(ModelKind::Pixelgen),
             _ => None,
         }
     }
@@ -73,6 +86,17 @@ pub struct RendererConfig {
     pub pointwise_layers: usize,
 }
 
+/// Active Exploration's PixelGenerator: `layers` 1x1 convolutions of `width` channels (a
+/// per-pixel MLP), the encoded input concatenated again to the input of layer `skip_at`
+/// (as NeRF's MLP does), then a 1x1 projection to RGB.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PixelGeneratorConfig {
+    pub width: usize,
+    pub layers: usize,
+    pub skip_at: usize,
+}
+
 /// The whole GlassNet (and baselines) architecture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -97,6 +121,10 @@ pub struct NetConfig {
     pub blending: UNetConfig,
     /// R: (phi, L_d) -> image.
     pub renderer: RendererConfig,
+    /// The `pixelgen` baseline's MLP, which replaces F, T, B and R (their fields above are
+    /// then unused).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pixel_generator: Option<PixelGeneratorConfig>,
 }
 
 /// The most transparency buffers GlassNet sums exactly (see `sum.rs`).
@@ -108,13 +136,14 @@ impl NetConfig {
     /// A named preset for `model` in a scene with `variables` variables and
     /// `transparent_objects` transparent objects.
     pub fn preset(name: &str, model: ModelKind, variables: usize, transparent_objects: usize) -> Result<NetConfig> {
-        let (frequencies, f, h, b, r) = match name {
+        let (frequencies, f, h, b, r, pixel) = match name {
             "tiny" => (
                 2,
                 UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
                 CnnConfig { width: 4, layers: 1, out_channels: 4 },
                 UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
                 RendererConfig { width: 4, large_kernel: 5, layers: 1, pointwise_layers: 1 },
+                PixelGeneratorConfig { width: 8, layers: 3, skip_at: 2 },
             ),
             "quick" => (
                 4,
@@ -122,6 +151,7 @@ impl NetConfig {
                 CnnConfig { width: 12, layers: 3, out_channels: 12 },
                 UNetConfig { base_width: 12, levels: 3, out_channels: 12 },
                 RendererConfig { width: 16, large_kernel: 5, layers: 1, pointwise_layers: 1 },
+                PixelGeneratorConfig { width: 64, layers: 6, skip_at: 3 },
             ),
             "paper" => (
                 6,
@@ -129,6 +159,8 @@ impl NetConfig {
                 CnnConfig { width: 32, layers: 3, out_channels: 32 },
                 UNetConfig { base_width: 32, levels: 4, out_channels: 32 },
                 RendererConfig { width: 48, large_kernel: 7, layers: 2, pointwise_layers: 2 },
+                // Active Exploration's PixelGenerator: 8 layers of 512, input re-fed midway.
+                PixelGeneratorConfig { width: 512, layers: 8, skip_at: 4 },
             ),
             other => {
                 return Err(Error::bad_input("--preset", "preset", format!("unknown preset {other:?}; the presets are {}", Self::PRESETS.join(", "))))
@@ -144,6 +176,7 @@ impl NetConfig {
             transparency_encoder: h,
             blending: b,
             renderer: r,
+            pixel_generator: (model == ModelKind::Pixelgen).then_some(pixel),
         };
         config.check("preset")?;
         Ok(config)
@@ -171,6 +204,14 @@ impl NetConfig {
         if self.model == ModelKind::Glassnet && self.transparent_objects > MAX_EXACT_OBJECTS {
             return bad("transparent_objects", format!("{} transparent objects; GlassNet sums at most {MAX_EXACT_OBJECTS} exactly", self.transparent_objects));
         }
+        match (&self.pixel_generator, self.model) {
+            (None, ModelKind::Pixelgen) => return bad("pixel_generator", "the pixelgen baseline needs its MLP's widths".into()),
+            (Some(_), kind) if kind != ModelKind::Pixelgen => return bad("pixel_generator", format!("only the pixelgen baseline has one, not {}", kind.name())),
+            (Some(p), _) if p.width == 0 || p.skip_at == 0 || p.skip_at >= p.layers => {
+                return bad("pixel_generator", "width must be at least 1 and skip_at in 1..layers".into())
+            }
+            _ => {}
+        }
         if self.model == ModelKind::Concat && self.transparent_objects == 0 {
             return bad("transparent_objects", "the concat baseline needs at least one transparent object".into());
         }
@@ -179,6 +220,9 @@ impl NetConfig {
 
     /// Input sides must be multiples of this (the U-Nets halve the resolution levels-1 times).
     pub fn size_multiple(&self) -> usize {
+        if self.model == ModelKind::Pixelgen {
+            return 1;
+        }
         1 << (self.scene_encoder.levels.max(self.blending.levels) - 1)
     }
 
@@ -292,8 +336,10 @@ mod tests {
     #[test]
     fn presets_are_valid_and_unknown_presets_are_refused() {
         for name in NetConfig::PRESETS {
-            for kind in [ModelKind::Glassnet, ModelKind::Naive, ModelKind::Concat] {
-                NetConfig::preset(name, kind, 3, 4).unwrap();
+            for kind in ModelKind::ALL {
+                let config = NetConfig::preset(name, kind, 3, 4).unwrap();
+                assert_eq!(config.pixel_generator.is_some(), kind == ModelKind::Pixelgen);
+                assert_eq!(ModelKind::parse(kind.name()), Some(kind));
             }
             TrainConfig::preset(name).unwrap().check("preset").unwrap();
         }

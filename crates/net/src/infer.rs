@@ -42,7 +42,8 @@ impl TrainedModel {
     }
 
     /// Renders one frame to tone-mapped linear RGB (channels R, G, B, values clamped to [0, 1]).
-    /// `frame.gbuffer` must be the opaque G-buffer for GlassNet and concat, the naive one for naive.
+    /// `frame.gbuffer` must be the opaque G-buffer for GlassNet and concat, the naive one for
+    /// naive and pixelgen ([`ModelKind::reads_naive_gbuffer`]).
     pub fn render(&self, frame: FrameRef) -> Result<PlanarImage> {
         let (w, h) = (frame.gbuffer.width() as usize, frame.gbuffer.height() as usize);
         self.net.check_inputs(w, h, frame.transparent.len())?;

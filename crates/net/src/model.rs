@@ -7,6 +7,9 @@
 //! - B, the blending network (U-Net): (sigma, tau) -> phi
 //! - R, the rendering network: (phi, L_d) -> linear RGB (clamped to [0, 1] by the tone map)
 //!
+//! The `pixelgen` baseline replaces all four by one per-pixel MLP on the encoded naive
+//! G-buffer and variable planes (`blocks::PixelGenerator`).
+//!
 //! The streaming entry points ([`GlassNet::encode_scene`], [`GlassNet::transparency_term`],
 //! [`GlassNet::decode`]) let a caller feed transparency buffers one at a time, so memory does not
 //! grow with their number; [`GlassNet::forward`] composes them for training.
@@ -16,17 +19,20 @@ use burn::prelude::*;
 use glassbake_core::layout::{self, OPAQUE_CHANNELS, TRANSPARENT_CHANNELS};
 use glassbake_core::{Error, Result};
 
-use crate::blocks::{positional_encoding, PlainCnn, Renderer, UNet};
+use crate::blocks::{positional_encoding, PixelGenerator, PlainCnn, Renderer, UNet};
 use crate::config::{ModelKind, NetConfig};
 use crate::sum::{snap_to_grid, TransparencySum};
 
 #[derive(Module, Debug)]
 pub struct GlassNet {
-    pub scene_encoder: UNet,
-    /// h for GlassNet, the concatenation CNN for `concat`, absent for `naive`.
+    /// F; absent for `pixelgen`, as are B and R.
+    pub scene_encoder: Option<UNet>,
+    /// h for GlassNet, the concatenation CNN for `concat`, absent for `naive` and `pixelgen`.
     pub transparency_encoder: Option<PlainCnn>,
-    pub blending: UNet,
-    pub renderer: Renderer,
+    pub blending: Option<UNet>,
+    pub renderer: Option<Renderer>,
+    /// The whole `pixelgen` baseline; absent for the others.
+    pub pixel_generator: Option<PixelGenerator>,
     #[module(skip)]
     pub config: NetConfig,
 }
@@ -55,20 +61,39 @@ impl GlassNet {
     pub fn new(config: &NetConfig, seed: u64, device: &Device) -> Result<GlassNet> {
         config.check("config")?;
         let e = config.encoded_width();
+        let input_channels = OPAQUE_CHANNELS * e + config.variables;
+        if let (ModelKind::Pixelgen, Some(pixel)) = (config.model, &config.pixel_generator) {
+            let net = GlassNet {
+                scene_encoder: None,
+                transparency_encoder: None,
+                blending: None,
+                renderer: None,
+                pixel_generator: Some(PixelGenerator::new(input_channels, pixel, 3, device)),
+                config: config.clone(),
+            };
+            return Ok(crate::init::initialize(net, seed));
+        }
         let sigma = config.scene_encoder.out_channels;
         let tau = config.transparency_encoder.out_channels;
-        let scene_encoder = UNet::new(OPAQUE_CHANNELS * e + config.variables, &config.scene_encoder, device);
+        let scene_encoder = UNet::new(input_channels, &config.scene_encoder, device);
         let (transparency_encoder, blend_input) = match config.model {
             ModelKind::Glassnet => (Some(PlainCnn::new(TRANSPARENT_CHANNELS * e + sigma, &config.transparency_encoder, device)), sigma + tau),
             ModelKind::Concat => (
                 Some(PlainCnn::new(config.transparent_objects * TRANSPARENT_CHANNELS * e + sigma, &config.transparency_encoder, device)),
                 sigma + tau,
             ),
-            ModelKind::Naive => (None, sigma),
+            ModelKind::Naive | ModelKind::Pixelgen => (None, sigma),
         };
         let blending = UNet::new(blend_input, &config.blending, device);
         let renderer = Renderer::new(config.blending.out_channels + 3, &config.renderer, 3, device);
-        let net = GlassNet { scene_encoder, transparency_encoder, blending, renderer, config: config.clone() };
+        let net = GlassNet {
+            scene_encoder: Some(scene_encoder),
+            transparency_encoder,
+            blending: Some(blending),
+            renderer: Some(renderer),
+            pixel_generator: None,
+            config: config.clone(),
+        };
         Ok(crate::init::initialize(net, seed))
     }
 
@@ -95,15 +120,22 @@ impl GlassNet {
         }
     }
 
-    /// F: the G-buffer and variable values -> sigma (and L_d kept for R).
-    pub fn encode_scene(&self, gbuffer: Tensor<4>, values: Tensor<2>) -> SceneCode {
+    /// The positionally encoded G-buffer with the variable values as constant planes: what F
+    /// (or the pixelgen MLP) reads.
+    fn encoded_inputs(&self, gbuffer: Tensor<4>, values: Tensor<2>) -> Tensor<4> {
         let [n, _, h, w] = gbuffer.dims();
-        let direct_light = gbuffer.clone().narrow(1, layout::opaque::LD, 3);
         let mut inputs = vec![positional_encoding(gbuffer, self.config.encoding_frequencies)];
         if self.config.variables > 0 {
             inputs.push(values.reshape([n, self.config.variables, 1, 1]).expand([n, self.config.variables, h, w]));
         }
-        SceneCode { sigma: self.scene_encoder.forward(Tensor::cat(inputs, 1)), direct_light }
+        Tensor::cat(inputs, 1)
+    }
+
+    /// F: the G-buffer and variable values -> sigma (and L_d kept for R).
+    pub fn encode_scene(&self, gbuffer: Tensor<4>, values: Tensor<2>) -> SceneCode {
+        let f = self.scene_encoder.as_ref().expect("pixelgen has no F: use forward_streaming");
+        let direct_light = gbuffer.clone().narrow(1, layout::opaque::LD, 3);
+        SceneCode { sigma: f.forward(self.encoded_inputs(gbuffer, values)), direct_light }
     }
 
     /// h for one transparency buffer, snapped for the exact sum. GlassNet only.
@@ -129,8 +161,9 @@ impl GlassNet {
             Some(tau) => Tensor::cat(vec![scene.sigma.clone(), tau], 1),
             None => scene.sigma.clone(),
         };
-        let phi = self.blending.forward(blend_input);
-        self.renderer.forward(Tensor::cat(vec![phi, scene.direct_light.clone()], 1))
+        let (b, r) = (self.blending.as_ref().expect("pixelgen has no B"), self.renderer.as_ref().expect("pixelgen has no R"));
+        let phi = b.forward(blend_input);
+        r.forward(Tensor::cat(vec![phi, scene.direct_light.clone()], 1))
     }
 
     /// The whole network on a batch. GlassNet streams the buffers through h one at a time.
@@ -142,11 +175,14 @@ impl GlassNet {
     /// is needed, so GlassNet holds at most one at a time. `None` is an object out of view: it
     /// adds nothing to GlassNet's sum and is zeros for `concat`.
     pub fn forward_streaming(&self, gbuffer: Tensor<4>, values: Tensor<2>, objects: usize, mut buffer: impl FnMut(usize) -> Option<Tensor<4>>) -> Tensor<4> {
+        if let Some(pixel) = &self.pixel_generator {
+            return pixel.forward(self.encoded_inputs(gbuffer, values));
+        }
         let scene = self.encode_scene(gbuffer, values);
         let [n, _, h, w] = scene.sigma.dims();
         let device = scene.sigma.device();
         let tau = match self.config.model {
-            ModelKind::Naive => None,
+            ModelKind::Naive | ModelKind::Pixelgen => None,
             ModelKind::Concat => {
                 let buffers: Vec<Tensor<4>> =
                     (0..objects).map(|k| buffer(k).unwrap_or_else(|| Tensor::zeros([n, TRANSPARENT_CHANNELS, h, w], &device))).collect();

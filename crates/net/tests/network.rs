@@ -6,7 +6,7 @@ use burn::prelude::*;
 use burn::tensor::TensorData;
 use glassbake_net::model_dir::{read_weights, write_weights, DataSource, ModelConfig, ModelFiles, Network, FORMAT_VERSION};
 use glassbake_net::sum::{snap_to_grid, TERM_BOUND};
-use glassbake_net::{burn, GlassNet, ModelKind, NetConfig, TrainConfig};
+use glassbake_net::{burn, GlassNet, ModelKind, NetConfig, NetInputs, TrainConfig};
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 
@@ -24,7 +24,7 @@ fn every_model_kind_maps_a_batch_to_an_rgb_image_of_its_size() {
     device.seed(3);
     let frames: Vec<_> = (0..2).map(|i| common::frame(i, 16, 3, 2)).collect();
     let batch = common::batch(&frames);
-    for kind in [ModelKind::Glassnet, ModelKind::Naive, ModelKind::Concat] {
+    for kind in ModelKind::ALL {
         let net = GlassNet::new(&NetConfig::preset("tiny", kind, 2, 3).unwrap(), 3, &device).unwrap();
         let out = net.forward(&batch.inputs(&device));
         assert_eq!(out.dims(), [2, 3, 16, 16], "{kind:?}");
@@ -34,6 +34,50 @@ fn every_model_kind_maps_a_batch_to_an_rgb_image_of_its_size() {
     let net = GlassNet::new(&NetConfig::preset("quick", ModelKind::Glassnet, 2, 3).unwrap(), 3, &device).unwrap();
     assert!(net.check_inputs(64, 64, 3).is_ok());
     assert!(net.check_inputs(66, 64, 3).unwrap_err().to_string().contains("multiple of 4"));
+}
+
+#[test]
+fn pixelgen_is_a_per_pixel_mlp_with_the_input_fed_again_midway() {
+    let device = Device::flex();
+    let config = NetConfig::preset("tiny", ModelKind::Pixelgen, 2, 3).unwrap();
+    let net = GlassNet::new(&config, 3, &device).unwrap();
+    assert!(net.scene_encoder.is_none() && net.blending.is_none() && net.renderer.is_none() && net.transparency_encoder.is_none());
+    let pixel = net.pixel_generator.as_ref().unwrap();
+    let p = config.pixel_generator.as_ref().unwrap();
+    let input = glassbake_core::layout::OPAQUE_CHANNELS * config.encoded_width() + 2;
+    assert_eq!(pixel.layers.len(), p.layers);
+    // Weights [out, in, 1, 1]: 1x1 convolutions only; the skip layer reads width + input.
+    for (i, layer) in pixel.layers.iter().enumerate() {
+        let dims = layer.conv.weight.dims();
+        let expected_in = match i {
+            0 => input,
+            i if i == p.skip_at => p.width + input,
+            _ => p.width,
+        };
+        assert_eq!(dims, [p.width, expected_in, 1, 1], "layer {i}");
+    }
+    // Any size works (no U-Net), and a pixel depends only on its own G-buffer texel: changing
+    // one texel of the input changes exactly that output pixel.
+    assert!(net.check_inputs(13, 7, 0).is_ok());
+    let frames = vec![common::frame(7, 8, 0, 2)];
+    let batch = common::batch(&frames);
+    let inputs = batch.inputs(&device);
+    let before = values(net.forward(&inputs));
+    let mut gbuffer = values(inputs.gbuffer.clone());
+    let (h, w) = (8, 8);
+    let (y, x) = (3, 5);
+    for c in 0..glassbake_core::layout::OPAQUE_CHANNELS {
+        gbuffer[c * h * w + y * w + x] += 0.37;
+    }
+    let moved = NetInputs { gbuffer: Tensor::from_data(TensorData::new(gbuffer, inputs.gbuffer.dims()), &device), ..inputs };
+    let after = values(net.forward(&moved));
+    for c in 0..3 {
+        for i in 0..h * w {
+            let changed = before[c * h * w + i] != after[c * h * w + i];
+            assert_eq!(changed && i != y * w + x, false, "pixel {i} of channel {c} changed");
+        }
+    }
+    assert!((0..3).any(|c| before[c * h * w + y * w + x] != after[c * h * w + y * w + x]), "the edited pixel must change");
 }
 
 #[test]

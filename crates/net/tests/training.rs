@@ -43,6 +43,21 @@ fn a_tiny_model_overfits_one_frame() {
 }
 
 #[test]
+fn a_tiny_pixelgen_overfits_one_frame() {
+    let net = NetConfig::preset("tiny", ModelKind::Pixelgen, 1, 0).unwrap();
+    let config = TrainConfig { steps: 300, batch_size: 1, learning_rate: 1e-2, warmup_steps: 10, validate_every: 300, checkpoint_every: 300, ..TrainConfig::preset("tiny").unwrap() };
+    let mut data = common::SyntheticData { frames: vec![common::frame(42, 16, 0, 1)], batch_size: 1, seed: 0, poison_from_epoch: None };
+    let dir = tempfile::tempdir().unwrap();
+    let files = files(dir.path(), &net, &config);
+    let (model, device) = model(&net, 1);
+    let mut losses = Vec::new();
+    train(model, &files, &config, &device, &mut data, &RunOptions::default(), &mut |e| losses.push(e.loss)).unwrap();
+    let first = losses[0];
+    let last = losses[losses.len() - 10..].iter().sum::<f64>() / 10.0;
+    assert!(last * 5.0 < first, "loss went from {first} to {last}: not down 5x");
+}
+
+#[test]
 fn a_killed_run_resumes_to_the_weights_of_an_uninterrupted_one() {
     let net = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap();
     let config = TrainConfig { steps: 12, batch_size: 2, checkpoint_every: 4, validate_every: 3, ..TrainConfig::preset("tiny").unwrap() };

@@ -14,7 +14,7 @@ use glassbake_core::{Camera, Error, PlanarImage, Result};
 use glassbake_net::batch::image_from_tensor;
 use glassbake_net::burn::prelude::*;
 use glassbake_net::burn::tensor::TensorData;
-use glassbake_net::{ModelKind, TrainedModel, TrainedSuperSampler};
+use glassbake_net::{TrainedModel, TrainedSuperSampler};
 use glassbake_raster::{Rasterizer, RasterizerOptions};
 use glassbake_scene::Scene;
 
@@ -66,12 +66,16 @@ impl FramePipeline {
     /// A pipeline on a given rasterizer. `zero_copy`: the models live on burn's wgpu runtime
     /// registered on the rasterizer's own device (`gpu_handover::open_shared`).
     pub fn with_rasterizer(scene: Scene, glassnet: TrainedModel, naive: Option<TrainedModel>, super_sampler: Option<TrainedSuperSampler>, rasterizer: Rasterizer, zero_copy: bool) -> Result<FramePipeline> {
-        if glassnet.kind() == ModelKind::Naive {
-            return Err(Error::bad_input(glassnet.files.dir.display(), "network", "is a naive baseline; give a GlassNet model (the naive one goes to --naive)"));
+        if glassnet.kind().reads_naive_gbuffer() {
+            return Err(Error::bad_input(
+                glassnet.files.dir.display(),
+                "network",
+                format!("is the {} baseline on the naive G-buffer; give a GlassNet model (the baseline goes to --naive)", glassnet.kind().name()),
+            ));
         }
         if let Some(n) = &naive {
-            if n.kind() != ModelKind::Naive {
-                return Err(Error::bad_input(n.files.dir.display(), "network", "is not a naive baseline"));
+            if !n.kind().reads_naive_gbuffer() {
+                return Err(Error::bad_input(n.files.dir.display(), "network", "is not a baseline on the naive G-buffer (naive or pixelgen)"));
             }
         }
         Ok(FramePipeline { scene, glassnet, naive, super_sampler, rasterizer, planes: Vec::new(), zero_copy })

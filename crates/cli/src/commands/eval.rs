@@ -98,7 +98,7 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
         models.push(model);
     }
     let lpips = args.lpips_weights.as_deref().map(Lpips::load).transpose()?;
-    let needs_naive = models.iter().any(|m| m.kind() == ModelKind::Naive);
+    let needs_naive = models.iter().any(|m| m.kind().reads_naive_gbuffer());
     let scene = if store.manifest.spec.cache_buffers { None } else { Some(glassbake_scene::load_scene(&store.manifest.spec.scene)?) };
     let mut loader = Loader::new(dataset, scene, LoaderOptions { split, batch_size: 1, crop: None, seed: 0, shuffle: false, workers: args.workers, naive: needs_naive, ..Default::default() })?;
     let total = args.frames.unwrap_or(usize::MAX).min(loader.len());
@@ -120,7 +120,7 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
             }
             let mut predictions = Vec::new();
             for model in &models {
-                let naive = model.kind() == ModelKind::Naive;
+                let naive = model.kind().reads_naive_gbuffer();
                 let gbuffer = if naive { e.naive.as_ref().expect("the loader was asked for naive buffers") } else { &e.opaque };
                 let transparent: &[PlanarImage] = if naive { &[] } else { &e.transparent };
                 let image = model.render(FrameRef { gbuffer, transparent, values: &e.values, ground_truth: None })?;

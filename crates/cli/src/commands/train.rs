@@ -54,7 +54,8 @@ pub struct CommonTrainArgs {
 pub struct TrainArgs {
     #[command(flatten)]
     pub common: CommonTrainArgs,
-    /// glassnet, naive (single G-buffer, glass overwrites) or concat (buffers concatenated).
+    /// glassnet, naive (single G-buffer, glass overwrites), concat (buffers concatenated) or
+    /// pixelgen (Active Exploration's per-pixel MLP on the naive G-buffer).
     #[arg(long, default_value = "glassnet")]
     pub model: String,
     /// Positional-encoding frequencies (0 = the paper's "without positional encoding" ablation).
@@ -206,9 +207,9 @@ fn host_batch(examples: &[Example], naive: bool, low_res: Option<&TrainedModel>)
     if let Some(model) = low_res {
         let mut low = Vec::new();
         for e in examples {
-            let gbuffer = downsample_box2(if model.kind() == ModelKind::Naive { e.naive.as_ref().expect("naive buffers") } else { &e.opaque })?;
+            let gbuffer = downsample_box2(if model.kind().reads_naive_gbuffer() { e.naive.as_ref().expect("naive buffers") } else { &e.opaque })?;
             let transparent = e.transparent.iter().map(downsample_box2).collect::<glassbake_core::Result<Vec<_>>>()?;
-            let transparent = if model.kind() == ModelKind::Naive { Vec::new() } else { transparent };
+            let transparent = if model.kind().reads_naive_gbuffer() { Vec::new() } else { transparent };
             let image = model.render(FrameRef { gbuffer: &gbuffer, transparent: &transparent, values: &e.values, ground_truth: None })?;
             for name in glassbake_core::layout::GROUND_TRUTH_CHANNELS {
                 low.extend_from_slice(image.plane_by_name(name).expect("render writes R, G, B"));
@@ -267,7 +268,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
 /// Trains one model as `glassbake train` does, showing progress on `bar`. Returns whether
 /// any step was trained (false: the model was already trained).
 pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<bool> {
-    let kind = ModelKind::parse(&args.model).ok_or_else(|| Error::bad_input("--model", "model", format!("{:?} is not glassnet, naive or concat", args.model)))?;
+    let kind = ModelKind::parse(&args.model).ok_or_else(|| Error::bad_input("--model", "model", format!("{:?} is not glassnet, naive, concat or pixelgen", args.model)))?;
     let device_choice = DeviceChoice::parse(&args.common.device)?;
     let mut train_config = train_config(&args.common)?;
     let ablation = args.ablation.as_deref().map(Ablation::parse).transpose()?;
@@ -297,7 +298,7 @@ pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<bool> {
         &args.common.out,
         ModelConfig { format_version: FORMAT_VERSION, network: Network::Glassnet(net_config.clone()), train: train_config.clone(), data: data_source(&args.common.dataset, &store) },
     )?;
-    let naive = kind == ModelKind::Naive;
+    let naive = kind.reads_naive_gbuffer();
     let (train_loader, val) = loaders(&args.common.dataset, scene, &train_config, args.common.workers, naive)?;
     let mut data = DatasetData { train: train_loader, val, validation_frames: train_config.validation_frames, batch_size: train_config.batch_size, naive, low_res: None };
     let device = select_device(device_choice, train_config.seed, true);
@@ -383,7 +384,7 @@ pub fn run_super_sampler(args: TrainSrArgs) -> Result<()> {
         &args.common.out,
         ModelConfig { format_version: FORMAT_VERSION, network: Network::SuperSampler(sr_config.clone()), train: train_config.clone(), data: data_source(&args.common.dataset, &store) },
     )?;
-    let naive = glassnet.kind() == ModelKind::Naive;
+    let naive = glassnet.kind().reads_naive_gbuffer();
     let (train_loader, val) = loaders(&args.common.dataset, scene, &train_config, args.common.workers, naive)?;
     let mut data = DatasetData { train: train_loader, val, validation_frames: train_config.validation_frames, batch_size: train_config.batch_size, naive: false, low_res: Some(glassnet) };
     let device = select_device(device_choice, train_config.seed, true);
