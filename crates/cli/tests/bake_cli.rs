@@ -134,3 +134,51 @@ fn ablations_are_trained_with_their_settings_and_evaluated() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--ablation") && err.contains("l1-only"), "{err}");
 }
+
+#[test]
+fn baselines_pixelgen_and_path_tracing_plus_denoising() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bake");
+    let (code, stdout, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--baselines", "--out", path(&out)]);
+    if cfg!(feature = "oidn") {
+        assert_eq!(code, 0, "{err}\n{stdout}");
+        let metrics: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("eval/metrics.json")).unwrap()).unwrap();
+        let models: Vec<&str> = metrics["models"].as_array().unwrap().iter().map(|m| m["model"].as_str().unwrap()).collect();
+        assert_eq!(models, ["glassnet", "naive", "pixelgen", "pt32", "pt32+oidn"]);
+        for m in metrics["models"].as_array().unwrap() {
+            assert!(m["seconds_per_frame"].as_f64().unwrap() > 0.0, "{m}");
+            assert!(m["psnr"].as_f64().unwrap() > 5.0, "{m}");
+        }
+        // Denoising takes the path tracer's time plus its own.
+        let seconds = |i: usize| metrics["models"][i]["seconds_per_frame"].as_f64().unwrap();
+        assert!(seconds(4) > seconds(3));
+        let pixelgen: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("pixelgen/config.json")).unwrap()).unwrap();
+        assert_eq!(pixelgen["network"]["model"], "pixelgen");
+        let frames: Vec<String> = std::fs::read_dir(out.join("eval/frames")).unwrap().map(|f| f.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        assert_eq!(frames.iter().filter(|f| f.ends_with("_pt32+oidn.png")).count(), 2, "{frames:?}");
+        assert!(std::fs::read_dir(out.join("eval/crops")).unwrap().count() > 0, "glass crops");
+        return;
+    }
+    // Without the feature: refused up front, naming it, nothing written.
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("`oidn` feature") && err.contains("pip install pyoidn"), "{err}");
+    assert!(!out.exists());
+
+    // pixelgen trains and evaluates on its own, with a time per frame.
+    let data = dir.path().join("data");
+    let (code, _, err) = glassbake(&["dataset", "cornell-glass", "--out", path(&data), "--train", "2", "--val", "1", "--test", "2", "--res", "32", "--spp", "2", "--cache-buffers"]);
+    assert_eq!(code, 0, "{err}");
+    let model = dir.path().join("pixelgen");
+    let (code, stdout, err) = glassbake(&["train", path(&data), "--model", "pixelgen", "--preset", "tiny", "--out", path(&model)]);
+    assert_eq!(code, 0, "{err}");
+    assert!(stdout.contains("training pixelgen"), "{stdout}");
+    let eval = dir.path().join("eval");
+    let (code, _, err) = glassbake(&["eval", path(&model), path(&data), "--out", path(&eval)]);
+    assert_eq!(code, 0, "{err}");
+    let metrics: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(eval.join("metrics.json")).unwrap()).unwrap();
+    assert_eq!(metrics["models"][0]["model"], "pixelgen");
+    assert!(metrics["models"][0]["seconds_per_frame"].as_f64().unwrap() > 0.0);
+    let (code, _, err) = glassbake(&["eval", path(&model), path(&data), "--out", path(&dir.path().join("e2")), "--path-traced-baseline", "32"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--path-traced-baseline") && err.contains("`oidn` feature") && !dir.path().join("e2").exists(), "{err}");
+}

@@ -92,7 +92,7 @@ fn mean(values: impl Iterator<Item = f64>) -> Option<f64> {
 impl Evaluation {
     /// Starts an evaluation writing under `dir` (`frames/`, `grids/`, `metrics.*`).
     pub fn new(dir: &Path, models: Vec<String>, lpips: Option<Lpips>, dataset: String, split: String) -> Result<Evaluation> {
-        for sub in ["frames", "grids"] {
+        for sub in ["frames", "grids", "crops"] {
             std::fs::create_dir_all(dir.join(sub)).map_err(|e| Error::io(&dir.join(sub), e))?;
         }
         let render_times = vec![(0.0, 0); models.len()];
@@ -101,6 +101,11 @@ impl Evaluation {
 
     pub fn grid_path(&self, index: u64) -> PathBuf {
         self.dir.join("grids").join(format!("{index:06}.png"))
+    }
+
+    /// The glass crop of frame `index` (written only for frames that show glass).
+    pub fn crop_path(&self, index: u64) -> PathBuf {
+        self.dir.join("crops").join(format!("{index:06}.png"))
     }
 
     /// Scores one frame: `predictions` in the model order given to `new`.
@@ -124,6 +129,10 @@ impl Evaluation {
         tiles.extend(heat_maps);
         tiles.push(grid::mask_image(ground_truth.width, ground_truth.height, mask));
         grid::row(&tiles).write_png(&self.grid_path(index))?;
+        if let Some((x0, y0, side)) = grid::glass_window(ground_truth.width, ground_truth.height, mask, grid::CROP_SIDE) {
+            let crops: Vec<RgbImage> = std::iter::once(ground_truth).chain(predictions).map(|image| grid::crop(image, x0, y0, side)).collect();
+            grid::row(&crops).write_png(&self.crop_path(index))?;
+        }
         self.frames.push(FrameRecord { index, transparent_pixels: mask.iter().filter(|&&m| m).count(), metrics });
         Ok(self.frames.last().expect("just pushed"))
     }

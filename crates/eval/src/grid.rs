@@ -1,5 +1,6 @@
 //! Comparison grids: one row per frame, ground truth | each model | each model's FLIP error
-//! map | the transparency mask, each tile enlarged to a readable size.
+//! map | the transparency mask, each tile enlarged to a readable size; and glass crops, a
+//! window around the transparent objects, ground truth | each model, enlarged 4x.
 
 use std::sync::OnceLock;
 
@@ -49,6 +50,32 @@ pub fn row(tiles: &[RgbImage]) -> RgbImage {
     RgbImage { width, height: th, pixels }
 }
 
+/// Side of the glass crops (pixels of the frame); `row` enlarges them 4x to 128 px.
+pub const CROP_SIDE: usize = 32;
+
+/// The square window of side `min(side, width, height)` centred on the transparency mask's
+/// centroid, moved inside the frame: (x0, y0, side). `None` when no pixel shows glass.
+pub fn glass_window(width: usize, height: usize, mask: &[bool], side: usize) -> Option<(usize, usize, usize)> {
+    let (mut sx, mut sy, mut n) = (0usize, 0usize, 0usize);
+    for (i, _) in mask.iter().enumerate().filter(|(_, &m)| m) {
+        sx += i % width;
+        sy += i / width;
+        n += 1;
+    }
+    if n == 0 {
+        return None;
+    }
+    let side = side.min(width).min(height);
+    let start = |centre: usize, extent: usize| centre.saturating_sub(side / 2).min(extent - side);
+    Some((start(sx / n, width), start(sy / n, height), side))
+}
+
+/// The `side` x `side` square of `image` at (x0, y0).
+pub fn crop(image: &RgbImage, x0: usize, y0: usize, side: usize) -> RgbImage {
+    let pixels = (y0..y0 + side).flat_map(|y| image.pixels[y * image.width + x0..y * image.width + x0 + side].iter().copied()).collect();
+    RgbImage { width: side, height: side, pixels }
+}
+
 /// Column titles of a grid with these models.
 pub fn column_titles(models: &[String]) -> Vec<String> {
     let mut titles = vec!["ground truth".to_string()];
@@ -71,6 +98,23 @@ mod tests {
         assert_eq!(r.get(127, 63), [0.0; 3]);
         assert_eq!(r.get(128, 0), [1.0; 3]);
         assert_eq!(r.get(128 + GAP, 0), [0.5; 3]);
+    }
+
+    #[test]
+    fn the_glass_window_centres_on_the_mask_and_stays_inside_the_frame() {
+        let (w, h) = (40, 30);
+        // Glass in a 4x4 block at (10..14, 20..24): centroid (11, 21).
+        let mask: Vec<bool> = (0..w * h).map(|i| (10..14).contains(&(i % w)) && (20..24).contains(&(i / w))).collect();
+        assert_eq!(glass_window(w, h, &mask, 8), Some((7, 17, 8)));
+        // Near the bottom edge the window moves up to fit; larger than the frame it shrinks.
+        assert_eq!(glass_window(w, h, &mask, 20), Some((1, 10, 20)));
+        assert_eq!(glass_window(w, h, &mask, 64), Some((0, 0, 30)));
+        assert_eq!(glass_window(w, h, &vec![false; w * h], 8), None);
+        let image = RgbImage { width: w, height: h, pixels: (0..w * h).map(|i| [(i % w) as f32 / 64.0, (i / w) as f32 / 64.0, 0.0]).collect() };
+        let c = crop(&image, 7, 17, 8);
+        assert_eq!((c.width, c.height), (8, 8));
+        assert_eq!(c.get(0, 0), [7.0 / 64.0, 17.0 / 64.0, 0.0]);
+        assert_eq!(c.get(7, 7), [14.0 / 64.0, 24.0 / 64.0, 0.0]);
     }
 
     #[test]

@@ -143,7 +143,9 @@ fn bench_table(bench: &BenchFile) -> String {
 
 /// Writes the report into `dir` (created); returns the path of `index.html`.
 pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
-    std::fs::create_dir_all(dir.join("grids")).map_err(|e| Error::io(dir, e))?;
+    for sub in ["grids", "crops"] {
+        std::fs::create_dir_all(dir.join(sub)).map_err(|e| Error::io(dir, e))?;
+    }
     let mut sections: Vec<(String, String, Vec<Figure>)> = Vec::new(); // (heading, markdown text, figures)
     let mut notes = Vec::new();
     if !crate::plot::font_available() {
@@ -194,6 +196,21 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
         }
         let columns = column_titles(&groups).join(" | ");
         sections.push(("Comparison grids".into(), format!("Columns: {columns}. FLIP error maps in magma: black is no error, yellow the largest.\n"), grids));
+        let mut crops = Vec::new();
+        for record in summary.frames.iter().filter(|r| r.transparent_pixels > 0).take(MAX_GRIDS) {
+            let source = eval_dir.join("crops").join(format!("{:06}.png", record.index));
+            if let Ok(png) = std::fs::read(&source) {
+                crops.push(Figure { title: format!("frame {}, glass", record.index), file: format!("crops/{:06}.png", record.index), png, svg: None });
+            }
+        }
+        if !crops.is_empty() {
+            let columns = std::iter::once("ground truth".to_string()).chain(groups.iter().cloned()).collect::<Vec<_>>().join(" | ");
+            let text = format!(
+                "A {side}x{side} window around the transparent objects, enlarged 4x (nearest neighbour). Columns: {columns}.\n",
+                side = crate::grid::CROP_SIDE
+            );
+            sections.push(("Behind the glass".into(), text, crops));
+        }
     } else {
         notes.push("No evaluation yet (run `glassbake eval`).".into());
     }

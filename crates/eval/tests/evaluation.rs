@@ -62,6 +62,11 @@ fn metrics_files_grids_and_report() {
     for file in ["grids/000007.png", "grids/000008.png", "frames/000007_ground_truth.png", "frames/000007_glassnet.png", "frames/000008_naive.png"] {
         assert!(eval_dir.join(file).is_file(), "{file}");
     }
+    // A glass crop for the frame with glass only: ground truth + 2 models; the 24x20 frame's
+    // 32 px window shrinks to 20 px, enlarged 7x to reach 128 px.
+    assert!(!eval_dir.join("crops/000008.png").exists());
+    let crop = image::open(eval_dir.join("crops/000007.png")).unwrap();
+    assert_eq!((crop.width(), crop.height()), (3 * 140 + 2 * 4, 140));
     let grid = image::open(eval_dir.join("grids/000007.png")).unwrap();
     // ground truth, 2 models, 2 error maps, mask: 6 tiles of 24 px enlarged 6x, 4 px gaps.
     assert_eq!((grid.width(), grid.height()), (6 * 144 + 5 * 4, 120));
@@ -88,6 +93,7 @@ fn metrics_files_grids_and_report() {
     let md = std::fs::read_to_string(report_dir.join("report.md")).unwrap();
     assert!(md.contains("| glassnet |") && md.contains("![frame 7](grids/000007.png)"), "{md}");
     assert!(report_dir.join("grids/000007.png").is_file());
+    assert!(md.contains("![frame 7, glass](crops/000007.png)") && report_dir.join("crops/000007.png").is_file(), "{md}");
     if glassbake_eval::plot::font_available() {
         assert!(html.contains("<svg"), "plots are inline SVG");
         for png in ["metrics.png", "training_curves.png", "speed.png", "memory.png"] {

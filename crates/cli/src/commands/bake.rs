@@ -1,6 +1,6 @@
 //! `glassbake bake`: a scene to a trained model and an honest report in one command.
-//! Stages: dataset -> train GlassNet -> train the naive baseline (-> the ablations) -> eval ->
-//! report. Every stage resumes where a killed run stopped and is skipped when already done.
+//! Stages: dataset -> train GlassNet -> train the naive baseline (-> pixelgen with
+//! `--baselines`) (-> the ablations) -> eval (-> path traced + denoised) -> report. Every stage resumes where a killed run stopped and is skipped when already done.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -24,7 +24,7 @@ pub struct BakeArgs {
     /// tiny (a smoke test: seconds, meaningless numbers).
     #[arg(long, default_value = "quick")]
     pub preset: String,
-    /// Output directory: dataset/, glassnet/, naive/, eval/, report/.
+    /// Output directory: dataset/, glassnet/, naive/ (pixelgen/, glassnet-*/), eval/, report/.
     #[arg(long, default_value = "bake")]
     pub out: PathBuf,
     /// cpu (burn's flex backend) or wgpu (Vulkan) for training and evaluation.
@@ -33,6 +33,11 @@ pub struct BakeArgs {
     /// Also train and evaluate the paper's ablations (no positional encoding; L1 loss only).
     #[arg(long)]
     pub ablations: bool,
+    /// Also the paper's other comparisons: the pixelgen baseline (Active Exploration's
+    /// per-pixel MLP) and path tracing at 32 spp, raw and denoised with Open Image Denoise
+    /// (needs a build with the `oidn` feature, docs/eval.md).
+    #[arg(long)]
+    pub baselines: bool,
     /// LPIPS AlexNet weights (safetensors, see docs/eval.md); without it LPIPS is skipped.
     #[arg(long)]
     pub lpips_weights: Option<PathBuf>,
@@ -61,9 +66,15 @@ fn bake_preset(name: &str) -> glassbake_core::Result<BakePreset> {
     })
 }
 
+/// Samples per pixel of the path-traced baseline (`--baselines`): the paper's 32.
+const PATH_TRACED_SPP: u32 = 32;
+
 /// The models a bake trains: (directory name, model kind, ablation).
-fn models(ablations: bool) -> Vec<(String, &'static str, Option<Ablation>)> {
+fn models(ablations: bool, baselines: bool) -> Vec<(String, &'static str, Option<Ablation>)> {
     let mut list = vec![("glassnet".to_string(), "glassnet", None), ("naive".to_string(), "naive", None)];
+    if baselines {
+        list.push(("pixelgen".to_string(), "pixelgen", None));
+    }
     if ablations {
         list.extend(Ablation::ALL.map(|a| (format!("glassnet-{}", a.name()), "glassnet", Some(a))));
     }
@@ -75,13 +86,14 @@ fn modified(path: &Path) -> Option<std::time::SystemTime> {
 }
 
 /// True when `eval/metrics.json` is newer than every model's weights and lists exactly these
-/// models with the same LPIPS setting.
-fn evaluation_is_current(eval_dir: &Path, model_dirs: &[PathBuf], lpips: bool) -> bool {
+/// rows (the models, then `extra_rows`) with the same LPIPS setting.
+fn evaluation_is_current(eval_dir: &Path, model_dirs: &[PathBuf], extra_rows: &[String], lpips: bool) -> bool {
     let metrics = eval_dir.join("metrics.json");
     let (Some(written), Ok(summary)) = (modified(&metrics), EvaluationSummary::read(&metrics)) else {
         return false;
     };
-    let names: Vec<String> = model_dirs.iter().map(|d| d.file_name().unwrap_or_default().to_string_lossy().into_owned()).collect();
+    let mut names: Vec<String> = model_dirs.iter().map(|d| d.file_name().unwrap_or_default().to_string_lossy().into_owned()).collect();
+    names.extend(extra_rows.iter().cloned());
     summary.models.iter().map(|m| &m.model).eq(names.iter())
         && summary.lpips.starts_with("AlexNet") == lpips
         && model_dirs.iter().all(|d| modified(&d.join("glassnet.safetensors")).is_some_and(|w| w <= written))
@@ -90,11 +102,14 @@ fn evaluation_is_current(eval_dir: &Path, model_dirs: &[PathBuf], lpips: bool) -
 pub fn run(args: BakeArgs) -> Result<()> {
     let preset = bake_preset(&args.preset)?;
     glassbake_net::DeviceChoice::parse(&args.device)?;
+    if args.baselines && !glassbake_eval::denoise::AVAILABLE {
+        return Err(Error::bad_input("--baselines", "oidn", format!("{} (or bake without --baselines)", glassbake_eval::denoise::HOW_TO_ENABLE)).into());
+    }
     glassbake_scene::load_scene(&args.scene)?;
     std::fs::create_dir_all(&args.out).map_err(|e| Error::io(&args.out, e))?;
     let started = Instant::now();
     let dataset_dir = args.out.join("dataset");
-    let models = models(args.ablations);
+    let models = models(args.ablations, args.baselines);
     let model_dirs: Vec<PathBuf> = models.iter().map(|m| args.out.join(&m.0)).collect();
 
     let multi = MultiProgress::new();
@@ -167,9 +182,20 @@ pub fn run(args: BakeArgs) -> Result<()> {
     let eval_dir = args.out.join("eval");
     let mut paths = model_dirs.clone();
     paths.push(dataset_dir.clone());
-    let eval = EvalArgs { paths, out: eval_dir.clone(), split: "test".into(), frames: None, lpips_weights: args.lpips_weights.clone(), device: args.device.clone(), workers: 2 };
+    let path_traced_baseline = args.baselines.then_some(PATH_TRACED_SPP);
+    let eval = EvalArgs {
+        paths,
+        out: eval_dir.clone(),
+        split: "test".into(),
+        frames: None,
+        lpips_weights: args.lpips_weights.clone(),
+        device: args.device.clone(),
+        workers: 2,
+        path_traced_baseline,
+    };
     let mut summary = None;
-    let current = evaluation_is_current(&eval_dir, &model_dirs, args.lpips_weights.is_some());
+    let extra_rows: Vec<String> = path_traced_baseline.map(|spp| vec![format!("pt{spp}"), format!("pt{spp}+oidn")]).unwrap_or_default();
+    let current = evaluation_is_current(&eval_dir, &model_dirs, &extra_rows, args.lpips_weights.is_some());
     stage("evaluate and report".into(), &mut || {
         if current {
             bar.suspend(|| println!("{} is up to date with the models; not evaluated again", eval_dir.join("metrics.json").display()));

@@ -2,16 +2,20 @@
 //! ground truth (glassbake-eval), run the order test, write metrics, grids and a report.
 
 use std::path::{Path, PathBuf};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use anyhow::Result;
 use clap::Args;
+use glassbake_core::layout::{self, GROUND_TRUTH_CHANNELS};
+use glassbake_core::seed::purpose_seed;
 use glassbake_core::{Error, PlanarImage};
-use glassbake_dataset::{DatasetStore, Loader, LoaderOptions, Split};
+use glassbake_dataset::{DatasetStore, Loader, LoaderOptions, SampleRecord, Split};
+use glassbake_eval::denoise::{denoise, DenoiseInput};
 use glassbake_eval::report::{write_report, ReportInputs, TrainingLog};
 use glassbake_eval::rgb::mask_from_planar;
 use glassbake_eval::{Evaluation, EvaluationSummary, Lpips, OrderTest, RgbImage};
 use glassbake_net::{select_device, DeviceChoice, FrameRef, ModelKind, TrainedModel};
+use glassbake_trace::TraceSettings;
 use indicatif::{ProgressBar, ProgressStyle};
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
@@ -38,6 +42,45 @@ pub struct EvalArgs {
     /// Frame-reading/rasterizing worker threads.
     #[arg(long, default_value_t = 2)]
     pub workers: usize,
+    /// Also path trace each frame at SPP samples per pixel and denoise it with Intel Open
+    /// Image Denoise (the naive G-buffer's albedo and normals as guides): rows `ptSPP` and
+    /// `ptSPP+oidn` (the paper used 32). Needs a build with the `oidn` feature (docs/eval.md).
+    #[arg(long, value_name = "SPP")]
+    pub path_traced_baseline: Option<u32>,
+}
+
+/// The path-traced baseline of one frame: the traced image, and the same denoised.
+struct PathTraced {
+    raw: RgbImage,
+    denoised: RgbImage,
+    trace_seconds: f64,
+    denoise_seconds: f64,
+}
+
+/// Traces `sample` of `scene` at `spp` with a seed of its own (not the ground truth's), then
+/// denoises it with the naive G-buffer's first-surface albedo and normals as guides.
+fn path_traced_baseline(scene: &glassbake_scene::Scene, sample: &SampleRecord, naive: &PlanarImage, spp: u32) -> Result<PathTraced> {
+    let (w, h) = (naive.width(), naive.height());
+    let instance = scene.instantiate(&sample.values)?;
+    let settings = TraceSettings::new(w, h, spp, purpose_seed(sample.seed, "path-traced baseline"));
+    let started = Instant::now();
+    let traced = glassbake_trace::render(&instance, &sample.camera, &settings, None)?;
+    let trace_seconds = started.elapsed().as_secs_f64();
+    let interleave = |image: &PlanarImage, first: usize| -> Vec<f32> {
+        let planes = [image.plane(first), image.plane(first + 1), image.plane(first + 2)];
+        (0..(w * h) as usize).flat_map(|i| planes.map(|p| p[i])).collect()
+    };
+    let color: Vec<f32> = {
+        let planes: Vec<&[f32]> = GROUND_TRUTH_CHANNELS.iter().map(|c| traced.image.plane_by_name(c).expect("the tracer writes R, G, B")).collect();
+        (0..(w * h) as usize).flat_map(|i| [planes[0][i], planes[1][i], planes[2][i]]).collect()
+    };
+    let albedo = interleave(naive, layout::opaque::ALBEDO);
+    let normal = interleave(naive, layout::opaque::NORMAL);
+    let started = Instant::now();
+    let denoised = denoise(&DenoiseInput { width: w as usize, height: h as usize, color: &color, albedo: &albedo, normal: &normal })?;
+    let denoise_seconds = started.elapsed().as_secs_f64();
+    let rgb = |v: &[f32]| RgbImage::new(w as usize, h as usize, v.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect());
+    Ok(PathTraced { raw: rgb(&color)?, denoised: rgb(&denoised)?, trace_seconds, denoise_seconds })
 }
 
 pub fn run(args: EvalArgs) -> Result<()> {
@@ -69,6 +112,12 @@ fn max_abs_diff(a: &[f32], b: &[f32]) -> f32 {
 pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<EvaluationSummary> {
     let (dataset, model_dirs) = args.paths.split_last().expect("clap requires two paths");
     let split = Split::parse(&args.split)?;
+    if args.path_traced_baseline.is_some() && !glassbake_eval::denoise::AVAILABLE {
+        return Err(Error::bad_input("--path-traced-baseline", "oidn", glassbake_eval::denoise::HOW_TO_ENABLE).into());
+    }
+    if args.path_traced_baseline == Some(0) {
+        return Err(Error::bad_input("--path-traced-baseline", "spp", "must be at least 1").into());
+    }
     let store = DatasetStore::open(dataset)?;
     let info = store.info();
     if let Some((_, planned, done)) = info.splits.iter().find(|s| s.0 == split) {
@@ -98,8 +147,27 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
         models.push(model);
     }
     let lpips = args.lpips_weights.as_deref().map(Lpips::load).transpose()?;
-    let needs_naive = models.iter().any(|m| m.kind().reads_naive_gbuffer());
-    let scene = if store.manifest.spec.cache_buffers { None } else { Some(glassbake_scene::load_scene(&store.manifest.spec.scene)?) };
+    let needs_naive = args.path_traced_baseline.is_some() || models.iter().any(|m| m.kind().reads_naive_gbuffer());
+    let scene = if store.manifest.spec.cache_buffers && args.path_traced_baseline.is_none() {
+        None
+    } else {
+        let scene = glassbake_scene::load_scene(&store.manifest.spec.scene)?;
+        if scene.content_hash() != store.manifest.scene.hash {
+            return Err(Error::bad_input(
+                &store.manifest.spec.scene,
+                "scene",
+                format!("has changed since the dataset {} was made (scene hash {} now, {} then)", dataset.display(), scene.content_hash(), store.manifest.scene.hash),
+            )
+            .into());
+        }
+        Some(scene)
+    };
+    let trace_scene = args.path_traced_baseline.map(|_| scene.clone().expect("loaded above"));
+    if let Some(spp) = args.path_traced_baseline {
+        names.push(format!("pt{spp}"));
+        names.push(format!("pt{spp}+oidn"));
+    }
+    let scene = if store.manifest.spec.cache_buffers { None } else { scene };
     let mut loader = Loader::new(dataset, scene, LoaderOptions { split, batch_size: 1, crop: None, seed: 0, shuffle: false, workers: args.workers, naive: needs_naive, ..Default::default() })?;
     let total = args.frames.unwrap_or(usize::MAX).min(loader.len());
     let mut evaluation = Evaluation::new(&args.out, names.clone(), lpips, dataset.display().to_string(), args.split.to_lowercase())?;
@@ -119,12 +187,22 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
                 break 'frames;
             }
             let mut predictions = Vec::new();
+            let mut seconds = Vec::new();
             for model in &models {
                 let naive = model.kind().reads_naive_gbuffer();
                 let gbuffer = if naive { e.naive.as_ref().expect("the loader was asked for naive buffers") } else { &e.opaque };
                 let transparent: &[PlanarImage] = if naive { &[] } else { &e.transparent };
+                let started = Instant::now();
                 let image = model.render(FrameRef { gbuffer, transparent, values: &e.values, ground_truth: None })?;
+                seconds.push(started.elapsed().as_secs_f64());
                 predictions.push(RgbImage::from_planar(&image)?);
+            }
+            if let (Some(spp), Some(scene)) = (args.path_traced_baseline, &trace_scene) {
+                let sample = store.manifest.samples.iter().find(|s| s.index == e.index).ok_or_else(|| Error::Internal(format!("frame {} is not in the manifest", e.index)))?;
+                let naive = e.naive.as_ref().expect("the loader was asked for naive buffers");
+                let pt = bar.suspend(|| path_traced_baseline(scene, sample, naive, spp))?;
+                predictions.extend([pt.raw, pt.denoised]);
+                seconds.extend([pt.trace_seconds, pt.trace_seconds + pt.denoise_seconds]);
             }
             if let Some(i) = order_model {
                 let model = &models[i];
@@ -139,6 +217,9 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
                 order.frames += 1;
             }
             evaluation.add_frame(e.index, &RgbImage::from_planar(&e.ground_truth)?, &mask_from_planar(&e.mask), &predictions)?;
+            for (model, s) in seconds.into_iter().enumerate() {
+                evaluation.add_render_time(model, s);
+            }
             done += 1;
             bar.set_position(done as u64);
         }
