@@ -200,7 +200,7 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
             if let (Some(spp), Some(scene)) = (args.path_traced_baseline, &trace_scene) {
                 let sample = store.manifest.samples.iter().find(|s| s.index == e.index).ok_or_else(|| Error::Internal(format!("frame {} is not in the manifest", e.index)))?;
                 let naive = e.naive.as_ref().expect("the loader was asked for naive buffers");
-                let pt = bar.suspend(|| path_traced_baseline(scene, sample, naive, spp))?;
+                let pt = path_traced_baseline(scene, sample, naive, spp)?;
                 predictions.extend([pt.raw, pt.denoised]);
                 seconds.extend([pt.trace_seconds, pt.trace_seconds + pt.denoise_seconds]);
             }
