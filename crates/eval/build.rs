@@ -1,5 +1,6 @@
 //! With the `oidn` feature and OIDN_DIR set (docs/eval.md), the binaries and tests find
-//! libOpenImageDenoise where they were linked against it, without LD_LIBRARY_PATH.
+//! libOpenImageDenoise where they were linked against it, without LD_LIBRARY_PATH. The CLI
+//! crate uses this same script (its Cargo.toml `build`).
 
 fn main() {
     println!("cargo:rerun-if-env-changed=OIDN_DIR");

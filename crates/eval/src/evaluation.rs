@@ -196,6 +196,21 @@ impl Evaluation {
     }
 }
 
+fn csv_row(out: &mut String, frame: &str, model: &str, m: &FrameMetrics, seconds_per_frame: Option<f64>) {
+    let _ = writeln!(
+        out,
+        "{frame},{model},{:.6},{:.4},{:.6},{},{},{:.6},{},{}",
+        m.mae,
+        m.psnr,
+        m.dssim,
+        cell(m.t_mae, 6),
+        cell(m.t_psnr, 4),
+        m.flip,
+        cell(m.lpips, 6),
+        cell(seconds_per_frame, 4)
+    );
+}
+
 fn cell(v: Option<f64>, digits: usize) -> String {
     v.map(|v| format!("{v:.digits$}")).unwrap_or_default()
 }
@@ -206,40 +221,17 @@ impl EvaluationSummary {
         serde_json::from_str(&text).map_err(|e| Error::bad_input(path.display(), "metrics", e.to_string()))
     }
 
-    /// One row per frame and model, then one `mean` row per model.
+    /// One row per frame and model, then one `mean` row per model (the only rows with a time).
     pub fn csv(&self) -> String {
         let mut out = String::from("frame,model,mae,psnr,dssim,t_mae,t_psnr,flip,lpips,seconds_per_frame\n");
         for record in &self.frames {
             for (model, m) in self.models.iter().zip(&record.metrics) {
-                let _ = writeln!(
-                    out,
-                    "{},{},{:.6},{:.4},{:.6},{},{},{:.6},{},",
-                    record.index,
-                    model.model,
-                    m.mae,
-                    m.psnr,
-                    m.dssim,
-                    cell(m.t_mae, 6),
-                    cell(m.t_psnr, 4),
-                    m.flip,
-                    cell(m.lpips, 6)
-                );
+                csv_row(&mut out, &record.index.to_string(), &model.model, m, None);
             }
         }
         for m in &self.models {
-            let _ = writeln!(
-                out,
-                "mean,{},{:.6},{:.4},{:.6},{},{},{:.6},{},{}",
-                m.model,
-                m.mae,
-                m.psnr,
-                m.dssim,
-                cell(m.t_mae, 6),
-                cell(m.t_psnr, 4),
-                m.flip,
-                cell(m.lpips, 6),
-                cell(m.seconds_per_frame, 4)
-            );
+            let averaged = FrameMetrics { mae: m.mae, psnr: m.psnr, dssim: m.dssim, t_mae: m.t_mae, t_psnr: m.t_psnr, flip: m.flip, lpips: m.lpips };
+            csv_row(&mut out, "mean", &m.model, &averaged, m.seconds_per_frame);
         }
         out
     }

@@ -27,33 +27,29 @@ fn model(net: &NetConfig, seed: u64) -> (GlassNet, Device) {
     (GlassNet::new(net, seed, &device).unwrap(), device)
 }
 
-#[test]
-fn a_tiny_model_overfits_one_frame() {
-    let net = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap();
+/// Trains a tiny `kind` for 300 steps on one frame; returns the first loss and the mean of
+/// the last ten.
+fn overfit_one_frame(kind: ModelKind, objects: usize) -> (f64, f64) {
+    let net = NetConfig::preset("tiny", kind, 1, objects).unwrap();
     let config = TrainConfig { steps: 300, batch_size: 1, learning_rate: 1e-2, warmup_steps: 10, validate_every: 300, checkpoint_every: 300, ..TrainConfig::preset("tiny").unwrap() };
-    let mut data = common::SyntheticData { frames: vec![common::frame(42, 16, 2, 1)], batch_size: 1, seed: 0, poison_from_epoch: None };
+    let mut data = common::SyntheticData { frames: vec![common::frame(42, 16, objects, 1)], batch_size: 1, seed: 0, poison_from_epoch: None };
     let dir = tempfile::tempdir().unwrap();
     let files = files(dir.path(), &net, &config);
     let (model, device) = model(&net, 1);
     let mut losses = Vec::new();
     train(model, &files, &config, &device, &mut data, &RunOptions::default(), &mut |e| losses.push(e.loss)).unwrap();
-    let first = losses[0];
-    let last = losses[losses.len() - 10..].iter().sum::<f64>() / 10.0;
+    (losses[0], losses[losses.len() - 10..].iter().sum::<f64>() / 10.0)
+}
+
+#[test]
+fn a_tiny_model_overfits_one_frame() {
+    let (first, last) = overfit_one_frame(ModelKind::Glassnet, 2);
     assert!(last * 10.0 < first, "loss went from {first} to {last}: not down 10x");
 }
 
 #[test]
 fn a_tiny_pixelgen_overfits_one_frame() {
-    let net = NetConfig::preset("tiny", ModelKind::Pixelgen, 1, 0).unwrap();
-    let config = TrainConfig { steps: 300, batch_size: 1, learning_rate: 1e-2, warmup_steps: 10, validate_every: 300, checkpoint_every: 300, ..TrainConfig::preset("tiny").unwrap() };
-    let mut data = common::SyntheticData { frames: vec![common::frame(42, 16, 0, 1)], batch_size: 1, seed: 0, poison_from_epoch: None };
-    let dir = tempfile::tempdir().unwrap();
-    let files = files(dir.path(), &net, &config);
-    let (model, device) = model(&net, 1);
-    let mut losses = Vec::new();
-    train(model, &files, &config, &device, &mut data, &RunOptions::default(), &mut |e| losses.push(e.loss)).unwrap();
-    let first = losses[0];
-    let last = losses[losses.len() - 10..].iter().sum::<f64>() / 10.0;
+    let (first, last) = overfit_one_frame(ModelKind::Pixelgen, 0);
     assert!(last * 5.0 < first, "loss went from {first} to {last}: not down 5x");
 }
 
