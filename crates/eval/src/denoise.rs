@@ -71,13 +71,13 @@ mod tests {
                 let left = x < width / 2;
                 let a = if left { [0.8, 0.3, 0.2] } else { [0.2, 0.5, 0.8] };
                 let light = 0.4 + 0.6 * y as f32 / height as f32;
-                for c in 0..3 {
-                    let v = a[c] * light;
+                for &albedo_channel in &a {
+                    let v = albedo_channel * light;
                     clean.push(v);
                     // Mean-one noise: the average of 4 exponential samples.
                     let factor: f32 = (0..4).map(|_| -(1.0 - rng.random::<f32>()).ln()).sum::<f32>() / 4.0;
                     noisy.push(v * factor);
-                    albedo.push(a[c]);
+                    albedo.push(albedo_channel);
                 }
                 normal.extend_from_slice(if left { &[0.0, 0.0, 1.0] } else { &[1.0, 0.0, 0.0] });
             }
@@ -85,6 +85,7 @@ mod tests {
         (clean, noisy, albedo, normal)
     }
 
+    #[cfg(feature = "oidn")]
     fn rmse(a: &[f32], b: &[f32]) -> f64 {
         (a.iter().zip(b).map(|(x, y)| ((x - y) as f64).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
     }
