@@ -1,6 +1,7 @@
 //! `glassbake bake`: a scene to a trained model and an honest report in one command.
 //! Stages: dataset -> train GlassNet -> train the naive baseline (-> pixelgen with
-//! `--baselines`) (-> the ablations) -> eval (-> path traced + denoised) -> report. Every stage resumes where a killed run stopped and is skipped when already done.
+//! `--baselines`) (-> the ablations) -> eval (-> path traced + denoised) -> report. Every
+//! stage resumes where a killed run stopped and is skipped when already done.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -13,7 +14,7 @@ use glassbake_eval::EvaluationSummary;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 
 use super::dataset::{make_dataset, MakeArgs};
-use super::eval::{evaluate, EvalArgs};
+use super::eval::{evaluate, path_traced_rows, EvalArgs};
 use super::train::{train_model, Ablation, CommonTrainArgs, TrainArgs};
 
 #[derive(Args)]
@@ -194,7 +195,7 @@ pub fn run(args: BakeArgs) -> Result<()> {
         path_traced_baseline,
     };
     let mut summary = None;
-    let extra_rows: Vec<String> = path_traced_baseline.map(|spp| vec![format!("pt{spp}"), format!("pt{spp}+oidn")]).unwrap_or_default();
+    let extra_rows: Vec<String> = path_traced_baseline.map(|spp| path_traced_rows(spp).to_vec()).unwrap_or_default();
     let current = evaluation_is_current(&eval_dir, &model_dirs, &extra_rows, args.lpips_weights.is_some());
     stage("evaluate and report".into(), &mut || {
         if current {

@@ -49,6 +49,16 @@ pub struct EvalArgs {
     pub path_traced_baseline: Option<u32>,
 }
 
+/// The metrics rows of the path-traced baseline at `spp`: traced, then traced and denoised.
+pub fn path_traced_rows(spp: u32) -> [String; 2] {
+    [format!("pt{spp}"), format!("pt{spp}+oidn")]
+}
+
+/// Planes `first..first + 3` of `image` (an RGB or XYZ attribute).
+fn three_planes(image: &PlanarImage, first: usize) -> [&[f32]; 3] {
+    [image.plane(first), image.plane(first + 1), image.plane(first + 2)]
+}
+
 /// The path-traced baseline of one frame: the traced image, and the same denoised.
 struct PathTraced {
     raw: RgbImage,
@@ -66,16 +76,11 @@ fn path_traced_baseline(scene: &glassbake_scene::Scene, sample: &SampleRecord, n
     let started = Instant::now();
     let traced = glassbake_trace::render(&instance, &sample.camera, &settings, None)?;
     let trace_seconds = started.elapsed().as_secs_f64();
-    let interleave = |image: &PlanarImage, first: usize| -> Vec<f32> {
-        let planes = [image.plane(first), image.plane(first + 1), image.plane(first + 2)];
-        (0..(w * h) as usize).flat_map(|i| planes.map(|p| p[i])).collect()
-    };
-    let color: Vec<f32> = {
-        let planes: Vec<&[f32]> = GROUND_TRUTH_CHANNELS.iter().map(|c| traced.image.plane_by_name(c).expect("the tracer writes R, G, B")).collect();
-        (0..(w * h) as usize).flat_map(|i| [planes[0][i], planes[1][i], planes[2][i]]).collect()
-    };
-    let albedo = interleave(naive, layout::opaque::ALBEDO);
-    let normal = interleave(naive, layout::opaque::NORMAL);
+    // OIDN reads interleaved RGB; the denoiser gets unclamped (HDR) radiance.
+    let interleave = |planes: [&[f32]; 3]| -> Vec<f32> { (0..(w * h) as usize).flat_map(|i| planes.map(|p| p[i])).collect() };
+    let color = interleave(GROUND_TRUTH_CHANNELS.map(|c| traced.image.plane_by_name(c).expect("the tracer writes R, G, B")));
+    let albedo = interleave(three_planes(naive, layout::opaque::ALBEDO));
+    let normal = interleave(three_planes(naive, layout::opaque::NORMAL));
     let started = Instant::now();
     let denoised = denoise(&DenoiseInput { width: w as usize, height: h as usize, color: &color, albedo: &albedo, normal: &normal })?;
     let denoise_seconds = started.elapsed().as_secs_f64();
@@ -148,10 +153,9 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
     }
     let lpips = args.lpips_weights.as_deref().map(Lpips::load).transpose()?;
     let needs_naive = args.path_traced_baseline.is_some() || models.iter().any(|m| m.kind().reads_naive_gbuffer());
-    let scene = if store.manifest.spec.cache_buffers && args.path_traced_baseline.is_none() {
-        None
-    } else {
-        let scene = glassbake_scene::load_scene(&store.manifest.spec.scene)?;
+    // The scene: to rasterize uncached buffers (the loader checks it then) and to path trace.
+    let scene = if !store.manifest.spec.cache_buffers || args.path_traced_baseline.is_some() { Some(glassbake_scene::load_scene(&store.manifest.spec.scene)?) } else { None };
+    if let (Some(scene), Some(spp)) = (&scene, args.path_traced_baseline) {
         if scene.content_hash() != store.manifest.scene.hash {
             return Err(Error::bad_input(
                 &store.manifest.spec.scene,
@@ -160,15 +164,10 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
             )
             .into());
         }
-        Some(scene)
-    };
-    let trace_scene = args.path_traced_baseline.map(|_| scene.clone().expect("loaded above"));
-    if let Some(spp) = args.path_traced_baseline {
-        names.push(format!("pt{spp}"));
-        names.push(format!("pt{spp}+oidn"));
+        names.extend(path_traced_rows(spp));
     }
-    let scene = if store.manifest.spec.cache_buffers { None } else { scene };
-    let mut loader = Loader::new(dataset, scene, LoaderOptions { split, batch_size: 1, crop: None, seed: 0, shuffle: false, workers: args.workers, naive: needs_naive, ..Default::default() })?;
+    let loader_scene = if store.manifest.spec.cache_buffers { None } else { scene.clone() };
+    let mut loader = Loader::new(dataset, loader_scene, LoaderOptions { split, batch_size: 1, crop: None, seed: 0, shuffle: false, workers: args.workers, naive: needs_naive, ..Default::default() })?;
     let total = args.frames.unwrap_or(usize::MAX).min(loader.len());
     let mut evaluation = Evaluation::new(&args.out, names.clone(), lpips, dataset.display().to_string(), args.split.to_lowercase())?;
     // The order test runs on the first model that sums transparency buffers (GlassNet).
@@ -197,7 +196,7 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
                 seconds.push(started.elapsed().as_secs_f64());
                 predictions.push(RgbImage::from_planar(&image)?);
             }
-            if let (Some(spp), Some(scene)) = (args.path_traced_baseline, &trace_scene) {
+            if let (Some(spp), Some(scene)) = (args.path_traced_baseline, &scene) {
                 let sample = store.manifest.samples.iter().find(|s| s.index == e.index).ok_or_else(|| Error::Internal(format!("frame {} is not in the manifest", e.index)))?;
                 let naive = e.naive.as_ref().expect("the loader was asked for naive buffers");
                 let pt = path_traced_baseline(scene, sample, naive, spp)?;
