@@ -29,6 +29,39 @@ impl Split {
     }
 }
 
+/// Where the ground truth is path-traced. The two tracers converge to the same images but
+/// draw different random numbers, so a dataset stays on the device it was started on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TraceDevice {
+    /// glassbake-trace on the CPU threads: bit-identical on any machine.
+    #[default]
+    Cpu,
+    /// glassbake-trace-gpu on a Vulkan adapter: deterministic on one device.
+    Wgpu,
+}
+
+impl TraceDevice {
+    pub fn parse(name: &str) -> Result<TraceDevice> {
+        match name {
+            "cpu" => Ok(TraceDevice::Cpu),
+            "wgpu" => Ok(TraceDevice::Wgpu),
+            other => Err(Error::bad_input("--device", other, "expected cpu or wgpu")),
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            TraceDevice::Cpu => "cpu",
+            TraceDevice::Wgpu => "wgpu",
+        }
+    }
+
+    fn is_cpu(&self) -> bool {
+        *self == TraceDevice::Cpu
+    }
+}
+
 /// What the user asked for: everything that defines a dataset's content.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DatasetSpec {
@@ -41,6 +74,9 @@ pub struct DatasetSpec {
     pub val: u64,
     pub test: u64,
     pub cache_buffers: bool,
+    /// Absent in manifests of CPU datasets (and of datasets older than the GPU tracer).
+    #[serde(default, skip_serializing_if = "TraceDevice::is_cpu")]
+    pub device: TraceDevice,
 }
 
 impl DatasetSpec {
@@ -170,12 +206,13 @@ impl DatasetManifest {
                 short(&other.scene.hash)
             ));
         }
-        let fields: [(&str, String, String); 6] = [
+        let fields: [(&str, String, String); 7] = [
             ("--res", a.resolution.to_string(), b.resolution.to_string()),
             ("--spp", a.spp.to_string(), b.spp.to_string()),
             ("--seed", a.seed.to_string(), b.seed.to_string()),
             ("--train/--val/--test", format!("{}/{}/{}", a.train, a.val, a.test), format!("{}/{}/{}", b.train, b.val, b.test)),
             ("--cache-buffers", a.cache_buffers.to_string(), b.cache_buffers.to_string()),
+            ("--device", a.device.name().to_string(), b.device.name().to_string()),
             ("samples", format!("{}", self.samples.len()), format!("{}", other.samples.len())),
         ];
         for (name, was, now) in fields {

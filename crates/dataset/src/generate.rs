@@ -11,8 +11,9 @@ use glassbake_core::{Error, Result};
 use glassbake_raster::{Rasterizer, RasterizerOptions};
 use glassbake_scene::Scene;
 use glassbake_trace::{sample_trace_seed, TraceSettings};
+use glassbake_trace_gpu::GpuTracer;
 
-use crate::format::{DatasetManifest, DatasetSpec, SampleRecord};
+use crate::format::{DatasetManifest, DatasetSpec, SampleRecord, TraceDevice};
 use crate::store::{DatasetStore, FrameStatus};
 
 /// Which frames this machine makes: those whose index mod `count` is `index`.
@@ -47,6 +48,7 @@ pub struct GenerateOptions {
     pub shard: ShardSpec,
     /// Tracer threads (`None`: all cores). Images do not depend on it.
     pub threads: Option<usize>,
+    /// Which Vulkan adapter the rasterizer (and, for `TraceDevice::Wgpu`, the tracer) opens.
     pub rasterizer: RasterizerOptions,
 }
 
@@ -75,7 +77,14 @@ pub struct GenerateSummary {
 /// Progress: (frames of this shard finished, frames of this shard in all).
 pub type Progress<'a> = &'a dyn Fn(u64, u64);
 
-fn make_frame(store: &DatasetStore, scene: &Scene, sample: &SampleRecord, rasterizer: Option<&mut Rasterizer>, threads: Option<usize>) -> Result<u64> {
+fn make_frame(
+    store: &DatasetStore,
+    scene: &Scene,
+    sample: &SampleRecord,
+    rasterizer: Option<&mut Rasterizer>,
+    gpu_tracer: Option<&GpuTracer>,
+    threads: Option<usize>,
+) -> Result<u64> {
     let res = store.manifest.spec.resolution;
     let instance = scene.instantiate(&sample.values)?;
     if let Some(rasterizer) = rasterizer {
@@ -84,7 +93,10 @@ fn make_frame(store: &DatasetStore, scene: &Scene, sample: &SampleRecord, raster
     }
     let mut settings = TraceSettings::new(res, res, store.manifest.spec.spp, sample_trace_seed(sample.seed));
     settings.threads = threads;
-    let traced = glassbake_trace::render(&instance, &sample.camera, &settings, None)?;
+    let traced = match gpu_tracer {
+        Some(tracer) => tracer.render(&instance, &sample.camera, &settings, None)?,
+        None => glassbake_trace::render(&instance, &sample.camera, &settings, None)?,
+    };
     traced.image.write_png_rgb(&store.preview_path(sample.index), [0, 1, 2])?;
     // Ground truth last: it is what marks a frame as started-and-finished for humans too.
     traced.image.write_exr(&store.gt_path(sample.index), ExrPrecision::F32)?;
@@ -115,9 +127,13 @@ pub fn generate(scene: &Scene, spec: &DatasetSpec, dir: &Path, options: &Generat
         }
     }
     let mut rasterizer = if spec.cache_buffers && !todo.is_empty() { Some(Rasterizer::new(options.rasterizer.clone())?) } else { None };
+    let gpu_tracer = if spec.device == TraceDevice::Wgpu && !todo.is_empty() { Some(GpuTracer::new(&options.rasterizer)?) } else { None };
+    if let Some(t) = &gpu_tracer {
+        tracing::info!("path tracing on {}", t.adapter_name());
+    }
     progress(summary.skipped, summary.frames_in_shard);
     for sample in todo {
-        summary.discarded_samples += make_frame(&store, scene, sample, rasterizer.as_mut(), options.threads)?;
+        summary.discarded_samples += make_frame(&store, scene, sample, rasterizer.as_mut(), gpu_tracer.as_ref(), options.threads)?;
         summary.generated += 1;
         progress(summary.skipped + summary.generated, summary.frames_in_shard);
     }

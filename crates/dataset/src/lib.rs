@@ -2,7 +2,7 @@
 //!
 //! It owns the dataset directory format of DESIGN.md §4 (`manifest.json`, `gt/NNNNNN.exr`,
 //! optional `buffers/NNNNNN.exr`), generation (a camera and variable values per frame, seeded
-//! per sample; path-traced ground truth; optionally cached rasterized buffers) with resume after
+//! per sample; ground truth path-traced on the CPU or, with `TraceDevice::Wgpu`, a GPU; optionally cached rasterized buffers) with resume after
 //! a kill, sharding across machines and the byte-identical merge of shards, `dataset info`, and
 //! the training loader (batches of buffers + ground truth + transparency mask with seeded
 //! shuffling and random crops, produced on worker threads).
@@ -13,7 +13,7 @@ pub mod loader;
 pub mod merge;
 pub mod store;
 
-pub use format::{DatasetManifest, DatasetSpec, SampleRecord, Split};
+pub use format::{DatasetManifest, DatasetSpec, SampleRecord, Split, TraceDevice};
 pub use generate::{generate, GenerateOptions, GenerateSummary, ShardSpec};
 pub use loader::{Example, Loader, LoaderOptions};
 pub use merge::merge;

@@ -7,7 +7,7 @@ use glassbake_core::image::write_bytes_atomically;
 use glassbake_core::layout;
 use glassbake_core::{Error, PlanarImage, Result};
 
-use crate::format::{DatasetManifest, Split};
+use crate::format::{DatasetManifest, Split, TraceDevice};
 
 pub const MANIFEST_FILE: &str = "manifest.json";
 
@@ -53,6 +53,8 @@ pub struct DatasetInfo {
     pub spp: u32,
     pub seed: u64,
     pub cache_buffers: bool,
+    /// Where the ground truth was path-traced.
+    pub device: TraceDevice,
     pub transparent_objects: usize,
     /// (split, frames planned, frames complete)
     pub splits: Vec<(Split, usize, usize)>,
@@ -228,6 +230,7 @@ impl DatasetStore {
             scene_hash: m.scene.hash.clone(),
             resolution: m.spec.resolution,
             spp: m.spec.spp,
+            device: m.spec.device,
             seed: m.spec.seed,
             cache_buffers: m.spec.cache_buffers,
             transparent_objects: m.scene.transparent_objects.len(),

@@ -7,11 +7,11 @@ use std::path::Path;
 
 use glassbake_core::layout::transparent;
 use glassbake_core::Error;
-use glassbake_dataset::{generate, merge, DatasetSpec, DatasetStore, GenerateOptions, Loader, LoaderOptions, ShardSpec, Split};
+use glassbake_dataset::{generate, merge, DatasetSpec, DatasetStore, GenerateOptions, Loader, LoaderOptions, ShardSpec, Split, TraceDevice};
 use glassbake_scene::builtin::builtin;
 
 fn spec(seed: u64) -> DatasetSpec {
-    DatasetSpec { scene: "cornell-glass".into(), resolution: 8, spp: 2, seed, train: 4, val: 2, test: 2, cache_buffers: true }
+    DatasetSpec { scene: "cornell-glass".into(), resolution: 8, spp: 2, seed, train: 4, val: 2, test: 2, cache_buffers: true, device: TraceDevice::Cpu }
 }
 
 fn no_progress(_: u64, _: u64) {}
@@ -113,7 +113,7 @@ fn a_different_command_on_an_existing_dataset_is_refused() {
 #[test]
 fn splits_are_disjoint_and_cover_the_set() {
     let scene = builtin("cornellbox").unwrap();
-    let s = DatasetSpec { scene: "cornellbox".into(), resolution: 8, spp: 1, seed: 0, train: 7, val: 3, test: 5, cache_buffers: false };
+    let s = DatasetSpec { scene: "cornellbox".into(), resolution: 8, spp: 1, seed: 0, train: 7, val: 3, test: 5, cache_buffers: false, device: TraceDevice::Cpu };
     let manifest = glassbake_dataset::DatasetManifest::plan(&s, &scene);
     let train = manifest.indices_of(Split::Train);
     let val = manifest.indices_of(Split::Val);

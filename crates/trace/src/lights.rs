@@ -18,8 +18,9 @@ use crate::spherical_rect::SphericalRect;
 /// varies strongly over the light (at the limit by well under a factor of two).
 const SOLID_ANGLE_RANGE: f32 = 1.5;
 
+/// Where an emitter's points lie.
 #[derive(Clone, Copy, Debug)]
-enum Shape {
+pub enum Shape {
     /// corner + u * edge_u + v * edge_v, u, v in [0, 1].
     Parallelogram { corner: Vec3, edge_u: Vec3, edge_v: Vec3 },
     Triangle { v0: Vec3, edge1: Vec3, edge2: Vec3 },
@@ -27,7 +28,7 @@ enum Shape {
 
 #[derive(Clone, Copy, Debug)]
 pub struct Emitter {
-    shape: Shape,
+    pub shape: Shape,
     /// Unit normal of the emitting side.
     pub normal: Vec3,
     pub area: f32,
@@ -248,7 +249,14 @@ impl LightSampler {
         self.pmf[emitter as usize] * distance2 / (cos_light * e.area)
     }
 
-    fn is_rectangle(&self, e: &Emitter) -> bool {
+    /// Probability that [`Self::sample`] picks emitter `index`, and the cumulative
+    /// probability up to and including it (what the GPU tracer's selection searches).
+    pub fn selection(&self, index: usize) -> (f32, f64) {
+        (self.pmf[index], self.cdf.get(index).copied().unwrap_or(1.0))
+    }
+
+    /// Whether a parallelogram emitter is a rectangle (solid-angle sampling needs one).
+    pub fn is_rectangle(&self, e: &Emitter) -> bool {
         match e.shape {
             Shape::Parallelogram { edge_u, edge_v, .. } => edge_u.dot(edge_v).abs() <= 1e-4 * edge_u.length() * edge_v.length(),
             Shape::Triangle { .. } => false,

@@ -69,7 +69,8 @@ impl TraceSettings {
         }
     }
 
-    fn validate(&self) -> Result<()> {
+    /// An error naming the setting unless the settings describe an image that can be traced.
+    pub fn validate(&self) -> Result<()> {
         const SOURCE: &str = "trace settings";
         if self.width == 0 || self.height == 0 {
             return Err(Error::bad_input(SOURCE, "resolution", format!("{}x{} has no pixels", self.width, self.height)));

@@ -28,7 +28,8 @@ pub struct BakeArgs {
     /// Output directory: dataset/, glassnet/, naive/ (pixelgen/, glassnet-*/), eval/, report/.
     #[arg(long, default_value = "bake")]
     pub out: PathBuf,
-    /// cpu (burn's flex backend) or wgpu (Vulkan) for training and evaluation.
+    /// cpu (burn's flex backend) or wgpu (Vulkan) for training and evaluation; wgpu also
+    /// path-traces the dataset's ground truth on the GPU (`dataset --device wgpu`).
     #[arg(long, default_value = "cpu")]
     pub device: String,
     /// Also train and evaluate the paper's ablations (no positional encoding; L1 loss only).
@@ -157,6 +158,8 @@ pub fn run(args: BakeArgs) -> Result<()> {
         cache_buffers: true,
         shard: None,
         threads: args.threads,
+        // A bake on the GPU path-traces its ground truth there too.
+        device: if args.device == "wgpu" { glassbake_dataset::TraceDevice::Wgpu } else { glassbake_dataset::TraceDevice::Cpu },
     };
     stage(format!("dataset ({} frames, {} px, {} spp)", preset.train + preset.val + preset.test, preset.resolution, preset.spp), &mut || make_dataset(&make, &bar))?;
     for ((name, kind, ablation), dir) in models.iter().zip(&model_dirs) {

@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use anyhow::Result;
 use clap::{Args, Subcommand};
-use glassbake_dataset::{generate, merge, DatasetSpec, DatasetStore, GenerateOptions, ShardSpec};
+use glassbake_dataset::{generate, merge, DatasetSpec, DatasetStore, GenerateOptions, ShardSpec, TraceDevice};
 use glassbake_scene::load_scene;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -64,6 +64,15 @@ pub struct MakeArgs {
     /// Path-tracer threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Where to path-trace the ground truth: `cpu` (bit-identical on any machine) or `wgpu`
+    /// (the GPU tracer on a Vulkan adapter, deterministic on one device). A dataset keeps the
+    /// device it was started with.
+    #[arg(long, default_value = "cpu", value_parser = parse_trace_device)]
+    pub device: TraceDevice,
+}
+
+fn parse_trace_device(name: &str) -> std::result::Result<TraceDevice, String> {
+    TraceDevice::parse(name).map_err(|_| format!("unknown device {name:?}: expected cpu or wgpu"))
 }
 
 fn human_bytes(bytes: u64) -> String {
@@ -83,7 +92,15 @@ pub fn run(args: DatasetArgs) -> Result<()> {
             let info = DatasetStore::open(&dir)?.info();
             println!("dataset {}", dir.display());
             println!("  scene {} (hash {})", info.scene_name, info.scene_hash);
-            println!("  {}x{} px, {} spp, seed {}, {} transparent objects", info.resolution, info.resolution, info.spp, info.seed, info.transparent_objects);
+            println!(
+                "  {}x{} px, {} spp (traced on {}), seed {}, {} transparent objects",
+                info.resolution,
+                info.resolution,
+                info.spp,
+                info.device.name(),
+                info.seed,
+                info.transparent_objects
+            );
             println!("  buffers {}", if info.cache_buffers { "cached (f16 EXR)" } else { "rasterized on demand" });
             for (split, planned, done) in info.splits {
                 println!("  {:<6} {done}/{planned} frames complete", format!("{split:?}").to_lowercase());
@@ -125,6 +142,7 @@ pub fn make_dataset(args: &MakeArgs, bar: &ProgressBar) -> Result<bool> {
         val: args.val,
         test: args.test,
         cache_buffers: args.cache_buffers,
+        device: args.device,
     };
     let options = GenerateOptions { shard, threads: args.threads, ..Default::default() };
     bar.set_length(0);

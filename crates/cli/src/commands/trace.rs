@@ -9,7 +9,10 @@ use glassbake_core::image::ExrPrecision;
 use glassbake_core::seed::purpose_seed;
 use glassbake_scene::load_scene;
 use super::camera_arg::parse_camera;
+use glassbake_dataset::TraceDevice;
+use glassbake_raster::RasterizerOptions;
 use glassbake_trace::{render, sample_trace_seed, Integrator, TraceSettings};
+use glassbake_trace_gpu::GpuTracer;
 use indicatif::{ProgressBar, ProgressStyle};
 
 #[derive(Args)]
@@ -46,11 +49,21 @@ pub struct TraceArgs {
     #[arg(long, default_value = "plain", value_parser = parse_integrator)]
     integrator: Integrator,
     /// Worker threads (default: all cores). The image does not depend on it.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "device")]
     threads: Option<usize>,
+    /// `cpu` (the default; bit-identical on any machine) or `wgpu`: the GPU tracer on a
+    /// Vulkan adapter (chosen as the rasterizer's: `WGPU_ADAPTER_NAME`, else a discrete GPU
+    /// first). Same estimator and the same converged image, other random numbers; no
+    /// `guided` estimator.
+    #[arg(long, default_value = "cpu", value_parser = parse_device)]
+    device: TraceDevice,
     /// Output EXR; the PNG preview goes beside it with the extension .png.
     #[arg(long)]
     out: PathBuf,
+}
+
+fn parse_device(name: &str) -> std::result::Result<TraceDevice, String> {
+    TraceDevice::parse(name).map_err(|_| format!("unknown device {name:?}: expected cpu or wgpu"))
 }
 
 fn parse_integrator(name: &str) -> std::result::Result<Integrator, String> {
@@ -97,9 +110,17 @@ pub fn run(args: TraceArgs) -> Result<()> {
             .expect("static template")
             .progress_chars("=> "),
     );
-    bar.set_message(format!("tracing {} {}x{} @ {} spp ({})", scene.name, args.res, args.res, args.spp, args.integrator.name()));
+    let gpu_tracer = match args.device {
+        TraceDevice::Wgpu => Some(GpuTracer::new(&RasterizerOptions::default())?),
+        TraceDevice::Cpu => None,
+    };
+    let on = gpu_tracer.as_ref().map_or_else(|| "CPU".to_string(), |t| t.adapter_name().to_string());
+    bar.set_message(format!("tracing {} {}x{} @ {} spp ({}, {on})", scene.name, args.res, args.res, args.spp, args.integrator.name()));
     let progress = |done: u64, _total: u64| bar.set_position(done);
-    let output = render(&instance, &camera, &settings, Some(&progress))?;
+    let output = match &gpu_tracer {
+        Some(tracer) => tracer.render(&instance, &camera, &settings, Some(&progress))?,
+        None => render(&instance, &camera, &settings, Some(&progress))?,
+    };
     bar.finish_and_clear();
     for w in &output.warnings {
         eprintln!("warning: {w}");
@@ -112,7 +133,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
     let preview = args.out.with_extension("png");
     output.image.write_png_rgb(&preview, [0, 1, 2])?;
     println!(
-        "wrote {} and {} ({} samples in {:.1} s, {:.0} samples/s, {} discarded)",
+        "wrote {} and {} ({} samples in {:.1} s, {:.0} samples/s on {on}, {} discarded)",
         args.out.display(),
         preview.display(),
         output.samples,

@@ -1,0 +1,764 @@
+// The path tracer as one compute kernel per pass: every invocation owns a pixel and traces
+// `sample_count` camera paths into it. The GPU twin of crates/trace/src/{integrator,lights,
+// spherical_rect,render}.rs without path guiding; bsdf.wgsl is prepended. Buffer layouts are
+// written by src/upload.rs (the record sizes below must match its constants).
+
+struct Params {
+    camera_position: vec4f,
+    camera_forward: vec4f,
+    // right * tan(fov_x / 2) and up * tan(fov_y / 2).
+    camera_right: vec4f,
+    camera_up: vec4f,
+    background: vec4f,
+    width: u32,
+    height: u32,
+    sample_start: u32,
+    sample_count: u32,
+    seed_lo: u32,
+    seed_hi: u32,
+    max_depth: u32,
+    rr_depth: u32,
+    flags: u32,
+    emitter_count: u32,
+    texture_table: u32,
+    has_panes: u32,
+}
+
+const FLAG_LAMBERTIAN: u32 = 1u;
+const FLAG_SOLID_ANGLE: u32 = 2u;
+
+// Record sizes in vec4s (src/upload.rs).
+const NODE_VEC4S: u32 = 2u;
+const TRIANGLE_VEC4S: u32 = 3u;
+const ATTRIBUTE_VEC4S: u32 = 8u;
+const MATERIAL_VEC4S: u32 = 4u;
+const EMITTER_VEC4S: u32 = 6u;
+
+const NONE: u32 = 0xffffffffu;
+const ATTR_RECT_LIGHT: u32 = 1u;
+const ATTR_HAS_NORMALS: u32 = 2u;
+const ATTR_PASS_THROUGH: u32 = 4u;
+
+const STACK_SIZE: u32 = 64u;
+// Rectangles are sampled by solid angle within this many times their edge-length sum.
+const SOLID_ANGLE_RANGE: f32 = 1.5;
+const MAX_VERTICES: u32 = 4096u;
+
+@group(0) @binding(0) var<uniform> params: Params;
+// Binary BVH: (min, first child or first triangle), (max, triangle count; 0 = inner node).
+@group(0) @binding(1) var<storage, read> nodes: array<vec4f>;
+// In BVH leaf order: (v0, attribute index), (edge1, flags), (edge2, 0).
+@group(0) @binding(2) var<storage, read> triangles: array<vec4f>;
+// Per triangle: p0..p2 (w: material or light, emitter, flags), n0..n2, (uv0, uv1), (uv2, -).
+@group(0) @binding(3) var<storage, read> attributes: array<vec4f>;
+// Materials, then from params.texture_table one (offset, width, height, -) per texture.
+@group(0) @binding(4) var<storage, read> materials: array<vec4f>;
+@group(0) @binding(5) var<storage, read> texels: array<vec4f>;
+@group(0) @binding(6) var<storage, read> emitters: array<vec4f>;
+// Per pixel: sum of finite samples (rgb) and their count (w), accumulated over passes.
+@group(0) @binding(7) var<storage, read_write> accumulation: array<vec4f>;
+
+// ---- random numbers: a counter-based hash per (pixel, sample, dimension) ----
+
+var<private> rng_key: vec4u;
+var<private> rng_counter: u32;
+var<private> rng_buffer: vec4u;
+var<private> rng_left: u32;
+
+// pcg4d (Jarzynski & Olano 2020, "Hash Functions for GPU Rendering", JCGT 9(3)).
+fn pcg4d(input: vec4u) -> vec4u {
+    var v = input * 1664525u + 1013904223u;
+    v.x += v.y * v.w;
+    v.y += v.z * v.x;
+    v.z += v.x * v.y;
+    v.w += v.y * v.z;
+    v ^= v >> vec4u(16u);
+    v.x += v.y * v.w;
+    v.y += v.z * v.x;
+    v.z += v.x * v.y;
+    v.w += v.y * v.z;
+    return v;
+}
+
+fn rng_start(pixel: u32, sample: u32) {
+    rng_key = pcg4d(vec4u(pixel, sample, params.seed_lo, params.seed_hi));
+    rng_counter = 0u;
+    rng_left = 0u;
+}
+
+fn rng_u32() -> u32 {
+    if rng_left == 0u {
+        rng_buffer = pcg4d(rng_key ^ vec4u(0u, 0u, rng_counter, rng_counter * 0x9e3779b9u));
+        rng_counter += 1u;
+        rng_left = 4u;
+    }
+    rng_left -= 1u;
+    return rng_buffer[rng_left];
+}
+
+// Uniform in [0, 1): the top 24 bits, as the CPU tracer.
+fn rng_f32() -> f32 {
+    return f32(rng_u32() >> 8u) * (1.0 / 16777216.0);
+}
+
+fn rng_vec2() -> vec2f {
+    let x = rng_f32();
+    return vec2f(x, rng_f32());
+}
+
+// ---- geometry ----
+
+struct Hit {
+    valid: bool,
+    t: f32,
+    triangle: u32,
+    b1: f32,
+    b2: f32,
+}
+
+fn no_hit() -> Hit {
+    return Hit(false, 0.0, 0u, 0.0, 0.0);
+}
+
+// Möller & Trumbore 1997; (t, b1, b2) with t in (t_min, t_max), t < 0 when missed.
+fn intersect_triangle(index: u32, origin: vec3f, direction: vec3f, t_min: f32, t_max: f32) -> vec3f {
+    let base = index * TRIANGLE_VEC4S;
+    let v0 = triangles[base].xyz;
+    let edge1 = triangles[base + 1u].xyz;
+    let edge2 = triangles[base + 2u].xyz;
+    let p = cross(direction, edge2);
+    let det = dot(edge1, p);
+    if det == 0.0 {
+        return vec3f(-1.0);
+    }
+    let inv_det = 1.0 / det;
+    let s = origin - v0;
+    let b1 = dot(s, p) * inv_det;
+    if b1 < 0.0 || b1 > 1.0 {
+        return vec3f(-1.0);
+    }
+    let q = cross(s, edge1);
+    let b2 = dot(direction, q) * inv_det;
+    if b2 < 0.0 || b1 + b2 > 1.0 {
+        return vec3f(-1.0);
+    }
+    let t = dot(edge2, q) * inv_det;
+    if t > t_min && t < t_max {
+        return vec3f(t, b1, b2);
+    }
+    return vec3f(-1.0);
+}
+
+fn triangle_passes_light(index: u32) -> bool {
+    return (bitcast<u32>(triangles[index * TRIANGLE_VEC4S + 1u].w) & ATTR_PASS_THROUGH) != 0u;
+}
+
+// Entry distance of the ray into a node's box, or FLT_MAX when it misses within (t_min, t_max).
+fn node_entry(node: u32, origin: vec3f, inv_direction: vec3f, t_min: f32, t_max: f32) -> f32 {
+    let lo = (nodes[node * NODE_VEC4S].xyz - origin) * inv_direction;
+    let hi = (nodes[node * NODE_VEC4S + 1u].xyz - origin) * inv_direction;
+    let near = min(lo, hi);
+    let far = max(lo, hi);
+    let t0 = max(max(near.x, near.y), max(near.z, t_min));
+    let t1 = min(min(far.x, far.y), min(far.z, t_max));
+    return select(FLT_MAX, t0, t0 <= t1);
+}
+
+fn safe_inverse(d: vec3f) -> vec3f {
+    let tiny = 1e-30;
+    let safe = select(d, vec3f(tiny), abs(d) < vec3f(tiny));
+    return 1.0 / safe;
+}
+
+// Which triangles a traversal considers.
+const CONSIDER_ALL: u32 = 0u;
+const CONSIDER_PANES: u32 = 1u;
+const CONSIDER_OPAQUE: u32 = 2u;
+
+// The closest considered triangle with t in (t_min, t_max); with `any_hit`, the first found.
+fn traverse(origin: vec3f, direction: vec3f, t_min: f32, t_max_in: f32, consider: u32, any_hit: bool) -> Hit {
+    var best = no_hit();
+    if arrayLength(&nodes) < NODE_VEC4S {
+        return best;
+    }
+    let inv_direction = safe_inverse(direction);
+    var t_max = t_max_in;
+    var stack: array<u32, STACK_SIZE>;
+    var depth = 0u;
+    var node = 0u;
+    if node_entry(0u, origin, inv_direction, t_min, t_max) == FLT_MAX {
+        return best;
+    }
+    loop {
+        let count = bitcast<u32>(nodes[node * NODE_VEC4S + 1u].w);
+        let first = bitcast<u32>(nodes[node * NODE_VEC4S].w);
+        if count == 0u {
+            let near_t = node_entry(first, origin, inv_direction, t_min, t_max);
+            let far_t = node_entry(first + 1u, origin, inv_direction, t_min, t_max);
+            let near_hit = near_t != FLT_MAX;
+            let far_hit = far_t != FLT_MAX;
+            if near_hit && far_hit {
+                var nearer = first;
+                var farther = first + 1u;
+                if far_t < near_t {
+                    nearer = first + 1u;
+                    farther = first;
+                }
+                stack[depth] = farther;
+                depth += 1u;
+                node = nearer;
+                continue;
+            }
+            if near_hit {
+                node = first;
+                continue;
+            }
+            if far_hit {
+                node = first + 1u;
+                continue;
+            }
+        } else {
+            for (var i = first; i < first + count; i++) {
+                if consider != CONSIDER_ALL {
+                    let pane = triangle_passes_light(i);
+                    if pane != (consider == CONSIDER_PANES) {
+                        continue;
+                    }
+                }
+                let r = intersect_triangle(i, origin, direction, t_min, t_max);
+                if r.x >= 0.0 {
+                    t_max = r.x;
+                    best = Hit(true, r.x, bitcast<u32>(triangles[i * TRIANGLE_VEC4S].w), r.y, r.z);
+                    if any_hit {
+                        return best;
+                    }
+                }
+            }
+        }
+        // Next: the deepest deferred node still in front of the closest hit.
+        var found = false;
+        loop {
+            if depth == 0u {
+                break;
+            }
+            depth -= 1u;
+            let candidate = stack[depth];
+            if node_entry(candidate, origin, inv_direction, t_min, t_max) != FLT_MAX {
+                node = candidate;
+                found = true;
+                break;
+            }
+        }
+        if !found {
+            break;
+        }
+    }
+    return best;
+}
+
+struct SurfaceHit {
+    position: vec3f,
+    geometric_normal: vec3f,
+    shading_normal: vec3f,
+    uv: vec2f,
+    rect_light: bool,
+    material: u32,
+    emitter: u32,
+}
+
+fn surface_hit(hit: Hit) -> SurfaceHit {
+    let base = hit.triangle * ATTRIBUTE_VEC4S;
+    let a0 = attributes[base];
+    let a1 = attributes[base + 1u];
+    let a2 = attributes[base + 2u];
+    let flags = bitcast<u32>(a2.w);
+    let b0 = 1.0 - hit.b1 - hit.b2;
+    var s: SurfaceHit;
+    s.position = a0.xyz * b0 + a1.xyz * hit.b1 + a2.xyz * hit.b2;
+    var geometric = normalize(cross(a1.xyz - a0.xyz, a2.xyz - a0.xyz));
+    var shading = geometric;
+    if (flags & ATTR_HAS_NORMALS) != 0u {
+        let n = attributes[base + 3u].xyz * b0 + attributes[base + 4u].xyz * hit.b1 + attributes[base + 5u].xyz * hit.b2;
+        let len = length(n);
+        if len > 0.0 && is_finite_f32(len) {
+            shading = n / len;
+        }
+    }
+    if dot(geometric, shading) < 0.0 {
+        geometric = -geometric;
+    }
+    s.geometric_normal = geometric;
+    s.shading_normal = shading;
+    let uv01 = attributes[base + 6u];
+    let uv2 = attributes[base + 7u].xy;
+    s.uv = uv01.xy * b0 + uv01.zw * hit.b1 + uv2 * hit.b2;
+    s.rect_light = (flags & ATTR_RECT_LIGHT) != 0u;
+    s.material = bitcast<u32>(a0.w);
+    s.emitter = bitcast<u32>(a1.w);
+    return s;
+}
+
+// ---- materials and textures ----
+
+fn texel(texture: vec4u, x: i32, y: i32) -> vec4f {
+    let w = i32(texture.y);
+    let h = i32(texture.z);
+    let xi = ((x % w) + w) % w;
+    let yi = ((y % h) + h) % h;
+    return texels[texture.x + u32(yi * w + xi)];
+}
+
+// Bilinear with repeat wrapping, v = 0 the top row (scene::Texture::sample).
+fn sample_texture(index: u32, uv: vec2f) -> vec4f {
+    let texture = bitcast<vec4u>(materials[params.texture_table + index]);
+    let x = uv.x * f32(texture.y) - 0.5;
+    let y = uv.y * f32(texture.z) - 0.5;
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let fx = x - x0;
+    let fy = y - y0;
+    let ix = i32(x0);
+    let iy = i32(y0);
+    let top = mix(texel(texture, ix, iy), texel(texture, ix + 1, iy), fx);
+    let bottom = mix(texel(texture, ix, iy + 1), texel(texture, ix + 1, iy + 1), fx);
+    return mix(top, bottom, fy);
+}
+
+fn surface_material(material: u32, uv: vec2f) -> SurfaceMaterial {
+    let base = material * MATERIAL_VEC4S;
+    let r0 = materials[base];
+    let r1 = materials[base + 1u];
+    let r2 = materials[base + 2u];
+    let textures = bitcast<vec4u>(materials[base + 3u]);
+    var m: SurfaceMaterial;
+    m.base_color = r0.xyz;
+    m.roughness = r0.w;
+    m.specular_color = r1.xyz;
+    m.specular = r1.w;
+    m.metallic = r2.x;
+    m.transmission_weight = r2.y;
+    m.ior = r2.z;
+    m.thin = r2.w != 0.0;
+    if textures.x != NONE {
+        m.base_color *= sample_texture(textures.x, uv).xyz;
+    }
+    if textures.y != NONE {
+        m.roughness *= sample_texture(textures.y, uv).y;
+    }
+    if textures.z != NONE {
+        m.specular *= sample_texture(textures.z, uv).w;
+    }
+    if textures.w != NONE {
+        m.specular_color *= sample_texture(textures.w, uv).xyz;
+    }
+    return m;
+}
+
+// ---- lights (crates/trace/src/lights.rs, spherical_rect.rs) ----
+
+struct Emitter {
+    triangle: bool,
+    p0: vec3f,
+    edge1: vec3f,
+    edge2: vec3f,
+    area: f32,
+    two_sided: bool,
+    normal: vec3f,
+    pmf: f32,
+    radiance: vec3f,
+    rectangle: bool,
+}
+
+fn load_emitter(i: u32) -> Emitter {
+    let base = i * EMITTER_VEC4S;
+    let r0 = emitters[base];
+    let r1 = emitters[base + 1u];
+    let r2 = emitters[base + 2u];
+    let r3 = emitters[base + 3u];
+    let r4 = emitters[base + 4u];
+    return Emitter(bitcast<u32>(r0.w) != 0u, r0.xyz, r1.xyz, r2.xyz, r1.w, bitcast<u32>(r2.w) != 0u, r3.xyz, r3.w, r4.xyz, bitcast<u32>(r4.w) != 0u);
+}
+
+fn emitter_cdf(i: u32) -> f32 {
+    return emitters[i * EMITTER_VEC4S + 5u].x;
+}
+
+fn emitted(e: Emitter, w: vec3f) -> vec3f {
+    if e.two_sided || dot(e.normal, w) > 0.0 {
+        return e.radiance;
+    }
+    return vec3f(0.0);
+}
+
+fn uses_solid_angle(e: Emitter, shading_point: vec3f) -> bool {
+    if (params.flags & FLAG_SOLID_ANGLE) == 0u || !e.rectangle {
+        return false;
+    }
+    let reach = SOLID_ANGLE_RANGE * (length(e.edge1) + length(e.edge2));
+    let d = shading_point - (e.p0 + 0.5 * (e.edge1 + e.edge2));
+    return dot(d, d) < reach * reach;
+}
+
+// Ureña, Fajardo and King 2013, "An Area-Preserving Parametrization for Spherical
+// Rectangles", in f32 (only used close to the light, where the solid angle is large).
+struct SphericalRect {
+    valid: bool,
+    origin: vec3f,
+    x: vec3f,
+    y: vec3f,
+    z: vec3f,
+    x0: f32,
+    x1: f32,
+    y0: f32,
+    y1: f32,
+    z0: f32,
+    b0: f32,
+    b1: f32,
+    k: f32,
+    solid_angle: f32,
+}
+
+fn spherical_rect(e: Emitter, shading_point: vec3f) -> SphericalRect {
+    var r: SphericalRect;
+    r.valid = false;
+    if !e.two_sided && dot(e.normal, shading_point - e.p0) <= 0.0 {
+        return r;
+    }
+    let length_x = length(e.edge1);
+    let length_y = length(e.edge2);
+    r.x = e.edge1 / length_x;
+    r.y = e.edge2 / length_y;
+    r.z = cross(r.x, r.y);
+    let d = e.p0 - shading_point;
+    r.x0 = dot(d, r.x);
+    r.y0 = dot(d, r.y);
+    r.z0 = dot(d, r.z);
+    if r.z0 > 0.0 {
+        r.z0 = -r.z0;
+        r.z = -r.z;
+    }
+    if abs(r.z0) < 1e-6 * (length_x + length_y) {
+        return r;
+    }
+    r.x1 = r.x0 + length_x;
+    r.y1 = r.y0 + length_y;
+    let v00 = vec3f(r.x0, r.y0, r.z0);
+    let v01 = vec3f(r.x0, r.y1, r.z0);
+    let v10 = vec3f(r.x1, r.y0, r.z0);
+    let v11 = vec3f(r.x1, r.y1, r.z0);
+    let n0 = normalize(cross(v00, v10));
+    let n1 = normalize(cross(v10, v11));
+    let n2 = normalize(cross(v11, v01));
+    let n3 = normalize(cross(v01, v00));
+    let g0 = acos(clamp(-dot(n0, n1), -1.0, 1.0));
+    let g1 = acos(clamp(-dot(n1, n2), -1.0, 1.0));
+    let g2 = acos(clamp(-dot(n2, n3), -1.0, 1.0));
+    let g3 = acos(clamp(-dot(n3, n0), -1.0, 1.0));
+    r.k = TAU - g2 - g3;
+    r.solid_angle = g0 + g1 - r.k;
+    if !is_finite_f32(r.solid_angle) || r.solid_angle <= 1e-7 {
+        return r;
+    }
+    r.origin = shading_point;
+    r.b0 = n0.z;
+    r.b1 = n2.z;
+    r.valid = true;
+    return r;
+}
+
+fn spherical_rect_sample(r: SphericalRect, u: vec2f) -> vec3f {
+    let au = u.x * r.solid_angle + r.k;
+    let fu = (cos(au) * r.b0 - r.b1) / sin(au);
+    let cu = clamp(sign_nonzero(fu) / sqrt(fu * fu + r.b0 * r.b0), -1.0, 1.0);
+    let xu = clamp(-(cu * r.z0) / sqrt(max(1.0 - cu * cu, 1e-30)), r.x0, r.x1);
+    let d = sqrt(xu * xu + r.z0 * r.z0);
+    let h0 = r.y0 / sqrt(d * d + r.y0 * r.y0);
+    let h1 = r.y1 / sqrt(d * d + r.y1 * r.y1);
+    let hv = h0 + u.y * (h1 - h0);
+    let hv2 = hv * hv;
+    var yv = r.y1;
+    if hv2 < 1.0 - 1e-6 {
+        yv = (hv * d) / sqrt(1.0 - hv2);
+    }
+    yv = clamp(yv, r.y0, r.y1);
+    return r.origin + xu * r.x + yv * r.y + r.z0 * r.z;
+}
+
+struct LightSample {
+    valid: bool,
+    point: vec3f,
+    wi: vec3f,
+    radiance: vec3f,
+    pdf: f32,
+}
+
+fn no_light() -> LightSample {
+    return LightSample(false, vec3f(0.0), vec3f(0.0), vec3f(0.0), 0.0);
+}
+
+fn select_emitter(u: f32) -> u32 {
+    // The first emitter whose cumulative probability exceeds u.
+    var lo = 0u;
+    var hi = params.emitter_count;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if emitter_cdf(mid) <= u {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return min(lo, params.emitter_count - 1u);
+}
+
+fn sample_light(shading_point: vec3f, u_select: f32, u: vec2f) -> LightSample {
+    if params.emitter_count == 0u {
+        return no_light();
+    }
+    let index = select_emitter(u_select);
+    let e = load_emitter(index);
+    if uses_solid_angle(e, shading_point) {
+        let rect = spherical_rect(e, shading_point);
+        if rect.valid {
+            let point = spherical_rect_sample(rect, u);
+            let to_light = point - shading_point;
+            let distance = length(to_light);
+            if distance <= 0.0 {
+                return no_light();
+            }
+            let wi = to_light / distance;
+            let radiance = emitted(e, -wi);
+            let pdf = e.pmf / rect.solid_angle;
+            if all(radiance == vec3f(0.0)) || !(pdf > 0.0) || !is_finite_f32(pdf) {
+                return no_light();
+            }
+            return LightSample(true, point, wi, radiance, pdf);
+        }
+    }
+    var point: vec3f;
+    if e.triangle {
+        let b = uniform_triangle(u);
+        point = e.p0 + b.x * e.edge1 + b.y * e.edge2;
+    } else {
+        point = e.p0 + u.x * e.edge1 + u.y * e.edge2;
+    }
+    let to_light = point - shading_point;
+    let distance2 = dot(to_light, to_light);
+    if distance2 <= 0.0 {
+        return no_light();
+    }
+    let wi = to_light / sqrt(distance2);
+    let radiance = emitted(e, -wi);
+    let cos_light = abs(dot(e.normal, -wi));
+    if all(radiance == vec3f(0.0)) || cos_light <= 0.0 {
+        return no_light();
+    }
+    let pdf = e.pmf * distance2 / (cos_light * e.area);
+    if !(pdf > 0.0) || !is_finite_f32(pdf) {
+        return no_light();
+    }
+    return LightSample(true, point, wi, radiance, pdf);
+}
+
+// Density with which sample_light from `shading_point` picks `point` on emitter `index`.
+fn light_pdf(index: u32, shading_point: vec3f, point: vec3f) -> f32 {
+    let e = load_emitter(index);
+    if uses_solid_angle(e, shading_point) {
+        let rect = spherical_rect(e, shading_point);
+        if rect.valid {
+            return e.pmf / rect.solid_angle;
+        }
+        return 0.0;
+    }
+    let to_light = point - shading_point;
+    let distance2 = dot(to_light, to_light);
+    let cos_light = abs(dot(e.normal, to_light)) / sqrt(distance2);
+    if !(cos_light > 0.0) || e.area <= 0.0 {
+        return 0.0;
+    }
+    return e.pmf * distance2 / (cos_light * e.area);
+}
+
+// ---- the integrator (crates/trace/src/integrator.rs) ----
+
+fn ray_epsilon(p: vec3f) -> f32 {
+    return 1e-4 * max(max_element(abs(p)), 1.0);
+}
+
+fn offset_origin(p: vec3f, geometric_normal: vec3f, direction: vec3f) -> vec3f {
+    let side = select(-1.0, 1.0, dot(direction, geometric_normal) >= 0.0);
+    return p + geometric_normal * (side * ray_epsilon(p));
+}
+
+// Light transport along a shadow segment through smooth thin panes: (transmittance rgb,
+// probability that BSDF sampling crosses them all); w < 0 when blocked.
+fn shadow_transmittance(origin: vec3f, direction: vec3f, t_max: f32, max_crossings: u32) -> vec4f {
+    let blocked = vec4f(0.0, 0.0, 0.0, -1.0);
+    if t_max <= 0.0 {
+        return blocked;
+    }
+    let consider = select(CONSIDER_ALL, CONSIDER_OPAQUE, params.has_panes != 0u);
+    if traverse(origin, direction, 0.0, t_max, consider, true).valid {
+        return blocked;
+    }
+    var result = vec4f(1.0);
+    if params.has_panes == 0u {
+        return result;
+    }
+    // Panes in distance order; a second triangle at (almost) the same distance is the other
+    // half of a pane crossed through a shared edge.
+    var t0 = 0.0;
+    var crossings = 0u;
+    for (var guard = 0u; guard < MAX_VERTICES; guard++) {
+        let hit = traverse(origin, direction, t0, t_max, CONSIDER_PANES, false);
+        if !hit.valid {
+            break;
+        }
+        crossings += 1u;
+        if crossings > max_crossings {
+            return blocked;
+        }
+        let s = surface_hit(hit);
+        if s.rect_light {
+            return blocked;
+        }
+        let bsdf = make_bsdf(surface_material(s.material, s.uv), s.shading_normal, (params.flags & FLAG_LAMBERTIAN) != 0u);
+        let crossing = bsdf_pass_through(bsdf, -direction);
+        if crossing.w < 0.0 {
+            return blocked;
+        }
+        result *= crossing;
+        t0 = hit.t + 1e-6 * max(hit.t, 1.0);
+    }
+    return result;
+}
+
+fn trace_path(origin_in: vec3f, direction_in: vec3f) -> vec3f {
+    let lambertian = (params.flags & FLAG_LAMBERTIAN) != 0u;
+    var radiance = vec3f(0.0);
+    var throughput = vec3f(1.0);
+    var origin = origin_in;
+    var direction = direction_in;
+    var depth = 1u;
+    var eta_scale = 1.0;
+    var specular = true;
+    var mis_origin = origin;
+    var mis_pdf = 0.0;
+
+    for (var vertex = 0u; vertex < MAX_VERTICES; vertex++) {
+        let hit = traverse(origin, direction, 0.0, FLT_MAX, CONSIDER_ALL, false);
+        if !hit.valid {
+            radiance += throughput * params.background.xyz;
+            break;
+        }
+        let s = surface_hit(hit);
+        let wo = -direction;
+        if s.emitter != NONE {
+            let e = load_emitter(s.emitter);
+            let light = emitted(e, wo);
+            if any(light != vec3f(0.0)) {
+                var weight = 1.0;
+                if !specular {
+                    weight = power_heuristic(mis_pdf, light_pdf(s.emitter, mis_origin, s.position));
+                }
+                radiance += throughput * light * weight;
+            }
+        }
+        if s.rect_light {
+            break;
+        }
+        let bsdf = make_bsdf(surface_material(s.material, s.uv), s.shading_normal, lambertian);
+        if depth >= params.max_depth {
+            break;
+        }
+        let crossings_allowed = params.max_depth - depth - 1u;
+        let ng = s.geometric_normal;
+        let wo_side = dot(wo, ng);
+
+        // Next-event estimation.
+        if bsdf_has_non_delta(bsdf) {
+            let u_select = rng_f32();
+            let u_light = rng_vec2();
+            let light = sample_light(s.position, u_select, u_light);
+            if light.valid {
+                let wi = light.wi;
+                let reflection = dot(wi, ng) * wo_side > 0.0;
+                let fp = bsdf_eval_pdf(bsdf, wo, wi);
+                let shading_reflection = dot(wi, s.shading_normal) * dot(wo, s.shading_normal) > 0.0;
+                if any(fp.xyz != vec3f(0.0)) && reflection == shading_reflection {
+                    let shadow_origin = offset_origin(s.position, ng, wi);
+                    let to_light = light.point - shadow_origin;
+                    let shadow_distance = length(to_light);
+                    let t_max = shadow_distance * (1.0 - 1e-4) - ray_epsilon(light.point);
+                    let transmittance = shadow_transmittance(shadow_origin, to_light / shadow_distance, t_max, crossings_allowed);
+                    if transmittance.w >= 0.0 {
+                        let weight = power_heuristic(light.pdf, fp.w * transmittance.w);
+                        let cos = abs(dot(wi, s.shading_normal));
+                        radiance += throughput * fp.xyz * cos * transmittance.xyz * light.radiance * (weight / light.pdf);
+                    }
+                }
+            }
+        }
+
+        // Continue the path.
+        let u_lobe = rng_f32();
+        let u_event = rng_f32();
+        let u = rng_vec2();
+        let sample = bsdf_sample(bsdf, wo, u_lobe, u_event, u);
+        if !sample.valid {
+            break;
+        }
+        let reflection = dot(sample.wi, ng) * wo_side > 0.0;
+        if reflection == sample.transmitted && !sample.delta {
+            break;
+        }
+        throughput *= sample.weight;
+        if sample.transmitted && sample.etap != 1.0 {
+            eta_scale *= sample.etap * sample.etap;
+        }
+        depth += 1u;
+        if sample.pass_through {
+            mis_pdf *= sample.pdf;
+        } else {
+            specular = sample.delta;
+            mis_pdf = sample.pdf;
+            mis_origin = s.position;
+        }
+        origin = offset_origin(s.position, ng, sample.wi);
+        direction = sample.wi;
+        if all(throughput == vec3f(0.0)) {
+            break;
+        }
+        if depth > params.rr_depth {
+            let survival = min(max_element(throughput) * eta_scale, 0.95);
+            if rng_f32() >= survival {
+                break;
+            }
+            throughput /= survival;
+        }
+    }
+    return radiance;
+}
+
+@compute @workgroup_size(8, 8)
+fn trace_pass(@builtin(global_invocation_id) id: vec3u) {
+    if id.x >= params.width || id.y >= params.height {
+        return;
+    }
+    let pixel = id.y * params.width + id.x;
+    var sum = vec3f(0.0);
+    var finite = 0.0;
+    for (var k = 0u; k < params.sample_count; k++) {
+        rng_start(pixel, params.sample_start + k);
+        let jitter = rng_vec2();
+        let ndc_x = 2.0 * (f32(id.x) + jitter.x) / f32(params.width) - 1.0;
+        let ndc_y = 1.0 - 2.0 * (f32(id.y) + jitter.y) / f32(params.height);
+        let direction = normalize(params.camera_forward.xyz + params.camera_right.xyz * ndc_x + params.camera_up.xyz * ndc_y);
+        let radiance = trace_path(params.camera_position.xyz, direction);
+        if is_finite_vec3(radiance) {
+            sum += radiance;
+            finite += 1.0;
+        }
+    }
+    accumulation[pixel] += vec4f(sum, finite);
+}

@@ -1,0 +1,17 @@
+//! glassbake-trace-gpu: the ground-truth path tracer in wgpu compute shaders.
+//!
+//! It owns the GPU side of ground truth: flattening a scene instance into storage buffers
+//! (a binary BVH built by obvhs, triangles, materials, textures, the CPU tracer's emitter
+//! table), the WGSL port of the CPU tracer's BSDFs, light sampling and integrator
+//! (`shaders/`: next-event estimation through smooth thin panes, MIS, solid-angle or area
+//! sampling of rectangles, Russian roulette; no path guiding), and the passes that
+//! accumulate samples per pixel. Images are deterministic on one device (counter-based
+//! random numbers per pixel, sample and dimension) and converge to the CPU tracer's; they
+//! are not bit-identical to it. [`probe`] runs the GPU BSDF on given inputs for tests.
+
+pub mod probe;
+mod tracer;
+mod upload;
+
+pub use tracer::{GpuTracer, PATHS_PER_PASS};
+pub use upload::{SceneBuffers, MAX_BVH_DEPTH};

@@ -1,0 +1,135 @@
+//! Running the GPU BSDF (`shaders/bsdf.wgsl`) on chosen inputs, so that it can be checked
+//! against the CPU BSDF it ports, case by case.
+
+use glam::{Vec2, Vec3};
+use glassbake_core::Result;
+use glassbake_trace::SurfaceMaterial;
+use wgpu::util::DeviceExt;
+
+use crate::tracer::{compute_pipeline, GpuTracer};
+
+const INPUT_VEC4S: usize = 7;
+const OUTPUT_VEC4S: usize = 5;
+
+/// One evaluation and one sample of a BSDF.
+#[derive(Clone, Copy, Debug)]
+pub struct ProbeCase {
+    pub material: SurfaceMaterial,
+    /// Unit shading normal.
+    pub normal: Vec3,
+    pub lambertian: bool,
+    pub wo: Vec3,
+    /// Direction for eval/pdf.
+    pub wi: Vec3,
+    /// Random numbers for sampling.
+    pub u_lobe: f32,
+    pub u_event: f32,
+    pub u: Vec2,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProbeSample {
+    pub wi: Vec3,
+    pub weight: Vec3,
+    pub pdf: f32,
+    pub delta: bool,
+    pub transmitted: bool,
+    pub pass_through: bool,
+    pub etap: f32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProbeResult {
+    /// f(wo, wi) and its sampling density.
+    pub eval: Vec3,
+    pub pdf: f32,
+    pub sample: Option<ProbeSample>,
+    /// Attenuation and probability of passing straight through a smooth thin pane.
+    pub pass_through: Option<(Vec3, f32)>,
+}
+
+fn v4(v: Vec3, w: f32) -> [f32; 4] {
+    [v.x, v.y, v.z, w]
+}
+
+/// Evaluate and sample the GPU BSDF for every case.
+pub fn probe_bsdf(tracer: &GpuTracer, cases: &[ProbeCase]) -> Result<Vec<ProbeResult>> {
+    if cases.is_empty() {
+        return Ok(Vec::new());
+    }
+    let (device, _) = tracer.device();
+    let source = [include_str!("../shaders/bsdf.wgsl"), include_str!("../shaders/probe.wgsl")].join("\n");
+    let pipeline = compute_pipeline(device, "probe.wgsl", source, "bsdf_probe")?;
+    let mut inputs: Vec<[f32; 4]> = Vec::with_capacity(cases.len() * INPUT_VEC4S);
+    for c in cases {
+        let m = &c.material;
+        let (weight, ior, thin) = match m.transmission {
+            Some(t) => (t.weight, t.ior, if t.thin { 1.0 } else { 0.0 }),
+            None => (0.0, 1.5, 0.0),
+        };
+        inputs.push(v4(m.base_color, m.roughness));
+        inputs.push(v4(m.specular_color, m.specular));
+        inputs.push([m.metallic, weight, ior, thin]);
+        inputs.push(v4(c.normal, if c.lambertian { 1.0 } else { 0.0 }));
+        inputs.push(v4(c.wo, c.u_lobe));
+        inputs.push(v4(c.wi, c.u_event));
+        inputs.push([c.u.x, c.u.y, 0.0, 0.0]);
+    }
+    let input = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("probe inputs"),
+        contents: bytemuck::cast_slice(&inputs),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let output_bytes = (cases.len() * OUTPUT_VEC4S * 16) as u64;
+    let output = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("probe outputs"),
+        size: output_bytes,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("probe readback"),
+        size: output_bytes,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("probe"),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: input.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: output.as_entire_binding() },
+        ],
+    });
+    let (device, queue) = tracer.device();
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("probe") });
+    {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("probe"), timestamp_writes: None });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups((cases.len() as u32).div_ceil(64), 1, 1);
+    }
+    queue.submit([encoder.finish()]);
+    let out = tracer.read(&output, &readback, output_bytes)?;
+    let xyz = |v: [f32; 4]| Vec3::new(v[0], v[1], v[2]);
+    Ok(out
+        .chunks_exact(OUTPUT_VEC4S)
+        .map(|r| {
+            let flags = r[2][3] as u32;
+            ProbeResult {
+                eval: xyz(r[0]),
+                pdf: r[0][3],
+                sample: (flags & 1 != 0).then(|| ProbeSample {
+                    wi: xyz(r[1]),
+                    weight: xyz(r[2]),
+                    pdf: r[1][3],
+                    delta: flags & 2 != 0,
+                    transmitted: flags & 4 != 0,
+                    pass_through: flags & 8 != 0,
+                    etap: r[4][0],
+                }),
+                pass_through: (r[3][3] >= 0.0).then(|| (xyz(r[3]), r[3][3])),
+            }
+        })
+        .collect())
+}

@@ -1,0 +1,299 @@
+//! Rendering an image on the GPU: one device and pipeline for many images, passes of a few
+//! samples per pixel accumulated in a storage buffer, the mean read back at the end.
+
+use std::time::Instant;
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use glassbake_core::layout::GROUND_TRUTH_CHANNELS;
+use glassbake_core::{Camera, Error, PlanarImage, Result};
+use glassbake_raster::RasterizerOptions;
+use glassbake_scene::Scene;
+use glassbake_trace::{Integrator, MaterialModel, Progress, TraceOutput, TraceSettings};
+use wgpu::util::DeviceExt;
+
+use crate::upload::SceneBuffers;
+
+/// Camera paths one pass traces at most (pixels x samples per pixel in the pass): large
+/// enough to fill a big GPU, small enough for steady progress and no driver time-outs.
+pub const PATHS_PER_PASS: u64 = 1 << 21;
+
+const WORKGROUP_SIDE: u32 = 8;
+const FLAG_LAMBERTIAN: u32 = 1;
+const FLAG_SOLID_ANGLE: u32 = 2;
+
+/// The kernel's uniform block (`Params` in trace.wgsl).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct Params {
+    camera_position: [f32; 4],
+    camera_forward: [f32; 4],
+    camera_right: [f32; 4],
+    camera_up: [f32; 4],
+    background: [f32; 4],
+    width: u32,
+    height: u32,
+    sample_start: u32,
+    sample_count: u32,
+    seed_lo: u32,
+    seed_hi: u32,
+    max_depth: u32,
+    rr_depth: u32,
+    flags: u32,
+    emitter_count: u32,
+    texture_table: u32,
+    has_panes: u32,
+}
+
+/// The trace kernel, compiled for one device. Create once, render many images.
+pub struct GpuTracer {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    pipeline: wgpu::ComputePipeline,
+    adapter: String,
+}
+
+/// The WGSL source of the trace kernel: the BSDF, then the integrator.
+pub(crate) fn trace_source() -> String {
+    [include_str!("../shaders/bsdf.wgsl"), include_str!("../shaders/trace.wgsl")].join("\n")
+}
+
+/// Compile `source` into a compute pipeline with the layout its bindings imply.
+pub(crate) fn compute_pipeline(device: &wgpu::Device, label: &str, source: String, entry: &str) -> Result<wgpu::ComputePipeline> {
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(label), source: wgpu::ShaderSource::Wgsl(source.into()) });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: None,
+        module: &module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    if let Some(e) = pollster::block_on(scope.pop()) {
+        return Err(Error::Internal(format!("compiling {label}: {e}")));
+    }
+    Ok(pipeline)
+}
+
+impl GpuTracer {
+    /// Open the Vulkan adapter the options choose (as the rasterizer does) and compile the
+    /// kernel.
+    pub fn new(options: &RasterizerOptions) -> Result<Self> {
+        let (_, adapter, device, queue) = glassbake_raster::device::open(options)?;
+        let pipeline = compute_pipeline(&device, "trace.wgsl", trace_source(), "trace_pass")?;
+        Ok(GpuTracer { device, queue, pipeline, adapter: adapter.get_info().name })
+    }
+
+    pub fn adapter_name(&self) -> &str {
+        &self.adapter
+    }
+
+    pub(crate) fn device(&self) -> (&wgpu::Device, &wgpu::Queue) {
+        (&self.device, &self.queue)
+    }
+
+    /// Path trace `scene` as seen by `camera`. `settings.threads` has no meaning here;
+    /// `Integrator::Guided` is refused (guiding runs on the CPU only).
+    pub fn render(&self, scene: &Scene, camera: &Camera, settings: &TraceSettings, progress: Option<Progress>) -> Result<TraceOutput> {
+        let start = Instant::now();
+        settings.validate()?;
+        camera.check()?;
+        if settings.integrator == Integrator::Guided {
+            return Err(Error::bad_input(
+                "--integrator",
+                "guided",
+                "path guiding runs on the CPU only; with --device wgpu use plain or solid-angle",
+            ));
+        }
+        let (width, height) = (settings.width, settings.height);
+        let pixels = width as u64 * height as u64;
+        let samples = pixels * settings.spp as u64;
+        let mut image = PlanarImage::new(width, height, GROUND_TRUTH_CHANNELS.iter().map(|c| c.to_string()).collect());
+        let buffers = SceneBuffers::build(scene, settings.integrator)?;
+        if buffers.emitter_count == 0 && scene.background == Vec3::ZERO {
+            let has_emissive = scene.rect_lights.iter().any(|l| l.radiance.max_element() > 0.0) || !scene.emissive_objects().is_empty();
+            if !has_emissive {
+                let warning = format!("scene {}: no light (no rectangle light, no emissive mesh, black background): the image is black", scene.name);
+                tracing::warn!("{warning}");
+                if let Some(p) = progress {
+                    p(samples, samples);
+                }
+                return Ok(TraceOutput { image, discarded_samples: 0, samples, warnings: vec![warning], elapsed: start.elapsed(), learning_spp: 0 });
+            }
+        }
+        self.check_limits(scene, &buffers, pixels)?;
+
+        let storage = |label: &str, data: &Vec<[f32; 4]>| {
+            // Bindings cannot be empty: an empty array travels as one unused vec4.
+            let padded: &[[f32; 4]] = if data.is_empty() { &[[0.0; 4]] } else { data };
+            self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytemuck::cast_slice(padded),
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        };
+        let arrays: Vec<wgpu::Buffer> = buffers.arrays().iter().map(|(label, data)| storage(label, data)).collect();
+        let accumulation_bytes = pixels * 16;
+        let accumulation = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("accumulation"),
+            size: accumulation_bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("accumulation readback"),
+            size: accumulation_bytes,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let uniform = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("trace params"),
+            size: std::mem::size_of::<Params>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() }];
+        for (i, buffer) in arrays.iter().enumerate() {
+            entries.push(wgpu::BindGroupEntry { binding: i as u32 + 1, resource: buffer.as_entire_binding() });
+        }
+        entries.push(wgpu::BindGroupEntry { binding: 7, resource: accumulation.as_entire_binding() });
+        let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("trace"),
+            layout: &self.pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        });
+
+        let frame = camera.frame();
+        let (tx, ty) = camera.tan_half_fov(width, height);
+        let mut flags = 0;
+        if settings.material_model == MaterialModel::Lambertian {
+            flags |= FLAG_LAMBERTIAN;
+        }
+        if settings.integrator == Integrator::SolidAngle {
+            flags |= FLAG_SOLID_ANGLE;
+        }
+        let v4 = |v: Vec3| [v.x, v.y, v.z, 0.0];
+        let mut params = Params {
+            camera_position: v4(camera.position),
+            camera_forward: v4(frame.forward),
+            camera_right: v4(frame.right * tx),
+            camera_up: v4(frame.up * ty),
+            background: v4(scene.background),
+            width,
+            height,
+            sample_start: 0,
+            sample_count: 0,
+            seed_lo: settings.seed as u32,
+            seed_hi: (settings.seed >> 32) as u32,
+            max_depth: settings.max_depth,
+            rr_depth: settings.rr_depth,
+            flags,
+            emitter_count: buffers.emitter_count,
+            texture_table: buffers.texture_table,
+            has_panes: buffers.has_panes as u32,
+        };
+
+        let per_pass = (PATHS_PER_PASS / pixels).clamp(1, settings.spp as u64) as u32;
+        let mut done = 0u32;
+        while done < settings.spp {
+            params.sample_start = done;
+            params.sample_count = per_pass.min(settings.spp - done);
+            self.queue.write_buffer(&uniform, 0, bytemuck::bytes_of(&params));
+            let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("trace pass") });
+            {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("trace pass"), timestamp_writes: None });
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, &bind_group, &[]);
+                pass.dispatch_workgroups(width.div_ceil(WORKGROUP_SIDE), height.div_ceil(WORKGROUP_SIDE), 1);
+            }
+            self.queue.submit([encoder.finish()]);
+            self.wait()?;
+            done += params.sample_count;
+            if let Some(p) = progress {
+                p(pixels * done as u64, samples);
+            }
+        }
+
+        let sums: Vec<[f32; 4]> = self.read(&accumulation, &readback, accumulation_bytes)?;
+        let mut finite_samples = 0u64;
+        for y in 0..height {
+            for x in 0..width {
+                let [r, g, b, count] = sums[(y as u64 * width as u64 + x as u64) as usize];
+                finite_samples += count as u64;
+                let mean = if count > 0.0 { [r / count, g / count, b / count] } else { [0.0; 3] };
+                for (channel, value) in mean.into_iter().enumerate() {
+                    image.set(channel, x, y, value);
+                }
+            }
+        }
+        let discarded_samples = samples - finite_samples;
+        let mut warnings = Vec::new();
+        if discarded_samples > 0 {
+            let warning = format!("{discarded_samples} of {samples} samples were NaN or infinite and were discarded");
+            tracing::warn!("{warning}");
+            warnings.push(warning);
+        }
+        Ok(TraceOutput { image, discarded_samples, samples, warnings, elapsed: start.elapsed(), learning_spp: 0 })
+    }
+
+    /// A clear error, before anything is allocated, when the scene or image does not fit the
+    /// device's buffer limits.
+    fn check_limits(&self, scene: &Scene, buffers: &SceneBuffers, pixels: u64) -> Result<()> {
+        let limits = self.device.limits();
+        let binding_limit = (limits.max_storage_buffer_binding_size as u64).min(limits.max_buffer_size);
+        for (name, data) in buffers.arrays() {
+            let bytes = data.len() as u64 * 16;
+            if bytes > binding_limit {
+                return Err(Error::bad_input(
+                    &scene.name,
+                    name,
+                    format!(
+                        "{bytes} bytes exceed the GPU's storage buffer limit of {binding_limit} bytes \
+                         (max_storage_buffer_binding_size on {}); trace it on the CPU",
+                        self.adapter
+                    ),
+                ));
+            }
+        }
+        if pixels * 16 > binding_limit {
+            return Err(Error::bad_input(
+                "trace settings",
+                "resolution",
+                format!("{pixels} pixels need {} bytes, over the GPU's storage buffer limit of {binding_limit} bytes", pixels * 16),
+            ));
+        }
+        Ok(())
+    }
+
+    pub(crate) fn wait(&self) -> Result<()> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map(|_| ())
+            .map_err(|e| Error::Internal(format!("waiting for the GPU: {e}")))
+    }
+
+    /// Copy `source` into `readback` and read it as vec4s.
+    pub(crate) fn read(&self, source: &wgpu::Buffer, readback: &wgpu::Buffer, bytes: u64) -> Result<Vec<[f32; 4]>> {
+        let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+        encoder.copy_buffer_to_buffer(source, 0, readback, 0, bytes);
+        self.queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        readback.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        self.wait()?;
+        rx.recv()
+            .map_err(|_| Error::Internal("readback callback dropped".into()))?
+            .map_err(|e| Error::Internal(format!("reading GPU results: {e}")))?;
+        let values = match readback.get_mapped_range(..) {
+            Ok(view) => {
+                let bytes: &[u8] = &view;
+                Ok(bytemuck::pod_collect_to_vec::<u8, [f32; 4]>(bytes))
+            }
+            Err(e) => Err(Error::Internal(format!("reading GPU results: {e}"))),
+        };
+        readback.unmap();
+        values
+    }
+}

@@ -1,0 +1,265 @@
+//! A scene instance as the flat arrays of vec4s that `shaders/trace.wgsl` reads. The record
+//! sizes here and the `*_VEC4S` constants there describe the same layouts.
+
+use std::time::Duration;
+
+use glam::Vec3;
+use glam_bvh::Vec3A as BvhVec3;
+use glassbake_core::{Error, Result};
+use glassbake_scene::Scene;
+use glassbake_trace::geometry::Owner;
+use glassbake_trace::lights::Shape;
+use glassbake_trace::{Integrator, PreparedScene};
+use obvhs::bvh2::builder::build_bvh2_from_tris;
+use obvhs::triangle::Triangle as BvhTriangle;
+use obvhs::BvhBuildParams;
+
+/// Deepest BVH the shader's traversal stack holds (`STACK_SIZE` in trace.wgsl).
+pub const MAX_BVH_DEPTH: usize = 64;
+
+const NONE: u32 = u32::MAX;
+const ATTR_RECT_LIGHT: u32 = 1;
+const ATTR_HAS_NORMALS: u32 = 2;
+const ATTR_PASS_THROUGH: u32 = 4;
+
+/// Record sizes in vec4s, as in trace.wgsl.
+pub(crate) const NODE_VEC4S: usize = 2;
+pub(crate) const TRIANGLE_VEC4S: usize = 3;
+pub(crate) const ATTRIBUTE_VEC4S: usize = 8;
+pub(crate) const MATERIAL_VEC4S: usize = 4;
+pub(crate) const EMITTER_VEC4S: usize = 6;
+
+type Vec4s = Vec<[f32; 4]>;
+
+fn bits(x: u32) -> f32 {
+    f32::from_bits(x)
+}
+
+fn v4(v: Vec3, w: f32) -> [f32; 4] {
+    [v.x, v.y, v.z, w]
+}
+
+/// Everything the trace kernel reads about one scene instance.
+pub struct SceneBuffers {
+    pub nodes: Vec4s,
+    pub triangles: Vec4s,
+    pub attributes: Vec4s,
+    /// Materials, then the texture table from `texture_table` (in vec4s).
+    pub materials: Vec4s,
+    pub texture_table: u32,
+    pub texels: Vec4s,
+    pub emitters: Vec4s,
+    pub emitter_count: u32,
+    /// Whether any triangle may let shadow rays through (a thin pane).
+    pub has_panes: bool,
+    /// Deepest leaf of the BVH (the root has depth 0).
+    pub bvh_depth: usize,
+}
+
+impl SceneBuffers {
+    /// Flatten `scene` for `integrator`'s light sampling. Fails (naming the scene) when the
+    /// BVH is deeper than the shader's traversal stack.
+    pub fn build(scene: &Scene, integrator: Integrator) -> Result<Self> {
+        let prepared = PreparedScene::for_integrator(scene, integrator);
+        let attributes_cpu = &prepared.geometry.attributes;
+
+        let mut attributes = Vec::with_capacity(attributes_cpu.len() * ATTRIBUTE_VEC4S);
+        for a in attributes_cpu {
+            let (material_or_light, mut flags) = match a.owner {
+                Owner::Object { material, .. } => (material, 0),
+                Owner::RectLight { light } => (light, ATTR_RECT_LIGHT),
+            };
+            if a.normals.is_some() {
+                flags |= ATTR_HAS_NORMALS;
+            }
+            if a.may_pass_through {
+                flags |= ATTR_PASS_THROUGH;
+            }
+            let [p0, p1, p2] = a.positions;
+            attributes.push(v4(p0, bits(material_or_light)));
+            attributes.push(v4(p1, bits(a.emitter.unwrap_or(NONE))));
+            attributes.push(v4(p2, bits(flags)));
+            let normals = a.normals.unwrap_or([Vec3::ZERO; 3]);
+            for n in normals {
+                attributes.push(v4(n, 0.0));
+            }
+            let [t0, t1, t2] = a.uvs;
+            attributes.push([t0.x, t0.y, t1.x, t1.y]);
+            attributes.push([t2.x, t2.y, 0.0, 0.0]);
+        }
+
+        let mut nodes = Vec::new();
+        let mut triangles = Vec::new();
+        let mut bvh_depth = 0;
+        if !attributes_cpu.is_empty() {
+            let to_bvh = |v: Vec3| BvhVec3::new(v.x, v.y, v.z);
+            let bvh_triangles: Vec<BvhTriangle> = attributes_cpu
+                .iter()
+                .map(|a| BvhTriangle { v0: to_bvh(a.positions[0]), v1: to_bvh(a.positions[1]), v2: to_bvh(a.positions[2]) })
+                .collect();
+            let bvh = build_bvh2_from_tris(&bvh_triangles, BvhBuildParams::medium_build(), &mut Duration::default());
+            nodes.reserve(bvh.nodes.len() * NODE_VEC4S);
+            triangles.reserve(bvh.primitive_indices.len() * TRIANGLE_VEC4S);
+            for node in &bvh.nodes {
+                let (lo, hi) = (node.aabb.min, node.aabb.max);
+                nodes.push([lo.x, lo.y, lo.z, bits(node.first_index)]);
+                nodes.push([hi.x, hi.y, hi.z, bits(node.prim_count)]);
+            }
+            for &index in &bvh.primitive_indices {
+                let a = &attributes_cpu[index as usize];
+                let [p0, p1, p2] = a.positions;
+                let flags = if a.may_pass_through { ATTR_PASS_THROUGH } else { 0 };
+                triangles.push(v4(p0, bits(index)));
+                triangles.push(v4(p1 - p0, bits(flags)));
+                triangles.push(v4(p2 - p0, 0.0));
+            }
+            bvh_depth = depth(&bvh.nodes);
+            if bvh_depth >= MAX_BVH_DEPTH {
+                return Err(Error::bad_input(
+                    &scene.name,
+                    "geometry",
+                    format!("its BVH is {bvh_depth} levels deep; the GPU tracer's traversal stack holds {MAX_BVH_DEPTH}"),
+                ));
+            }
+        }
+
+        let texture_ref = |t: Option<usize>| match t {
+            Some(i) if i < scene.textures.len() => i as u32,
+            _ => NONE,
+        };
+        let mut materials = Vec::with_capacity(scene.materials.len() * MATERIAL_VEC4S + scene.textures.len());
+        for m in &scene.materials {
+            let (weight, ior, thin) = match m.transmission {
+                Some(t) => (t.weight, t.ior, if t.thin { 1.0 } else { 0.0 }),
+                None => (0.0, 1.5, 0.0),
+            };
+            materials.push(v4(m.base_color, m.roughness));
+            materials.push(v4(m.specular_color, m.specular));
+            materials.push([m.metallic, weight, ior, thin]);
+            materials.push([
+                bits(texture_ref(m.base_color_texture)),
+                bits(texture_ref(m.roughness_texture)),
+                bits(texture_ref(m.specular_texture)),
+                bits(texture_ref(m.specular_color_texture)),
+            ]);
+        }
+        let texture_table = materials.len() as u32;
+        let mut texels = Vec::new();
+        for t in &scene.textures {
+            materials.push([bits(texels.len() as u32), bits(t.width), bits(t.height), 0.0]);
+            texels.extend(t.texels.iter().map(|c| c.to_array()));
+        }
+
+        let lights = &prepared.lights;
+        let mut emitters = Vec::with_capacity(lights.emitters.len() * EMITTER_VEC4S);
+        for (i, e) in lights.emitters.iter().enumerate() {
+            let (is_triangle, p0, edge1, edge2) = match e.shape {
+                Shape::Parallelogram { corner, edge_u, edge_v } => (0, corner, edge_u, edge_v),
+                Shape::Triangle { v0, edge1, edge2 } => (1, v0, edge1, edge2),
+            };
+            let (pmf, cdf) = lights.selection(i);
+            emitters.push(v4(p0, bits(is_triangle)));
+            emitters.push(v4(edge1, e.area));
+            emitters.push(v4(edge2, bits(e.two_sided as u32)));
+            emitters.push(v4(e.normal, pmf));
+            emitters.push(v4(e.radiance, bits(lights.is_rectangle(e) as u32)));
+            emitters.push([cdf as f32, 0.0, 0.0, 0.0]);
+        }
+        // Nothing to pick when no emitter has power (the CPU sampler's empty case).
+        let emitter_count = if lights.is_empty() { 0 } else { lights.emitters.len() as u32 };
+
+        Ok(SceneBuffers {
+            nodes,
+            triangles,
+            attributes,
+            materials,
+            texture_table,
+            texels,
+            emitters,
+            emitter_count,
+            has_panes: attributes_cpu.iter().any(|a| a.may_pass_through),
+            bvh_depth,
+        })
+    }
+
+    /// The arrays in binding order (1..=6) with their names, for upload and limit checks.
+    pub fn arrays(&self) -> [(&'static str, &Vec4s); 6] {
+        [
+            ("BVH nodes", &self.nodes),
+            ("triangles", &self.triangles),
+            ("triangle attributes", &self.attributes),
+            ("materials", &self.materials),
+            ("texels", &self.texels),
+            ("emitters", &self.emitters),
+        ]
+    }
+}
+
+/// Depth of the deepest leaf below node 0.
+fn depth(nodes: &[obvhs::bvh2::node::Bvh2Node]) -> usize {
+    let mut deepest = 0;
+    let mut stack = vec![(0usize, 0usize)];
+    while let Some((node, d)) = stack.pop() {
+        deepest = deepest.max(d);
+        let n = &nodes[node];
+        if n.prim_count == 0 {
+            stack.push((n.first_index as usize, d + 1));
+            stack.push((n.first_index as usize + 1, d + 1));
+        }
+    }
+    deepest
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glassbake_scene::builtin::builtin;
+
+    #[test]
+    fn every_triangle_is_in_exactly_one_leaf_and_inside_its_boxes() {
+        let scene = builtin("cornellbox").unwrap();
+        let buffers = SceneBuffers::build(&scene, Integrator::Plain).unwrap();
+        let triangle_count = buffers.attributes.len() / ATTRIBUTE_VEC4S;
+        assert_eq!(buffers.triangles.len() / TRIANGLE_VEC4S, triangle_count);
+        let mut seen = vec![0u32; triangle_count];
+        // Walk the tree: each leaf's triangles lie inside every box on the way down.
+        let mut stack = vec![(0usize, Vec::<([f32; 4], [f32; 4])>::new())];
+        while let Some((node, mut boxes)) = stack.pop() {
+            let (lo, hi) = (buffers.nodes[2 * node], buffers.nodes[2 * node + 1]);
+            boxes.push((lo, hi));
+            let (first, count) = (lo[3].to_bits() as usize, hi[3].to_bits() as usize);
+            if count == 0 {
+                stack.push((first, boxes.clone()));
+                stack.push((first + 1, boxes));
+                continue;
+            }
+            for k in first..first + count {
+                let t = &buffers.triangles[TRIANGLE_VEC4S * k..TRIANGLE_VEC4S * (k + 1)];
+                let v0 = Vec3::new(t[0][0], t[0][1], t[0][2]);
+                let corners = [v0, v0 + Vec3::new(t[1][0], t[1][1], t[1][2]), v0 + Vec3::new(t[2][0], t[2][1], t[2][2])];
+                for (lo, hi) in &boxes {
+                    for c in corners {
+                        for axis in 0..3 {
+                            assert!(c[axis] >= lo[axis] - 1e-5 && c[axis] <= hi[axis] + 1e-5, "triangle {k} outside a box");
+                        }
+                    }
+                }
+                seen[t[0][3].to_bits() as usize] += 1;
+            }
+        }
+        assert!(seen.iter().all(|&n| n == 1), "a triangle is missing from the leaves or in two of them");
+        assert!(buffers.bvh_depth > 0 && buffers.bvh_depth < MAX_BVH_DEPTH);
+    }
+
+    #[test]
+    fn emitter_table_ends_with_a_cumulative_probability_of_one() {
+        let scene = builtin("cornellbox").unwrap();
+        let buffers = SceneBuffers::build(&scene, Integrator::SolidAngle).unwrap();
+        assert!(buffers.emitter_count > 0);
+        let count = buffers.emitter_count as usize;
+        let pmf_sum: f32 = (0..count).map(|i| buffers.emitters[EMITTER_VEC4S * i + 3][3]).sum();
+        assert!((pmf_sum - 1.0).abs() < 1e-5, "{pmf_sum}");
+        let last_cdf = buffers.emitters[EMITTER_VEC4S * (count - 1) + 5][0];
+        assert!((last_cdf - 1.0).abs() < 1e-6, "{last_cdf}");
+    }
+}
