@@ -53,3 +53,43 @@ fn killed_and_rerun_equals_uninterrupted() {
     assert!(String::from_utf8_lossy(&out.stdout).contains("already complete"));
     assert_eq!(snapshot(&resumed), snapshot(&reference));
 }
+
+fn glassbake(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_glassbake")).args(args).output().unwrap();
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+}
+
+#[test]
+fn a_gpu_traced_dataset_resumes_stays_on_its_device_and_trains() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("gpu");
+    let data_arg = data.to_str().unwrap();
+    let args = ["dataset", "cornell-glass", "--out", data_arg, "--train", "3", "--val", "1", "--test", "1", "--res", "16", "--spp", "8", "--cache-buffers", "--device", "wgpu"];
+    let (code, _, err) = glassbake(&args);
+    assert_eq!(code, 0, "{err}");
+    let manifest: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(data.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["spec"]["device"], "wgpu");
+    let (_, info, _) = glassbake(&["dataset", "info", data_arg]);
+    assert!(info.contains("traced on wgpu"), "{info}");
+
+    // A lost frame is made again, identical on the same device; the rest are kept.
+    let complete = snapshot(&data);
+    std::fs::remove_file(data.join("gt/000002.exr")).unwrap();
+    let (code, out, err) = glassbake(&args);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("1 frame(s) made, 4 already complete"), "{out}");
+    assert_eq!(snapshot(&data), complete, "the remade frame differs from the first run's");
+
+    // Continuing it on the CPU would mix two tracers' random numbers: refused, nothing written.
+    let mut on_cpu = args.to_vec();
+    on_cpu.truncate(on_cpu.len() - 2);
+    let (code, _, err) = glassbake(&on_cpu);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--device wgpu, not cpu"), "{err}");
+    assert_eq!(snapshot(&data), complete);
+
+    let model = dir.path().join("model");
+    let (code, out, err) = glassbake(&["train", data_arg, "--model", "glassnet", "--preset", "tiny", "--steps", "3", "--out", model.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("trained 3 steps"), "{out}");
+}

@@ -74,3 +74,25 @@ fn bad_input_exits_2_with_one_line_and_writes_nothing() {
         assert!(!out.exists() && !out.with_extension("png").exists(), "{extra:?} wrote output");
     }
 }
+
+#[test]
+fn trace_on_the_gpu_is_deterministic_and_refuses_guiding() {
+    let dir = tempfile::tempdir().unwrap();
+    let one = dir.path().join("gpu-one.exr");
+    let (code, stdout, err) = trace(&one, &["--sample", "3", "--spp", "8", "--device", "wgpu"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(stdout.contains("gpu-one.exr") && one.with_extension("png").is_file(), "{stdout}");
+    let image = read_rgb(&one);
+    assert_eq!((image.width(), image.height()), (12, 12));
+    assert!(image.data().iter().all(|v| v.is_finite() && *v >= 0.0) && image.data().iter().any(|&v| v > 0.0));
+    let two = dir.path().join("gpu-two.exr");
+    let (code, _, err) = trace(&two, &["--sample", "3", "--spp", "8", "--device", "wgpu"]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(read_rgb(&two), image, "two GPU traces of one sample differ");
+
+    let guided = dir.path().join("guided.exr");
+    let (code, stdout, err) = trace(&guided, &["--integrator", "guided", "--device", "wgpu"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(stdout.is_empty() && err.lines().count() == 1 && err.contains("CPU only"), "{err}");
+    assert!(!guided.exists() && !guided.with_extension("png").exists());
+}
