@@ -22,6 +22,11 @@ struct Params {
     emitter_count: u32,
     texture_table: u32,
     has_panes: u32,
+    // Threads per pixel: thread z of a pixel traces samples z, z + slots, ... of the pass.
+    slots: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 const FLAG_LAMBERTIAN: u32 = 1u;
@@ -55,15 +60,15 @@ const MAX_VERTICES: u32 = 4096u;
 @group(0) @binding(4) var<storage, read> materials: array<vec4f>;
 @group(0) @binding(5) var<storage, read> texels: array<vec4f>;
 @group(0) @binding(6) var<storage, read> emitters: array<vec4f>;
-// Per pixel: sum of finite samples (rgb) and their count (w), accumulated over passes.
+// Per slot and pixel (slot-major): sum of finite samples (rgb) and their count (w),
+// accumulated over passes; and the count of non-finite samples left out.
 @group(0) @binding(7) var<storage, read_write> accumulation: array<vec4f>;
+@group(0) @binding(8) var<storage, read_write> discarded: array<u32>;
 
 // ---- random numbers: a counter-based hash per (pixel, sample, dimension) ----
 
 var<private> rng_key: vec4u;
 var<private> rng_counter: u32;
-var<private> rng_buffer: vec4u;
-var<private> rng_left: u32;
 
 // pcg4d (Jarzynski & Olano 2020, "Hash Functions for GPU Rendering", JCGT 9(3)).
 fn pcg4d(input: vec4u) -> vec4u {
@@ -83,17 +88,15 @@ fn pcg4d(input: vec4u) -> vec4u {
 fn rng_start(pixel: u32, sample: u32) {
     rng_key = pcg4d(vec4u(pixel, sample, params.seed_lo, params.seed_hi));
     rng_counter = 0u;
-    rng_left = 0u;
 }
 
+// One hash per number: using all four lanes of a hash for consecutive dimensions raised the
+// variance of cornellbox at 4096 spp by 30% against the CPU tracer's (measured), a sign
+// that they are not independent enough.
 fn rng_u32() -> u32 {
-    if rng_left == 0u {
-        rng_buffer = pcg4d(rng_key ^ vec4u(0u, 0u, rng_counter, rng_counter * 0x9e3779b9u));
-        rng_counter += 1u;
-        rng_left = 4u;
-    }
-    rng_left -= 1u;
-    return rng_buffer[rng_left];
+    let v = pcg4d(rng_key ^ vec4u(0u, 0u, rng_counter, rng_counter * 0x9e3779b9u));
+    rng_counter += 1u;
+    return v.x;
 }
 
 // Uniform in [0, 1): the top 24 bits, as the CPU tracer.
@@ -748,8 +751,9 @@ fn trace_pass(@builtin(global_invocation_id) id: vec3u) {
     let pixel = id.y * params.width + id.x;
     var sum = vec3f(0.0);
     var finite = 0.0;
-    for (var k = 0u; k < params.sample_count; k++) {
-        rng_start(pixel, params.sample_start + k);
+    var not_finite = 0u;
+    for (var s = id.z; s < params.sample_count; s += params.slots) {
+        rng_start(pixel, params.sample_start + s);
         let jitter = rng_vec2();
         let ndc_x = 2.0 * (f32(id.x) + jitter.x) / f32(params.width) - 1.0;
         let ndc_y = 1.0 - 2.0 * (f32(id.y) + jitter.y) / f32(params.height);
@@ -758,7 +762,11 @@ fn trace_pass(@builtin(global_invocation_id) id: vec3u) {
         if is_finite_vec3(radiance) {
             sum += radiance;
             finite += 1.0;
+        } else {
+            not_finite += 1u;
         }
     }
-    accumulation[pixel] += vec4f(sum, finite);
+    let index = id.z * params.width * params.height + pixel;
+    accumulation[index] += vec4f(sum, finite);
+    discarded[index] += not_finite;
 }

@@ -13,5 +13,5 @@ pub mod probe;
 mod tracer;
 mod upload;
 
-pub use tracer::{GpuTracer, PATHS_PER_PASS};
+pub use tracer::{GpuTracer, SAMPLES_PER_THREAD, SAMPLES_PER_THREAD_LAVAPIPE};
 pub use upload::{SceneBuffers, MAX_BVH_DEPTH};

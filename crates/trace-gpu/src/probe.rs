@@ -110,7 +110,7 @@ pub fn probe_bsdf(tracer: &GpuTracer, cases: &[ProbeCase]) -> Result<Vec<ProbeRe
         pass.dispatch_workgroups((cases.len() as u32).div_ceil(64), 1, 1);
     }
     queue.submit([encoder.finish()]);
-    let out = tracer.read(&output, &readback, output_bytes)?;
+    let out: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&tracer.read(&output, &readback, output_bytes)?);
     let xyz = |v: [f32; 4]| Vec3::new(v[0], v[1], v[2]);
     Ok(out
         .chunks_exact(OUTPUT_VEC4S)

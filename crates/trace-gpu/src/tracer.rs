@@ -14,9 +14,18 @@ use wgpu::util::DeviceExt;
 
 use crate::upload::SceneBuffers;
 
-/// Camera paths one pass traces at most (pixels x samples per pixel in the pass): large
-/// enough to fill a big GPU, small enough for steady progress and no driver time-outs.
-pub const PATHS_PER_PASS: u64 = 1 << 21;
+/// Threads a pass aims for: a pixel gets several threads (slots) when the image alone has
+/// too few pixels to fill a large GPU.
+const TARGET_THREADS: u64 = 1 << 18;
+/// Most threads per pixel (each slot holds a vec4 and a u32 per pixel).
+const MAX_SLOTS: u64 = 64;
+/// Samples one thread traces in one pass on a GPU: few enough for steady progress and no
+/// driver time-outs.
+pub const SAMPLES_PER_THREAD: u32 = 16;
+/// The same on a CPU adapter (lavapipe): llvmpipe ends a shader invocation's loops once they
+/// have run 65535 iterations in all (measured: with 256 samples per invocation 29-91% of
+/// the samples never ran), and one sample's BVH traversals take a few hundred.
+pub const SAMPLES_PER_THREAD_LAVAPIPE: u32 = 4;
 
 const WORKGROUP_SIDE: u32 = 8;
 const FLAG_LAMBERTIAN: u32 = 1;
@@ -43,6 +52,8 @@ struct Params {
     emitter_count: u32,
     texture_table: u32,
     has_panes: u32,
+    slots: u32,
+    _pad: [u32; 3],
 }
 
 /// The trace kernel, compiled for one device. Create once, render many images.
@@ -51,6 +62,7 @@ pub struct GpuTracer {
     queue: wgpu::Queue,
     pipeline: wgpu::ComputePipeline,
     adapter: String,
+    samples_per_thread: u32,
 }
 
 /// The WGSL source of the trace kernel: the BSDF, then the integrator.
@@ -82,7 +94,9 @@ impl GpuTracer {
     pub fn new(options: &RasterizerOptions) -> Result<Self> {
         let (_, adapter, device, queue) = glassbake_raster::device::open(options)?;
         let pipeline = compute_pipeline(&device, "trace.wgsl", trace_source(), "trace_pass")?;
-        Ok(GpuTracer { device, queue, pipeline, adapter: adapter.get_info().name })
+        let info = adapter.get_info();
+        let samples_per_thread = if info.device_type == wgpu::DeviceType::Cpu { SAMPLES_PER_THREAD_LAVAPIPE } else { SAMPLES_PER_THREAD };
+        Ok(GpuTracer { device, queue, pipeline, adapter: info.name, samples_per_thread })
     }
 
     pub fn adapter_name(&self) -> &str {
@@ -122,7 +136,8 @@ impl GpuTracer {
                 return Ok(TraceOutput { image, discarded_samples: 0, samples, warnings: vec![warning], elapsed: start.elapsed(), learning_spp: 0 });
             }
         }
-        self.check_limits(scene, &buffers, pixels)?;
+        let slots = (TARGET_THREADS / pixels).clamp(1, MAX_SLOTS);
+        self.check_limits(scene, &buffers, pixels * slots)?;
 
         let storage = |label: &str, data: &Vec<[f32; 4]>| {
             // Bindings cannot be empty: an empty array travels as one unused vec4.
@@ -134,19 +149,17 @@ impl GpuTracer {
             })
         };
         let arrays: Vec<wgpu::Buffer> = buffers.arrays().iter().map(|(label, data)| storage(label, data)).collect();
-        let accumulation_bytes = pixels * 16;
-        let accumulation = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("accumulation"),
-            size: accumulation_bytes,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("accumulation readback"),
-            size: accumulation_bytes,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let accumulation_bytes = pixels * slots * 16;
+        let discarded_bytes = pixels * slots * 4;
+        let result_buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+            self.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })
+        };
+        let results = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        let readback = wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST;
+        let accumulation = result_buffer("accumulation", accumulation_bytes, results);
+        let discarded = result_buffer("discarded", discarded_bytes, results);
+        let accumulation_readback = result_buffer("accumulation readback", accumulation_bytes, readback);
+        let discarded_readback = result_buffer("discarded readback", discarded_bytes, readback);
         let uniform = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("trace params"),
             size: std::mem::size_of::<Params>() as u64,
@@ -158,6 +171,7 @@ impl GpuTracer {
             entries.push(wgpu::BindGroupEntry { binding: i as u32 + 1, resource: buffer.as_entire_binding() });
         }
         entries.push(wgpu::BindGroupEntry { binding: 7, resource: accumulation.as_entire_binding() });
+        entries.push(wgpu::BindGroupEntry { binding: 8, resource: discarded.as_entire_binding() });
         let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("trace"),
             layout: &self.pipeline.get_bind_group_layout(0),
@@ -192,9 +206,11 @@ impl GpuTracer {
             emitter_count: buffers.emitter_count,
             texture_table: buffers.texture_table,
             has_panes: buffers.has_panes as u32,
+            slots: slots as u32,
+            _pad: [0; 3],
         };
 
-        let per_pass = (PATHS_PER_PASS / pixels).clamp(1, settings.spp as u64) as u32;
+        let per_pass = (slots as u32 * self.samples_per_thread).min(settings.spp);
         let mut done = 0u32;
         while done < settings.spp {
             params.sample_start = done;
@@ -205,7 +221,7 @@ impl GpuTracer {
                 let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("trace pass"), timestamp_writes: None });
                 pass.set_pipeline(&self.pipeline);
                 pass.set_bind_group(0, &bind_group, &[]);
-                pass.dispatch_workgroups(width.div_ceil(WORKGROUP_SIDE), height.div_ceil(WORKGROUP_SIDE), 1);
+                pass.dispatch_workgroups(width.div_ceil(WORKGROUP_SIDE), height.div_ceil(WORKGROUP_SIDE), slots as u32);
             }
             self.queue.submit([encoder.finish()]);
             self.wait()?;
@@ -215,19 +231,35 @@ impl GpuTracer {
             }
         }
 
-        let sums: Vec<[f32; 4]> = self.read(&accumulation, &readback, accumulation_bytes)?;
-        let mut finite_samples = 0u64;
+        let sums: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&self.read(&accumulation, &accumulation_readback, accumulation_bytes)?);
+        let not_finite: Vec<u32> = bytemuck::pod_collect_to_vec(&self.read(&discarded, &discarded_readback, discarded_bytes)?);
+        let (mut finite_samples, mut discarded_samples) = (0u64, 0u64);
         for y in 0..height {
             for x in 0..width {
-                let [r, g, b, count] = sums[(y as u64 * width as u64 + x as u64) as usize];
+                let pixel = (y as u64 * width as u64 + x as u64) as usize;
+                // Slots in order, in f64: the mean does not depend on how the GPU scheduled them.
+                let (mut sum, mut count) = ([0.0f64; 3], 0.0f64);
+                for slot in 0..slots as usize {
+                    let [r, g, b, n] = sums[slot * pixels as usize + pixel];
+                    sum = [sum[0] + r as f64, sum[1] + g as f64, sum[2] + b as f64];
+                    count += n as f64;
+                    discarded_samples += not_finite[slot * pixels as usize + pixel] as u64;
+                }
                 finite_samples += count as u64;
-                let mean = if count > 0.0 { [r / count, g / count, b / count] } else { [0.0; 3] };
+                let mean = if count > 0.0 { sum.map(|c| (c / count) as f32) } else { [0.0; 3] };
                 for (channel, value) in mean.into_iter().enumerate() {
                     image.set(channel, x, y, value);
                 }
             }
         }
-        let discarded_samples = samples - finite_samples;
+        if finite_samples + discarded_samples != samples {
+            return Err(Error::Internal(format!(
+                "the GPU ({}) traced {} of {samples} samples: the driver ended shader loops early \
+                 (llvmpipe stops an invocation after 65535 loop iterations in all)",
+                self.adapter,
+                finite_samples + discarded_samples
+            )));
+        }
         let mut warnings = Vec::new();
         if discarded_samples > 0 {
             let warning = format!("{discarded_samples} of {samples} samples were NaN or infinite and were discarded");
@@ -239,7 +271,7 @@ impl GpuTracer {
 
     /// A clear error, before anything is allocated, when the scene or image does not fit the
     /// device's buffer limits.
-    fn check_limits(&self, scene: &Scene, buffers: &SceneBuffers, pixels: u64) -> Result<()> {
+    fn check_limits(&self, scene: &Scene, buffers: &SceneBuffers, pixel_slots: u64) -> Result<()> {
         let limits = self.device.limits();
         let binding_limit = (limits.max_storage_buffer_binding_size as u64).min(limits.max_buffer_size);
         for (name, data) in buffers.arrays() {
@@ -256,11 +288,11 @@ impl GpuTracer {
                 ));
             }
         }
-        if pixels * 16 > binding_limit {
+        if pixel_slots * 16 > binding_limit {
             return Err(Error::bad_input(
                 "trace settings",
                 "resolution",
-                format!("{pixels} pixels need {} bytes, over the GPU's storage buffer limit of {binding_limit} bytes", pixels * 16),
+                format!("the image's sums need {} bytes, over the GPU's storage buffer limit of {binding_limit} bytes", pixel_slots * 16),
             ));
         }
         Ok(())
@@ -273,8 +305,8 @@ impl GpuTracer {
             .map_err(|e| Error::Internal(format!("waiting for the GPU: {e}")))
     }
 
-    /// Copy `source` into `readback` and read it as vec4s.
-    pub(crate) fn read(&self, source: &wgpu::Buffer, readback: &wgpu::Buffer, bytes: u64) -> Result<Vec<[f32; 4]>> {
+    /// Copy `source` into `readback` and read its bytes.
+    pub(crate) fn read(&self, source: &wgpu::Buffer, readback: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>> {
         let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
         encoder.copy_buffer_to_buffer(source, 0, readback, 0, bytes);
         self.queue.submit([encoder.finish()]);
@@ -289,7 +321,7 @@ impl GpuTracer {
         let values = match readback.get_mapped_range(..) {
             Ok(view) => {
                 let bytes: &[u8] = &view;
-                Ok(bytemuck::pod_collect_to_vec::<u8, [f32; 4]>(bytes))
+                Ok(bytes.to_vec())
             }
             Err(e) => Err(Error::Internal(format!("reading GPU results: {e}"))),
         };
