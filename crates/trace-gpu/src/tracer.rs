@@ -273,7 +273,7 @@ impl GpuTracer {
     /// device's buffer limits.
     fn check_limits(&self, scene: &Scene, buffers: &SceneBuffers, pixel_slots: u64) -> Result<()> {
         let limits = self.device.limits();
-        let binding_limit = (limits.max_storage_buffer_binding_size as u64).min(limits.max_buffer_size);
+        let binding_limit = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
         for (name, data) in buffers.arrays() {
             let bytes = data.len() as u64 * 16;
             if bytes > binding_limit {
