@@ -162,9 +162,12 @@ fn node_entry(node: u32, origin: vec3f, inv_direction: vec3f, t_min: f32, t_max:
     let hi = (nodes[node * NODE_VEC4S + 1u].xyz - origin) * inv_direction;
     let near = min(lo, hi);
     let far = max(lo, hi);
+    // The far distance grows by 2 gamma(3) (Ize 2013, "Robust BVH Ray Traversal"): boxes of
+    // axis-aligned walls are flat, and rounding would otherwise let rays slip past them.
     let t0 = max(max(near.x, near.y), max(near.z, t_min));
-    let t1 = min(min(far.x, far.y), min(far.z, t_max));
-    return select(FLT_MAX, t0, t0 <= t1);
+    let t1 = min(min(far.x, far.y), far.z) * 1.0000008;
+    let t1_clamped = min(t1, t_max);
+    return select(FLT_MAX, t0, t0 <= t1_clamped);
 }
 
 fn safe_inverse(d: vec3f) -> vec3f {

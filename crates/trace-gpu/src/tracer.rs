@@ -137,7 +137,9 @@ impl GpuTracer {
             }
         }
         let slots = (TARGET_THREADS / pixels).clamp(1, MAX_SLOTS);
-        self.check_limits(scene, &buffers, pixels * slots)?;
+        let limits = self.device.limits();
+        let binding_limit = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+        check_sizes(&scene.name, &buffers, pixels * slots, binding_limit, &self.adapter)?;
 
         let storage = |label: &str, data: &Vec<[f32; 4]>| {
             // Bindings cannot be empty: an empty array travels as one unused vec4.
@@ -269,35 +271,6 @@ impl GpuTracer {
         Ok(TraceOutput { image, discarded_samples, samples, warnings, elapsed: start.elapsed(), learning_spp: 0 })
     }
 
-    /// A clear error, before anything is allocated, when the scene or image does not fit the
-    /// device's buffer limits.
-    fn check_limits(&self, scene: &Scene, buffers: &SceneBuffers, pixel_slots: u64) -> Result<()> {
-        let limits = self.device.limits();
-        let binding_limit = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
-        for (name, data) in buffers.arrays() {
-            let bytes = data.len() as u64 * 16;
-            if bytes > binding_limit {
-                return Err(Error::bad_input(
-                    &scene.name,
-                    name,
-                    format!(
-                        "{bytes} bytes exceed the GPU's storage buffer limit of {binding_limit} bytes \
-                         (max_storage_buffer_binding_size on {}); trace it on the CPU",
-                        self.adapter
-                    ),
-                ));
-            }
-        }
-        if pixel_slots * 16 > binding_limit {
-            return Err(Error::bad_input(
-                "trace settings",
-                "resolution",
-                format!("the image's sums need {} bytes, over the GPU's storage buffer limit of {binding_limit} bytes", pixel_slots * 16),
-            ));
-        }
-        Ok(())
-    }
-
     pub(crate) fn wait(&self) -> Result<()> {
         self.device
             .poll(wgpu::PollType::wait_indefinitely())
@@ -327,5 +300,54 @@ impl GpuTracer {
         };
         readback.unmap();
         values
+    }
+}
+
+/// A clear error, before anything is allocated, when the scene or the image's sums do not fit
+/// the device's storage buffer limit.
+fn check_sizes(scene: &str, buffers: &SceneBuffers, pixel_slots: u64, binding_limit: u64, adapter: &str) -> Result<()> {
+    for (name, data) in buffers.arrays() {
+        let bytes = data.len() as u64 * 16;
+        if bytes > binding_limit {
+            return Err(Error::bad_input(
+                scene,
+                name,
+                format!(
+                    "{bytes} bytes exceed the GPU's storage buffer limit of {binding_limit} bytes \
+                     (max_storage_buffer_binding_size on {adapter}); trace it on the CPU"
+                ),
+            ));
+        }
+    }
+    if pixel_slots * 16 > binding_limit {
+        return Err(Error::bad_input(
+            "trace settings",
+            "resolution",
+            format!(
+                "the image's sums need {} bytes, over the GPU's storage buffer limit of {binding_limit} bytes on {adapter}",
+                pixel_slots * 16
+            ),
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glassbake_scene::builtin::builtin;
+
+    #[test]
+    fn scenes_and_images_over_the_buffer_limit_are_refused_by_name() {
+        let scene = builtin("desk").unwrap();
+        let buffers = SceneBuffers::build(&scene, Integrator::Plain).unwrap();
+        let largest = buffers.arrays().iter().map(|(_, a)| a.len() as u64 * 16).max().unwrap();
+        check_sizes("desk", &buffers, 64, largest, "test GPU").unwrap();
+        let err = check_sizes("desk", &buffers, 64, largest - 16, "test GPU").unwrap_err();
+        assert!(err.is_user_error(), "{err}");
+        let text = err.to_string();
+        assert!(text.starts_with("desk: ") && text.contains("storage buffer limit") && text.contains("test GPU"), "{text}");
+        let err = check_sizes("desk", &buffers, largest, largest, "test GPU").unwrap_err().to_string();
+        assert!(err.contains("resolution"), "{err}");
     }
 }

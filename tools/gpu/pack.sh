@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Build what the GPU measurement needs and pack it for the device machine (tools/gpu/README.md):
+# the stripped release binaries, xz-compressed into .gpu/, and the Vulkan loader packages in
+# .gl/. Both folders are git-ignored locally and travel with `carry: [".gpu", ".gl"]`.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+
+cargo build --release --locked -p glassbake-cli
+cargo build --release --locked -p glassbake-trace-gpu --example gpu_trace_bench
+
+exclude="$(git rev-parse --git-path info/exclude)"
+mkdir -p "$(dirname "$exclude")"
+for dir in .gpu .gl; do
+  mkdir -p "$dir"
+  grep -qx "/$dir/" "$exclude" 2>/dev/null || echo "/$dir/" >> "$exclude"
+done
+# The release profile strips symbols; xz because the device decompresses with Python's lzma.
+xz -T0 -6 -c target/release/glassbake > .gpu/glassbake.xz
+xz -T0 -6 -c target/release/examples/gpu_trace_bench > .gpu/gpu_trace_bench.xz
+
+# The Vulkan loader (the NVIDIA driver's ICD is on the device, the loader is not), amd64
+# packages whatever this machine's architecture, as the device README describes.
+if ! ls .gl/libvulkan1_*.deb >/dev/null 2>&1; then
+  mkdir -p /tmp/amd64/partial
+  o='-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/amd64'
+  # shellcheck disable=SC2086
+  apt-get $o update -qq
+  # shellcheck disable=SC2086
+  (cd .gl && apt-get $o download libvulkan1 libegl1 libglvnd0 libopengl0 libgl1 libglx0 libgles2)
+fi
+du -ch .gpu/* .gl/* | tail -1
