@@ -7,6 +7,7 @@ use glassbake_trace::SurfaceMaterial;
 use wgpu::util::DeviceExt;
 
 use crate::tracer::{compute_pipeline, GpuTracer};
+use crate::upload::material_vec4s;
 
 const INPUT_VEC4S: usize = 7;
 const OUTPUT_VEC4S: usize = 5;
@@ -62,14 +63,7 @@ pub fn probe_bsdf(tracer: &GpuTracer, cases: &[ProbeCase]) -> Result<Vec<ProbeRe
     let pipeline = compute_pipeline(device, "probe.wgsl", source, "bsdf_probe")?;
     let mut inputs: Vec<[f32; 4]> = Vec::with_capacity(cases.len() * INPUT_VEC4S);
     for c in cases {
-        let m = &c.material;
-        let (weight, ior, thin) = match m.transmission {
-            Some(t) => (t.weight, t.ior, if t.thin { 1.0 } else { 0.0 }),
-            None => (0.0, 1.5, 0.0),
-        };
-        inputs.push(v4(m.base_color, m.roughness));
-        inputs.push(v4(m.specular_color, m.specular));
-        inputs.push([m.metallic, weight, ior, thin]);
+        inputs.extend(material_vec4s(&c.material));
         inputs.push(v4(c.normal, if c.lambertian { 1.0 } else { 0.0 }));
         inputs.push(v4(c.wo, c.u_lobe));
         inputs.push(v4(c.wi, c.u_event));

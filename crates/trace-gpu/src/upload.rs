@@ -9,7 +9,7 @@ use glassbake_core::{Error, Result};
 use glassbake_scene::Scene;
 use glassbake_trace::geometry::Owner;
 use glassbake_trace::lights::Shape;
-use glassbake_trace::{Integrator, PreparedScene};
+use glassbake_trace::{Integrator, PreparedScene, SurfaceMaterial};
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::triangle::Triangle as BvhTriangle;
 use obvhs::BvhBuildParams;
@@ -129,13 +129,15 @@ impl SceneBuffers {
         };
         let mut materials = Vec::with_capacity(scene.materials.len() * MATERIAL_VEC4S + scene.textures.len());
         for m in &scene.materials {
-            let (weight, ior, thin) = match m.transmission {
-                Some(t) => (t.weight, t.ior, if t.thin { 1.0 } else { 0.0 }),
-                None => (0.0, 1.5, 0.0),
+            let surface = SurfaceMaterial {
+                base_color: m.base_color,
+                roughness: m.roughness,
+                metallic: m.metallic,
+                specular: m.specular,
+                specular_color: m.specular_color,
+                transmission: m.transmission,
             };
-            materials.push(v4(m.base_color, m.roughness));
-            materials.push(v4(m.specular_color, m.specular));
-            materials.push([m.metallic, weight, ior, thin]);
+            materials.extend(material_vec4s(&surface));
             materials.push([
                 bits(texture_ref(m.base_color_texture)),
                 bits(texture_ref(m.roughness_texture)),
@@ -193,6 +195,17 @@ impl SceneBuffers {
             ("emitters", &self.emitters),
         ]
     }
+}
+
+/// A material's constant parameters as the shaders read them (`surface_material` in
+/// trace.wgsl, the probe's first three records): (base colour, roughness), (specular colour,
+/// specular), (metallic, transmission weight, ior, thin); no transmission is weight 0.
+pub(crate) fn material_vec4s(m: &SurfaceMaterial) -> [[f32; 4]; 3] {
+    let (weight, ior, thin) = match m.transmission {
+        Some(t) => (t.weight, t.ior, if t.thin { 1.0 } else { 0.0 }),
+        None => (0.0, 1.5, 0.0),
+    };
+    [v4(m.base_color, m.roughness), v4(m.specular_color, m.specular), [m.metallic, weight, ior, thin]]
 }
 
 /// Depth of the deepest leaf below node 0.
