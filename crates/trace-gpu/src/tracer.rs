@@ -9,7 +9,7 @@ use glassbake_core::layout::GROUND_TRUTH_CHANNELS;
 use glassbake_core::{Camera, Error, PlanarImage, Result};
 use glassbake_raster::RasterizerOptions;
 use glassbake_scene::Scene;
-use glassbake_trace::{Integrator, MaterialModel, Progress, TraceOutput, TraceSettings};
+use glassbake_trace::{unlit_warning, Integrator, MaterialModel, Progress, TraceOutput, TraceSettings};
 use wgpu::util::DeviceExt;
 
 use crate::upload::SceneBuffers;
@@ -125,16 +125,11 @@ impl GpuTracer {
         let samples = pixels * settings.spp as u64;
         let mut image = PlanarImage::new(width, height, GROUND_TRUTH_CHANNELS.iter().map(|c| c.to_string()).collect());
         let buffers = SceneBuffers::build(scene, settings.integrator)?;
-        if buffers.emitter_count == 0 && scene.background == Vec3::ZERO {
-            let has_emissive = scene.rect_lights.iter().any(|l| l.radiance.max_element() > 0.0) || !scene.emissive_objects().is_empty();
-            if !has_emissive {
-                let warning = format!("scene {}: no light (no rectangle light, no emissive mesh, black background): the image is black", scene.name);
-                tracing::warn!("{warning}");
-                if let Some(p) = progress {
-                    p(samples, samples);
-                }
-                return Ok(TraceOutput { image, discarded_samples: 0, samples, warnings: vec![warning], elapsed: start.elapsed(), learning_spp: 0 });
+        if let Some(warning) = unlit_warning(scene, buffers.emitter_count == 0) {
+            if let Some(p) = progress {
+                p(samples, samples);
             }
+            return Ok(TraceOutput { image, discarded_samples: 0, samples, warnings: vec![warning], elapsed: start.elapsed(), learning_spp: 0 });
         }
         let slots = (TARGET_THREADS / pixels).clamp(1, MAX_SLOTS);
         let limits = self.device.limits();

@@ -116,6 +116,21 @@ pub fn sample_trace_seed(sample_seed: u64) -> u64 {
     glassbake_core::seed::purpose_seed(sample_seed, "trace")
 }
 
+/// The warning (also logged) for a scene that nothing lights, where tracing can be skipped:
+/// the image is black. `no_emitters` is whether the light sampler found nothing to sample.
+pub fn unlit_warning(scene: &Scene, no_emitters: bool) -> Option<String> {
+    if !no_emitters || scene.background != Vec3::ZERO {
+        return None;
+    }
+    let has_emissive = scene.rect_lights.iter().any(|l| l.radiance.max_element() > 0.0) || !scene.emissive_objects().is_empty();
+    if has_emissive {
+        return None;
+    }
+    let warning = format!("scene {}: no light (no rectangle light, no emissive mesh, black background): the image is black", scene.name);
+    tracing::warn!("{warning}");
+    Some(warning)
+}
+
 /// Progress callback: (pixel samples done, pixel samples in all, learning passes included).
 /// Called from worker threads.
 pub type Progress<'a> = &'a (dyn Fn(u64, u64) + Sync);
@@ -153,17 +168,12 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
     let mut warnings = Vec::new();
 
     let prepared = PreparedScene::for_integrator(scene, settings.integrator);
-    if prepared.lights.is_empty() && scene.background == Vec3::ZERO {
-        let has_emissive = scene.rect_lights.iter().any(|l| l.radiance.max_element() > 0.0) || !scene.emissive_objects().is_empty();
-        if !has_emissive {
-            let warning = format!("scene {}: no light (no rectangle light, no emissive mesh, black background): the image is black", scene.name);
-            tracing::warn!("{warning}");
-            warnings.push(warning);
-            if let Some(p) = progress {
-                p(samples, samples);
-            }
-            return Ok(TraceOutput { image, discarded_samples: 0, samples, warnings, elapsed: start.elapsed(), learning_spp: 0 });
+    if let Some(warning) = unlit_warning(scene, prepared.lights.is_empty()) {
+        warnings.push(warning);
+        if let Some(p) = progress {
+            p(samples, samples);
         }
+        return Ok(TraceOutput { image, discarded_samples: 0, samples, warnings, elapsed: start.elapsed(), learning_spp: 0 });
     }
 
     let path_settings =

@@ -71,7 +71,8 @@ pub struct MakeArgs {
     pub device: TraceDevice,
 }
 
-fn parse_trace_device(name: &str) -> std::result::Result<TraceDevice, String> {
+/// clap's parser for `--device` of `dataset` and `trace`.
+pub fn parse_trace_device(name: &str) -> std::result::Result<TraceDevice, String> {
     TraceDevice::parse(name).map_err(|_| format!("unknown device {name:?}: expected cpu or wgpu"))
 }
 

@@ -9,6 +9,7 @@ use glassbake_core::image::ExrPrecision;
 use glassbake_core::seed::purpose_seed;
 use glassbake_scene::load_scene;
 use super::camera_arg::parse_camera;
+use super::dataset::parse_trace_device;
 use glassbake_dataset::TraceDevice;
 use glassbake_raster::RasterizerOptions;
 use glassbake_trace::{render, sample_trace_seed, Integrator, TraceSettings};
@@ -55,15 +56,11 @@ pub struct TraceArgs {
     /// Vulkan adapter (chosen as the rasterizer's: `WGPU_ADAPTER_NAME`, else a discrete GPU
     /// first). Same estimator and the same converged image, other random numbers; no
     /// `guided` estimator.
-    #[arg(long, default_value = "cpu", value_parser = parse_device)]
+    #[arg(long, default_value = "cpu", value_parser = parse_trace_device)]
     device: TraceDevice,
     /// Output EXR; the PNG preview goes beside it with the extension .png.
     #[arg(long)]
     out: PathBuf,
-}
-
-fn parse_device(name: &str) -> std::result::Result<TraceDevice, String> {
-    TraceDevice::parse(name).map_err(|_| format!("unknown device {name:?}: expected cpu or wgpu"))
 }
 
 fn parse_integrator(name: &str) -> std::result::Result<Integrator, String> {
