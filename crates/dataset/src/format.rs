@@ -68,7 +68,14 @@ pub struct DatasetSpec {
     /// The scene argument as given (built-in name or path); informational.
     pub scene: String,
     pub resolution: u32,
+    /// Samples per pixel of the train and validation ground truth.
     pub spp: u32,
+    /// Samples per pixel of the test split's ground truth, when it is traced higher than
+    /// `spp`: models are then judged against a reference less noisy than what they learned
+    /// from, and each test frame is also traced at `spp` (`gt-train-spp/`) so that the
+    /// evaluation can state the noise floor. Absent in older manifests (test at `spp`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_spp: Option<u32>,
     pub seed: u64,
     pub train: u64,
     pub val: u64,
@@ -82,6 +89,20 @@ pub struct DatasetSpec {
 impl DatasetSpec {
     pub fn total(&self) -> u64 {
         self.train + self.val + self.test
+    }
+
+    /// Samples per pixel of the ground truth of a frame of `split`.
+    pub fn spp_of(&self, split: Split) -> u32 {
+        match (split, self.test_spp) {
+            (Split::Test, Some(test_spp)) => test_spp,
+            _ => self.spp,
+        }
+    }
+
+    /// Whether frames of `split` also carry a ground truth traced at the training spp (the
+    /// noise-floor reference): test frames traced at a different spp than training frames.
+    pub fn has_train_spp_copy(&self, split: Split) -> bool {
+        split == Split::Test && self.spp_of(Split::Test) != self.spp
     }
 
     /// Split of frame `index`: train frames come first, then validation, then test.
@@ -101,6 +122,9 @@ impl DatasetSpec {
         }
         if self.spp == 0 {
             return Err(Error::bad_input("dataset", "--spp", "must be at least 1"));
+        }
+        if self.test_spp == Some(0) {
+            return Err(Error::bad_input("dataset", "--test-spp", "must be at least 1"));
         }
         if self.total() == 0 {
             return Err(Error::bad_input("dataset", "--train/--val/--test", "the dataset would have no frames"));
@@ -206,9 +230,10 @@ impl DatasetManifest {
                 short(&other.scene.hash)
             ));
         }
-        let fields: [(&str, String, String); 7] = [
+        let fields: [(&str, String, String); 8] = [
             ("--res", a.resolution.to_string(), b.resolution.to_string()),
             ("--spp", a.spp.to_string(), b.spp.to_string()),
+            ("--test-spp", a.spp_of(Split::Test).to_string(), b.spp_of(Split::Test).to_string()),
             ("--seed", a.seed.to_string(), b.seed.to_string()),
             ("--train/--val/--test", format!("{}/{}/{}", a.train, a.val, a.test), format!("{}/{}/{}", b.train, b.val, b.test)),
             ("--cache-buffers", a.cache_buffers.to_string(), b.cache_buffers.to_string()),

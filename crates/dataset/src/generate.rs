@@ -7,6 +7,7 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use glassbake_core::image::ExrPrecision;
+use glassbake_core::seed::purpose_seed;
 use glassbake_core::{Error, Result};
 use glassbake_raster::{Rasterizer, RasterizerOptions};
 use glassbake_scene::Scene;
@@ -74,8 +75,25 @@ pub struct GenerateSummary {
     pub disk_bytes: u64,
 }
 
-/// Progress: (frames of this shard finished, frames of this shard in all).
-pub type Progress<'a> = &'a dyn Fn(u64, u64);
+/// Where a generation run is. Frames differ in cost (test frames may be traced at a higher
+/// spp), so the work is counted in samples per pixel traced, for an honest ETA.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GenerateProgress {
+    /// Frames of this shard finished, and in all.
+    pub frames_done: u64,
+    pub frames_total: u64,
+    /// Samples per pixel traced for this shard's frames so far, and in all.
+    pub work_done: u64,
+    pub work_total: u64,
+}
+
+pub type Progress<'a> = &'a dyn Fn(GenerateProgress);
+
+/// Samples per pixel traced to make frame `sample`.
+fn frame_work(spec: &DatasetSpec, sample: &SampleRecord) -> u64 {
+    let copy = if spec.has_train_spp_copy(sample.split) { spec.spp } else { 0 };
+    u64::from(spec.spp_of(sample.split)) + u64::from(copy)
+}
 
 fn make_frame(
     store: &DatasetStore,
@@ -91,16 +109,28 @@ fn make_frame(
         let buffers = rasterizer.render(&instance, &sample.camera, res, res)?.combined()?;
         buffers.write_exr(&store.buffers_path(sample.index), ExrPrecision::F16)?;
     }
-    let mut settings = TraceSettings::new(res, res, store.manifest.spec.spp, sample_trace_seed(sample.seed));
-    settings.threads = threads;
-    let traced = match gpu_tracer {
-        Some(tracer) => tracer.render(&instance, &sample.camera, &settings, None)?,
-        None => glassbake_trace::render(&instance, &sample.camera, &settings, None)?,
+    let spec = &store.manifest.spec;
+    let trace = |spp: u32, seed: u64| -> Result<glassbake_trace::TraceOutput> {
+        let mut settings = TraceSettings::new(res, res, spp, seed);
+        settings.threads = threads;
+        match gpu_tracer {
+            Some(tracer) => tracer.render(&instance, &sample.camera, &settings, None),
+            None => glassbake_trace::render(&instance, &sample.camera, &settings, None),
+        }
     };
+    let mut discarded = 0;
+    if spec.has_train_spp_copy(sample.split) {
+        // An independent trace at the training spp: its error against the high-spp ground
+        // truth is the noise floor of what the models learned from.
+        let copy = trace(spec.spp, purpose_seed(sample.seed, "training-spp copy of a test frame"))?;
+        copy.image.write_exr(&store.train_spp_gt_path(sample.index), ExrPrecision::F32)?;
+        discarded += copy.discarded_samples;
+    }
+    let traced = trace(spec.spp_of(sample.split), sample_trace_seed(sample.seed))?;
     traced.image.write_png_rgb(&store.preview_path(sample.index), [0, 1, 2])?;
     // Ground truth last: it is what marks a frame as started-and-finished for humans too.
     traced.image.write_exr(&store.gt_path(sample.index), ExrPrecision::F32)?;
-    Ok(traced.discarded_samples)
+    Ok(discarded + traced.discarded_samples)
 }
 
 /// Make (or complete) the dataset `spec` of `scene` in `dir`.
@@ -131,11 +161,20 @@ pub fn generate(scene: &Scene, spec: &DatasetSpec, dir: &Path, options: &Generat
     if let Some(t) = &gpu_tracer {
         tracing::info!("path tracing on {}", t.adapter_name());
     }
-    progress(summary.skipped, summary.frames_in_shard);
+    let work_total: u64 = mine.iter().map(|s| frame_work(spec, s)).sum();
+    let mut at = GenerateProgress {
+        frames_done: summary.skipped,
+        frames_total: summary.frames_in_shard,
+        work_done: work_total - todo.iter().map(|s| frame_work(spec, s)).sum::<u64>(),
+        work_total,
+    };
+    progress(at);
     for sample in todo {
         summary.discarded_samples += make_frame(&store, scene, sample, rasterizer.as_mut(), gpu_tracer.as_ref(), options.threads)?;
         summary.generated += 1;
-        progress(summary.skipped + summary.generated, summary.frames_in_shard);
+        at.frames_done += 1;
+        at.work_done += frame_work(spec, sample);
+        progress(at);
     }
     summary.elapsed = start.elapsed();
     summary.disk_bytes = store.disk_bytes();

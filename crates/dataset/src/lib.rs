@@ -14,7 +14,7 @@ pub mod merge;
 pub mod store;
 
 pub use format::{DatasetManifest, DatasetSpec, SampleRecord, Split, TraceDevice};
-pub use generate::{generate, GenerateOptions, GenerateSummary, ShardSpec};
+pub use generate::{generate, GenerateOptions, GenerateProgress, GenerateSummary, ShardSpec};
 pub use loader::{Example, Loader, LoaderOptions};
 pub use merge::merge;
 pub use store::{DatasetInfo, DatasetStore};

@@ -49,6 +49,9 @@ pub fn merge(out: &Path, shards: &[&Path]) -> Result<u64> {
         if manifest.spec.cache_buffers {
             copy(&store.buffers_path(index), &target.buffers_path(index))?;
         }
+        if manifest.spec.has_train_spp_copy(manifest.spec.split_of(index)) {
+            copy(&store.train_spp_gt_path(index), &target.train_spp_gt_path(index))?;
+        }
         let preview = store.preview_path(index);
         if preview.exists() {
             copy(&preview, &target.preview_path(index))?;

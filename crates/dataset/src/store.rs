@@ -18,6 +18,10 @@ pub struct DatasetStore {
     _writer_lock: Option<std::fs::File>,
 }
 
+/// Test frames' ground truth at the training spp, the noise-floor reference.
+pub const TRAIN_SPP_GT_DIR: &str = "gt-train-spp";
+const FRAME_DIRS: [&str; 4] = ["gt", TRAIN_SPP_GT_DIR, "buffers", "preview"];
+
 pub const LOCK_FILE: &str = ".glassbake-writer.lock";
 
 /// An exclusive lock on `dir/.glassbake-writer.lock`, released when the process ends (even by
@@ -51,6 +55,8 @@ pub struct DatasetInfo {
     pub scene_hash: String,
     pub resolution: u32,
     pub spp: u32,
+    /// Samples per pixel of the test split's ground truth.
+    pub test_spp: u32,
     pub seed: u64,
     pub cache_buffers: bool,
     /// Where the ground truth was path-traced.
@@ -110,7 +116,7 @@ impl DatasetStore {
         if !path.exists() {
             write_bytes_atomically(&path, &manifest_bytes(planned)?)?;
         }
-        for sub in ["gt", "buffers", "preview"] {
+        for sub in FRAME_DIRS {
             let d = dir.join(sub);
             std::fs::create_dir_all(&d).map_err(|e| Error::io(&d, e))?;
         }
@@ -128,6 +134,10 @@ impl DatasetStore {
     pub fn gt_path(&self, index: u64) -> PathBuf {
         self.dir.join("gt").join(format!("{index:06}.exr"))
     }
+    /// A test frame's ground truth traced at the training spp (see `DatasetSpec::test_spp`).
+    pub fn train_spp_gt_path(&self, index: u64) -> PathBuf {
+        self.dir.join(TRAIN_SPP_GT_DIR).join(format!("{index:06}.exr"))
+    }
     pub fn buffers_path(&self, index: u64) -> PathBuf {
         self.dir.join("buffers").join(format!("{index:06}.exr"))
     }
@@ -137,8 +147,11 @@ impl DatasetStore {
 
     /// Temp files of writes a kill interrupted (`.NAME.tmpPID`).
     fn remove_stale_temp_files(&self) -> Result<()> {
-        for sub in ["gt", "buffers", "preview"] {
+        for sub in FRAME_DIRS {
             let d = self.dir.join(sub);
+            if !d.is_dir() {
+                continue;
+            }
             for entry in std::fs::read_dir(&d).map_err(|e| Error::io(&d, e))? {
                 let entry = entry.map_err(|e| Error::io(&d, e))?;
                 let name = entry.file_name().to_string_lossy().to_string();
@@ -184,12 +197,19 @@ impl DatasetStore {
         names
     }
 
-    /// Whether frame `index` is complete: ground truth, and cached buffers when asked for.
+    /// Whether frame `index` is complete: ground truth (and, for test frames traced above the
+    /// training spp, its training-spp copy), and cached buffers when asked for.
     pub fn frame_status(&self, index: u64) -> FrameStatus {
         let gt_channels = &self.manifest.channel_layout.ground_truth;
         match self.check_image(&self.gt_path(index), gt_channels) {
             FrameStatus::Done => {}
             other => return other,
+        }
+        if self.manifest.spec.has_train_spp_copy(self.manifest.spec.split_of(index)) {
+            match self.check_image(&self.train_spp_gt_path(index), gt_channels) {
+                FrameStatus::Done => {}
+                other => return other,
+            }
         }
         if self.manifest.spec.cache_buffers {
             return self.check_image(&self.buffers_path(index), &self.buffer_channels());
@@ -230,6 +250,7 @@ impl DatasetStore {
             scene_hash: m.scene.hash.clone(),
             resolution: m.spec.resolution,
             spp: m.spec.spp,
+            test_spp: m.spec.spp_of(Split::Test),
             device: m.spec.device,
             seed: m.spec.seed,
             cache_buffers: m.spec.cache_buffers,

@@ -14,7 +14,8 @@ use glassbake_eval::EvaluationSummary;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 
 use super::dataset::{make_dataset, MakeArgs};
-use super::eval::{evaluate, path_traced_rows, EvalArgs};
+use super::dataset::DEFAULT_TEST_SPP_FACTOR;
+use super::eval::{evaluate, noise_floor_row, path_traced_rows, EvalArgs};
 use super::train::{train_model, Ablation, CommonTrainArgs, TrainArgs};
 
 #[derive(Args)]
@@ -154,6 +155,7 @@ pub fn run(args: BakeArgs) -> Result<()> {
         test: preset.test,
         res: preset.resolution,
         spp: preset.spp,
+        test_spp: None,
         seed: 0,
         cache_buffers: true,
         shard: None,
@@ -161,7 +163,16 @@ pub fn run(args: BakeArgs) -> Result<()> {
         // A bake on the GPU path-traces its ground truth there too.
         device: if args.device == "wgpu" { glassbake_dataset::TraceDevice::Wgpu } else { glassbake_dataset::TraceDevice::Cpu },
     };
-    stage(format!("dataset ({} frames, {} px, {} spp)", preset.train + preset.val + preset.test, preset.resolution, preset.spp), &mut || make_dataset(&make, &bar))?;
+    stage(
+        format!(
+            "dataset ({} frames, {} px, {} spp, test split {} spp)",
+            preset.train + preset.val + preset.test,
+            preset.resolution,
+            preset.spp,
+            preset.spp * DEFAULT_TEST_SPP_FACTOR
+        ),
+        &mut || make_dataset(&make, &bar),
+    )?;
     for ((name, kind, ablation), dir) in models.iter().zip(&model_dirs) {
         let train = TrainArgs {
             common: CommonTrainArgs {
@@ -198,7 +209,9 @@ pub fn run(args: BakeArgs) -> Result<()> {
         path_traced_baseline,
     };
     let mut summary = None;
-    let extra_rows: Vec<String> = path_traced_baseline.map(|spp| path_traced_rows(spp).to_vec()).unwrap_or_default();
+    let mut extra_rows: Vec<String> = path_traced_baseline.map(|spp| path_traced_rows(spp).to_vec()).unwrap_or_default();
+    let noise_floor = noise_floor_row(&glassbake_dataset::DatasetStore::open(&dataset_dir)?.manifest.spec, glassbake_dataset::Split::Test);
+    extra_rows.extend(noise_floor.clone());
     let current = evaluation_is_current(&eval_dir, &model_dirs, &extra_rows, args.lpips_weights.is_some());
     stage("evaluate and report".into(), &mut || {
         if current {
@@ -233,6 +246,14 @@ pub fn run(args: BakeArgs) -> Result<()> {
         if let (Some(gt), Some(nt)) = (g.t_psnr, n.t_psnr) {
             println!("GlassNet vs Naive on transparent pixels: T.PSNR {gt:.2} vs {nt:.2} dB ({:+.2} dB)", gt - nt);
         }
+    }
+    if let Some(floor) = noise_floor.as_ref().and_then(|row| summary.models.iter().find(|m| &m.model == row)) {
+        println!(
+            "Noise floor ({}: the training-spp ground truth against the test split's): PSNR {:.2} dB, T.PSNR {}",
+            floor.model,
+            floor.psnr,
+            floor.t_psnr.map(|t| format!("{t:.2} dB")).unwrap_or_else(|| "-".into())
+        );
     }
     Ok(())
 }

@@ -9,7 +9,7 @@ use clap::Args;
 use glassbake_core::layout::{self, GROUND_TRUTH_CHANNELS};
 use glassbake_core::seed::purpose_seed;
 use glassbake_core::{Error, PlanarImage};
-use glassbake_dataset::{DatasetStore, Loader, LoaderOptions, SampleRecord, Split};
+use glassbake_dataset::{DatasetSpec, DatasetStore, Loader, LoaderOptions, SampleRecord, Split};
 use glassbake_eval::denoise::{denoise, DenoiseInput};
 use glassbake_eval::report::{write_report, ReportInputs, TrainingLog};
 use glassbake_eval::rgb::mask_from_planar;
@@ -52,6 +52,12 @@ pub struct EvalArgs {
 /// The metrics rows of the path-traced baseline at `spp`: traced, then traced and denoised.
 pub fn path_traced_rows(spp: u32) -> [String; 2] {
     [format!("pt{spp}"), format!("pt{spp}+oidn")]
+}
+
+/// The metrics row of the noise floor, where `split` of the dataset has one: its ground truth
+/// traced at the training spp, scored against the (higher-spp) ground truth of the same frames.
+pub fn noise_floor_row(spec: &DatasetSpec, split: Split) -> Option<String> {
+    spec.has_train_spp_copy(split).then(|| format!("gt-{}spp", spec.spp))
 }
 
 /// Planes `first..first + 3` of `image` (an RGB or XYZ attribute).
@@ -166,6 +172,8 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
         }
         names.extend(path_traced_rows(spp));
     }
+    let noise_floor = noise_floor_row(&store.manifest.spec, split);
+    names.extend(noise_floor.clone());
     let loader_scene = if store.manifest.spec.cache_buffers { None } else { scene.clone() };
     let mut loader = Loader::new(dataset, loader_scene, LoaderOptions { split, batch_size: 1, crop: None, seed: 0, shuffle: false, workers: args.workers, naive: needs_naive, ..Default::default() })?;
     let total = args.frames.unwrap_or(usize::MAX).min(loader.len());
@@ -193,7 +201,7 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
                 let transparent: &[PlanarImage] = if naive { &[] } else { &e.transparent };
                 let started = Instant::now();
                 let image = model.render(FrameRef { gbuffer, transparent, values: &e.values, ground_truth: None })?;
-                seconds.push(started.elapsed().as_secs_f64());
+                seconds.push(Some(started.elapsed().as_secs_f64()));
                 predictions.push(RgbImage::from_planar(&image)?);
             }
             if let (Some(spp), Some(scene)) = (args.path_traced_baseline, &scene) {
@@ -201,7 +209,12 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
                 let naive = e.naive.as_ref().expect("the loader was asked for naive buffers");
                 let pt = path_traced_baseline(scene, sample, naive, spp)?;
                 predictions.extend([pt.raw, pt.denoised]);
-                seconds.extend([pt.trace_seconds, pt.trace_seconds + pt.denoise_seconds]);
+                seconds.extend([Some(pt.trace_seconds), Some(pt.trace_seconds + pt.denoise_seconds)]);
+            }
+            if noise_floor.is_some() {
+                let path = store.train_spp_gt_path(e.index);
+                predictions.push(RgbImage::from_planar(&PlanarImage::read_exr(&path)?)?);
+                seconds.push(None);
             }
             if let Some(i) = order_model {
                 let model = &models[i];
@@ -217,7 +230,9 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
             }
             evaluation.add_frame(e.index, &RgbImage::from_planar(&e.ground_truth)?, &mask_from_planar(&e.mask), &predictions)?;
             for (model, s) in seconds.into_iter().enumerate() {
-                evaluation.add_render_time(model, s);
+                if let Some(s) = s {
+                    evaluation.add_render_time(model, s);
+                }
             }
             done += 1;
             bar.set_position(done as u64);
@@ -228,7 +243,22 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
     }
     let summary = evaluation.finish()?;
     let training_logs = model_dirs.iter().zip(&names).map(|(dir, name)| TrainingLog { name: name.clone(), path: dir.join("train_log.csv") }).collect();
-    let mut report_facts = vec![format!("dataset {} ({} transparent objects, {} px, {} spp)", dataset.display(), info.transparent_objects, info.resolution, info.spp)];
+    let mut report_facts = vec![format!(
+        "dataset {} ({} transparent objects, {} px, {} spp; the {} split's ground truth at {} spp)",
+        dataset.display(),
+        info.transparent_objects,
+        info.resolution,
+        info.spp,
+        args.split.to_lowercase(),
+        store.manifest.spec.spp_of(split)
+    )];
+    if let Some(row) = &noise_floor {
+        report_facts.push(format!(
+            "noise floor: row {row} is the ground truth traced again at the training spp ({}) with other random numbers, scored against the {}-spp ground truth: how far the frames the models learned from are from converged",
+            info.spp,
+            store.manifest.spec.spp_of(split),
+        ));
+    }
     report_facts.extend(facts.iter().cloned());
     let index = write_report(
         &args.out.join("report"),
