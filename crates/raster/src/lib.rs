@@ -7,8 +7,10 @@
 //! `glassbake_core::layout` (DESIGN.md §3); the direct light L_d from rectangle lights
 //! (diffuse: exact polygon form factor; GGX specular: Linearly Transformed Cosines, fitted by
 //! [`ltc`]) with shadow maps, plus emission; Vulkan adapter selection (lavapipe on CPU-only
-//! machines). Buffer semantics are documented on [`Rasterizer`] and in `shaders/gbuffer.wgsl`.
+//! machines); [`composition`], the share of glass pixels with textured detail behind them.
+//! Buffer semantics are documented on [`Rasterizer`] and in `shaders/gbuffer.wgsl`.
 
+pub mod composition;
 pub mod device;
 pub mod ltc;
 mod rasterizer;

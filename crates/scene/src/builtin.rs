@@ -111,18 +111,29 @@ fn cornell_camera() -> CameraSpec {
     }
 }
 
+/// Textures of the Cornell room's surfaces (`None`: the classic plain white).
+#[derive(Clone, Copy, Default)]
+struct CornellTextures {
+    back_wall: Option<usize>,
+    floor: Option<usize>,
+}
+
 /// The 2 x 2 x 2 Cornell room (x in [-1, 1], y in [0, 2], z in [-1, 1], open at +z) with
-/// its ceiling light; returns the light's index. `back_wall` textures the back wall.
-fn cornell_room(b: &mut Builder, back_wall: Option<usize>) -> usize {
+/// its ceiling light; returns the light's index.
+fn cornell_room(b: &mut Builder, textures: CornellTextures) -> usize {
     let white = b.material(Material { roughness: 0.9, ..Material::diffuse("white", CORNELL_WHITE) });
     let red = b.material(Material { roughness: 0.9, ..Material::diffuse("red", CORNELL_RED) });
     let green = b.material(Material { roughness: 0.9, ..Material::diffuse("green", CORNELL_GREEN) });
-    let back = match back_wall {
+    let back = match textures.back_wall {
         Some(t) => b.material(textured("back_wall", t, 0.8)),
         None => white,
     };
+    let floor = match textures.floor {
+        Some(t) => b.material(textured("floor", t, 0.7)),
+        None => white,
+    };
     let one = Vec2::ONE;
-    b.object("floor", rect(Vec3::ZERO, Vec3::X * 2.0, Vec3::NEG_Z * 2.0, one), white, Affine3A::IDENTITY);
+    b.object("floor", rect(Vec3::ZERO, Vec3::X * 2.0, Vec3::NEG_Z * 2.0, one), floor, Affine3A::IDENTITY);
     b.object("ceiling", rect(Vec3::Y * 2.0, Vec3::X * 2.0, Vec3::Z * 2.0, one), white, Affine3A::IDENTITY);
     b.object("back", rect(Vec3::new(0.0, 1.0, -1.0), Vec3::X * 2.0, Vec3::Y * 2.0, one), back, Affine3A::IDENTITY);
     b.object("left", rect(Vec3::new(-1.0, 1.0, 0.0), Vec3::NEG_Z * 2.0, Vec3::Y * 2.0, one), red, Affine3A::IDENTITY);
@@ -138,17 +149,20 @@ fn cornell_room(b: &mut Builder, back_wall: Option<usize>) -> usize {
     })
 }
 
-fn cornell_boxes(b: &mut Builder) {
-    let white = b.scene.material_index("white").expect("cornell_room made it");
-    b.object("tall_box", cuboid(Vec3::new(0.3, 0.6, 0.3)), white, at_rotated_y(-0.35, 0.6, -0.35, 17.0));
-    b.object("short_box", cuboid(Vec3::splat(0.3)), white, at_rotated_y(0.35, 0.3, 0.0, -17.0));
+fn cornell_boxes(b: &mut Builder, label: Option<usize>) {
+    let material = match label {
+        Some(t) => b.material(textured("box_labels", t, 0.9)),
+        None => b.scene.material_index("white").expect("cornell_room made it"),
+    };
+    b.object("tall_box", cuboid(Vec3::new(0.3, 0.6, 0.3)), material, at_rotated_y(-0.35, 0.6, -0.35, 17.0));
+    b.object("short_box", cuboid(Vec3::splat(0.3)), material, at_rotated_y(0.35, 0.3, 0.0, -17.0));
 }
 
 /// The classic Cornell box with a single thin glass pane in front of the boxes.
 fn cornell_glass() -> Scene {
     let mut b = Builder::new("cornell-glass", cornell_camera());
-    cornell_room(&mut b, None);
-    cornell_boxes(&mut b);
+    cornell_room(&mut b, CornellTextures::default());
+    cornell_boxes(&mut b, None);
     let glass = b.material(Material::glass("pane_glass", CLEAR_GLASS, 0.0, 1.5, true));
     let pane = b.object("pane", rect(Vec3::ZERO, Vec3::X * 0.9, Vec3::Y * 1.1, Vec2::ONE), glass, at_rotated_y(0.0, 0.56, 0.45, 10.0));
     b.variable("pane_x", -0.4, 0.4, 0.0, VariableTarget::Translation { object: pane, axis: Vec3::X });
@@ -160,9 +174,14 @@ fn cornell_glass() -> Scene {
 fn cornellbox(eight: bool) -> Scene {
     let name = if eight { "cornellbox8" } else { "cornellbox" };
     let mut b = Builder::new(name, cornell_camera());
-    let text = b.texture(glyph_text("back_wall_text", 512, 10, 18, Vec3::new(0.03, 0.03, 0.04), CORNELL_WHITE, 11));
-    let light = cornell_room(&mut b, Some(text));
-    cornell_boxes(&mut b);
+    // Detail behind the glass, as in the paper's CORNELLBOX: text on the back wall, printed
+    // labels on every face of the boxes, a tiled floor under the glass objects.
+    let ink = Vec3::new(0.03, 0.03, 0.04);
+    let text = b.texture(glyph_text("back_wall_text", 512, 10, 18, ink, CORNELL_WHITE, 11));
+    let labels = b.texture(glyph_text("box_label_text", 256, 6, 8, ink, CORNELL_WHITE, 12));
+    let floor = b.texture(tiles("floor_tiles", 512, 8, CORNELL_WHITE, Vec3::new(0.12, 0.11, 0.1), 13));
+    let light = cornell_room(&mut b, CornellTextures { back_wall: Some(text), floor: Some(floor) });
+    cornell_boxes(&mut b, Some(labels));
 
     let smooth = b.material(Material::glass("glass", CLEAR_GLASS, 0.0, 1.5, false));
     let frosted = b.material(Material::glass("frosted_glass", Vec3::new(0.9, 0.97, 0.95), 0.15, 1.5, false));
