@@ -125,15 +125,28 @@ pub fn line_chart(title: &str, x_label: &str, y_label: &str, series: &[Series]) 
     render(|r| draw_lines(r, title, x_label, y_label, series), |r| draw_lines(r, title, x_label, y_label, series))
 }
 
+/// The value axis of a bar chart: from a whole number a little below the smallest value (not
+/// from 0, where 1-3 dB between models around 30 dB would be invisible slivers; the tick labels
+/// say where it starts) to a little above the largest.
+fn bar_axis(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = values.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    if !lo.is_finite() {
+        return (0.0, 1.0);
+    }
+    let margin = (0.15 * (hi - lo)).max(0.5);
+    let bottom = if lo >= 0.0 { (lo - margin).floor().max(0.0) } else { (lo - margin).floor() };
+    (bottom, hi + margin)
+}
+
 fn draw_bars<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, y_label: &str, groups: &[String], bars: &[(String, Vec<f64>)]) -> Result<()> {
     root.fill(&WHITE).map_err(plot_error)?;
-    let top = bars.iter().flat_map(|b| b.1.iter().copied()).filter(|v| v.is_finite()).fold(0.0f64, f64::max) * 1.15 + 1e-9;
+    let (bottom, top) = bar_axis(bars.iter().flat_map(|b| b.1.iter().copied()));
     let mut chart = ChartBuilder::on(root)
         .caption(title, ("sans-serif", 20))
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(60)
-        .build_cartesian_2d(0.0..groups.len() as f64, 0.0..top)
+        .build_cartesian_2d(0.0..groups.len() as f64, bottom..top)
         .map_err(plot_error)?;
     chart.configure_mesh().y_desc(y_label).x_labels(0).disable_x_mesh().light_line_style(WHITE.mix(0.0)).draw().map_err(plot_error)?;
     // Group i spans [i, i + 1); its name is written at its top left.
@@ -145,7 +158,7 @@ fn draw_bars<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, y_l
         let colour = COLOURS[b % COLOURS.len()];
         let rects = values.iter().enumerate().filter(|(_, v)| v.is_finite()).map(|(g, &v)| {
             let x0 = g as f64 + 0.1 + b as f64 * width;
-            Rectangle::new([(x0, 0.0), (x0 + width, v)], colour.filled())
+            Rectangle::new([(x0, bottom), (x0 + width, v)], colour.filled())
         });
         chart
             .draw_series(rects)
@@ -160,4 +173,23 @@ fn draw_bars<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, y_l
 /// Grouped bar chart: one group per entry of `groups`, one bar per entry of `bars` in each.
 pub fn bar_chart(title: &str, y_label: &str, groups: &[String], bars: &[(String, Vec<f64>)]) -> Result<Option<Plot>> {
     render(|r| draw_bars(r, title, y_label, groups, bars), |r| draw_bars(r, title, y_label, groups, bars))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::bar_axis;
+
+    #[test]
+    fn bar_axis_makes_a_decibel_visible() {
+        // GlassNet, naive and the noise floor around 30 dB.
+        let (bottom, top) = bar_axis([28.9, 29.9, 33.4, f64::NAN].into_iter());
+        assert!(bottom <= 28.9 && top >= 33.4, "{bottom}..{top}");
+        assert_eq!(bottom, bottom.floor(), "ticks start at a whole number");
+        assert!(1.0 / (top - bottom) > 0.15, "1 dB is {:.0}% of the axis", 100.0 / (top - bottom));
+        // Values near zero never push a non-negative axis below zero; nothing finite -> a unit axis.
+        assert_eq!(bar_axis([0.2, 0.3].into_iter()).0, 0.0);
+        assert_eq!(bar_axis([f64::NAN].into_iter()), (0.0, 1.0));
+        let (b, t) = bar_axis([-3.0, 2.0].into_iter());
+        assert!(b <= -3.0 && t >= 2.0);
+    }
 }
