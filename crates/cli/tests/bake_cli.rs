@@ -64,7 +64,14 @@ fn bake_runs_every_stage_then_skips_them_and_eval_scores_with_lpips() {
     assert!(stdout[table_at..].contains("glassnet") && stdout[table_at..].contains("naive"), "{stdout}");
     assert!(stdout.contains("order test (glassnet, 2 frames): max |difference| reversed 0, shuffled 0 (bit-identical)"), "{stdout}");
     let metrics: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("eval/metrics.json")).unwrap()).unwrap();
-    assert_eq!(metrics["models"].as_array().unwrap().len(), 2);
+    // The two models, then the noise floor: the test split is traced at 8x the tiny preset's
+    // 4 spp, and its 4-spp copy is scored against it.
+    let rows: Vec<&str> = metrics["models"].as_array().unwrap().iter().map(|m| m["model"].as_str().unwrap()).collect();
+    assert_eq!(rows, ["glassnet", "naive", "gt-4spp"]);
+    assert!(metrics["models"][2]["psnr"].as_f64().unwrap() > 5.0 && metrics["models"][2]["seconds_per_frame"].is_null());
+    assert!(stdout.contains("Noise floor (gt-4spp"), "{stdout}");
+    let manifest: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("dataset/manifest.json")).unwrap()).unwrap();
+    assert_eq!((manifest["spec"]["spp"].as_u64(), manifest["spec"]["test_spp"].as_u64()), (Some(4), Some(32)));
     assert_eq!(metrics["order_test"]["reversed_max_abs_diff"], 0.0);
     assert_eq!(metrics["order_test"]["shuffled_max_abs_diff"], 0.0);
     assert_eq!(metrics["frames"].as_array().unwrap().len(), 2);
@@ -127,7 +134,7 @@ fn ablations_are_trained_with_their_settings_and_evaluated() {
     assert_eq!(config("glassnet-l1-only")["network"]["encoding_frequencies"], 2);
     let metrics: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("eval/metrics.json")).unwrap()).unwrap();
     let models: Vec<&str> = metrics["models"].as_array().unwrap().iter().map(|m| m["model"].as_str().unwrap()).collect();
-    assert_eq!(models, ["glassnet", "naive", "glassnet-no-encoding", "glassnet-l1-only"]);
+    assert_eq!(models, ["glassnet", "naive", "glassnet-no-encoding", "glassnet-l1-only", "gt-4spp"]);
     assert!(stdout.contains("glassnet-l1-only"), "{stdout}");
 
     let (code, _, err) = glassbake(&["train", path(&out.join("dataset")), "--ablation", "no-ssim", "--preset", "tiny", "--out", path(&dir.path().join("x"))]);
@@ -144,8 +151,8 @@ fn baselines_pixelgen_and_path_tracing_plus_denoising() {
         assert_eq!(code, 0, "{err}\n{stdout}");
         let metrics: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("eval/metrics.json")).unwrap()).unwrap();
         let models: Vec<&str> = metrics["models"].as_array().unwrap().iter().map(|m| m["model"].as_str().unwrap()).collect();
-        assert_eq!(models, ["glassnet", "naive", "pixelgen", "pt32", "pt32+oidn"]);
-        for m in metrics["models"].as_array().unwrap() {
+        assert_eq!(models, ["glassnet", "naive", "pixelgen", "pt32", "pt32+oidn", "gt-4spp"]);
+        for m in &metrics["models"].as_array().unwrap()[..5] {
             assert!(m["seconds_per_frame"].as_f64().unwrap() > 0.0, "{m}");
             assert!(m["psnr"].as_f64().unwrap() > 5.0, "{m}");
         }

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 fn snapshot(dir: &Path) -> BTreeMap<String, Vec<u8>> {
     let mut files = BTreeMap::new();
-    for sub in ["", "gt", "buffers", "preview"] {
+    for sub in ["", "gt", "gt-train-spp", "buffers", "preview"] {
         for entry in std::fs::read_dir(dir.join(sub)).unwrap().flatten() {
             if entry.file_type().unwrap().is_file() {
                 files.insert(format!("{sub}/{}", entry.file_name().to_string_lossy()), std::fs::read(entry.path()).unwrap());
