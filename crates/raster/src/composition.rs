@@ -25,11 +25,16 @@ pub struct DetailBehindGlass {
     pub detailed_pixels: usize,
 }
 
-impl DetailBehindGlass {
-    pub fn add(self, other: DetailBehindGlass) -> DetailBehindGlass {
+impl std::ops::Add for DetailBehindGlass {
+    type Output = DetailBehindGlass;
+
+    /// The counts of two frames together.
+    fn add(self, other: DetailBehindGlass) -> DetailBehindGlass {
         DetailBehindGlass { glass_pixels: self.glass_pixels + other.glass_pixels, detailed_pixels: self.detailed_pixels + other.detailed_pixels }
     }
+}
 
+impl DetailBehindGlass {
     /// Share of glass pixels with detail behind them (0 when there is no glass).
     pub fn share(&self) -> f64 {
         if self.glass_pixels == 0 {
@@ -113,6 +118,6 @@ mod tests {
         // Faint variation below the threshold does not count.
         let faint = detail_behind_glass(&frame(16, |x, _| 0.7 + 0.01 * (x % 2) as f32, |_, _| true));
         assert_eq!(faint.detailed_pixels, 0);
-        assert!((counts.add(faint).share() - 80.0 / (192.0 + 256.0)).abs() < 1e-12);
+        assert!(((counts + faint).share() - 80.0 / (192.0 + 256.0)).abs() < 1e-12);
     }
 }

@@ -20,7 +20,7 @@ fn share_of(name: &str, rasterizer: &mut glassbake_raster::Rasterizer) -> Detail
         let sample = scene.sample(0, i);
         let instance = scene.instantiate(&sample.values).unwrap();
         let frame = rasterizer.render(&instance, &sample.camera, RESOLUTION, RESOLUTION).unwrap();
-        total = total.add(detail_behind_glass(&frame));
+        total = total + detail_behind_glass(&frame);
     }
     total
 }
