@@ -1,6 +1,13 @@
-//! Tone mapping and sRGB encoding. The one documented tone map of glassbake is "clamp":
+//! Luminance, tone mapping and sRGB encoding. The one documented tone map of glassbake is "clamp":
 //! linear radiance is clamped to [0, 1] and, for PNG previews, sRGB-encoded. Metrics are
 //! computed on the clamped linear values (the paper's numbers are in [0, 1] image space).
+
+use glam::Vec3;
+
+/// Rec. 709 relative luminance of linear RGB.
+pub fn luminance(c: Vec3) -> f32 {
+    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
 
 /// The metric/preview tone map: clamp linear radiance to [0, 1]. NaN maps to 0.
 pub fn tonemap_clamp(v: f32) -> f32 {

@@ -149,9 +149,6 @@ impl DatasetStore {
     fn remove_stale_temp_files(&self) -> Result<()> {
         for sub in FRAME_DIRS {
             let d = self.dir.join(sub);
-            if !d.is_dir() {
-                continue;
-            }
             for entry in std::fs::read_dir(&d).map_err(|e| Error::io(&d, e))? {
                 let entry = entry.map_err(|e| Error::io(&d, e))?;
                 let name = entry.file_name().to_string_lossy().to_string();

@@ -4,6 +4,8 @@
 //! glass), so a scene whose glass stands in front of plain walls cannot show it.
 
 use glassbake_core::layout::{opaque, transparent};
+use glam::Vec3;
+use glassbake_core::color::luminance;
 use glassbake_core::PlanarImage;
 
 use crate::FrameBuffers;
@@ -45,10 +47,10 @@ impl DetailBehindGlass {
     }
 }
 
-/// Rec. 709 luminance of the opaque albedo, per pixel.
+/// Luminance of the opaque albedo, per pixel.
 fn albedo_luminance(opaque_buffer: &PlanarImage) -> Vec<f32> {
     let [r, g, b] = [0, 1, 2].map(|c| opaque_buffer.plane(opaque::ALBEDO + c));
-    r.iter().zip(g).zip(b).map(|((r, g), b)| 0.2126 * r + 0.7152 * g + 0.0722 * b).collect()
+    r.iter().zip(g).zip(b).map(|((&r, &g), &b)| luminance(Vec3::new(r, g, b))).collect()
 }
 
 /// Counts the glass pixels of `frame` and those with albedo contrast behind them.

@@ -88,10 +88,7 @@ pub fn power_heuristic(pdf_this: f32, pdf_other: f32) -> f32 {
     a / (a + b)
 }
 
-/// Rec. 709 relative luminance of linear RGB.
-pub fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
-}
+pub use glassbake_core::color::luminance;
 
 #[cfg(test)]
 mod tests {

@@ -14,7 +14,7 @@ use glassbake_eval::EvaluationSummary;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 
 use super::dataset::{make_dataset, MakeArgs};
-use super::dataset::DEFAULT_TEST_SPP_FACTOR;
+use super::dataset::default_test_spp;
 use super::eval::{evaluate, noise_floor_row, path_traced_rows, EvalArgs};
 use super::train::{train_model, Ablation, CommonTrainArgs, TrainArgs};
 
@@ -170,7 +170,7 @@ pub fn run(args: BakeArgs) -> Result<()> {
             preset.train + preset.val + preset.test,
             preset.resolution,
             preset.spp,
-            preset.spp * DEFAULT_TEST_SPP_FACTOR
+            default_test_spp(preset.spp)
         ),
         &mut || make_dataset(&make, &bar),
     )?;
