@@ -5,6 +5,7 @@ use burn::nn::conv::{Conv2d, Conv2dConfig, ConvTranspose2d, ConvTranspose2dConfi
 use burn::nn::PaddingConfig2d;
 use burn::prelude::*;
 use burn::tensor::activation::leaky_relu;
+use burn::tensor::ops::PadMode;
 
 use crate::config::{CnnConfig, PixelGeneratorConfig, RendererConfig, UNetConfig};
 
@@ -15,6 +16,42 @@ fn conv(in_channels: usize, out_channels: usize, kernel: usize, device: &Device)
     Conv2dConfig::new([in_channels, out_channels], [kernel, kernel])
         .with_padding(PaddingConfig2d::Same)
         .init(device)
+}
+
+/// `conv` applied to `x`, as matrix products where burn's flex backend is slow. burn takes a
+/// convolution's weight gradient as another convolution whose kernel is the whole image, which
+/// made the backward pass of the wide 1x1 input projections (156 channels into h, 157 into F)
+/// ~75x slower than their forward pass, and of the 3x3 layers ~9x
+/// (`cargo run --release -p glassbake-net --example train_step`). So a 1x1 convolution is
+/// computed as the matrix product over channels it is, and a stride-1 k x k convolution with
+/// "same" padding, when training, as one product over the k*k shifted copies of the input
+/// (im2col); the backward passes are then matrix products too. Without gradients burn's own
+/// k x k forward pass is faster than im2col and is kept, as are strided convolutions. The
+/// parameters are the same `Conv2d` either way, so saved models are unchanged.
+pub fn apply_conv(conv: &Conv2d, x: Tensor<4>) -> Tensor<4> {
+    let [k, k2] = conv.kernel_size;
+    let same = k == 1 || matches!(conv.padding, PaddingConfig2d::Same);
+    let training = conv.weight.val().is_require_grad();
+    if k != k2 || k % 2 == 0 || !same || (k > 1 && !training) || conv.stride != [1, 1] || conv.dilation != [1, 1] || conv.groups != 1 {
+        return conv.forward(x);
+    }
+    let [n, c, h, w] = x.dims();
+    let out = conv.weight.dims()[0];
+    let columns = if k == 1 {
+        x
+    } else {
+        let p = k / 2;
+        let padded = x.pad((p, p, p, p), PadMode::Constant(0.0));
+        let shifted = (0..k).flat_map(|dy| (0..k).map(move |dx| (dy, dx))).map(|(dy, dx)| padded.clone().narrow(2, dy, h).narrow(3, dx, w)).collect();
+        Tensor::cat(shifted, 1)
+    };
+    // [out, c, k, k] -> [out, k, k, c]: the column order of `columns` (shift-major).
+    let weight = conv.weight.val().permute([0, 2, 3, 1]).reshape([1, out, k * k * c]).expand([n, out, k * k * c]);
+    let mut y = weight.matmul(columns.reshape([n, k * k * c, h * w]));
+    if let Some(bias) = &conv.bias {
+        y = y + bias.val().reshape([1, out, 1]);
+    }
+    y.reshape([n, out, h, w])
 }
 
 /// Convolution followed by a leaky ReLU.
@@ -29,7 +66,7 @@ impl ConvAct {
     }
 
     pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
-        leaky_relu(self.conv.forward(x), LEAK)
+        leaky_relu(apply_conv(&self.conv, x), LEAK)
     }
 }
 
@@ -113,7 +150,7 @@ impl UNet {
             let skip = skips.pop().expect("one skip per decoder level");
             x = block.forward(Tensor::cat(vec![up.forward(x), skip], 1));
         }
-        self.head.forward(x)
+        apply_conv(&self.head, x)
     }
 }
 
@@ -133,7 +170,7 @@ impl PlainCnn {
 
     pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
         let x = self.layers.iter().fold(x, |x, layer| layer.forward(x));
-        self.head.forward(x)
+        apply_conv(&self.head, x)
     }
 }
 
@@ -162,7 +199,7 @@ impl Renderer {
         let x = self.large.forward(x);
         let x = self.layers.iter().fold(x, |x, layer| layer.forward(x));
         let x = self.pointwise.iter().fold(x, |x, layer| layer.forward(x));
-        self.head.forward(x)
+        apply_conv(&self.head, x)
     }
 }
 
@@ -199,7 +236,7 @@ impl PixelGenerator {
             }
             x = layer.forward(x);
         }
-        self.head.forward(x)
+        apply_conv(&self.head, x)
     }
 }
 
@@ -218,4 +255,54 @@ pub fn positional_encoding(x: Tensor<4>, frequencies: usize) -> Tensor<4> {
         parts.push(scaled.cos());
     }
     Tensor::cat(parts, 1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use burn::tensor::Distribution;
+
+    fn values(t: Tensor<4>) -> Vec<f32> {
+        t.into_data().try_to_vec::<f32>().unwrap()
+    }
+
+    /// The matrix-product paths (1x1, and 3x3 / 5x5 by im2col) against burn's own convolution:
+    /// same output, same gradients for the input, the weights and the bias.
+    #[test]
+    fn convolutions_as_matrix_products_match_burns_convolution() {
+        let device = Device::flex().autodiff();
+        device.seed(5);
+        for kernel in [1, 3, 5] {
+            let conv = conv(7, 5, kernel, &device);
+            let x = Tensor::<4>::random([3, 7, 6, 9], Distribution::Uniform(-1.0, 1.0), &device).require_grad();
+            let r = Tensor::<4>::random([3, 5, 6, 9], Distribution::Uniform(-1.0, 1.0), &device);
+            let ours = apply_conv(&conv, x.clone());
+            let reference = conv.forward(x.clone());
+            assert_eq!(ours.dims(), reference.dims());
+            let close = |a: Vec<f32>, b: Vec<f32>, what: &str| {
+                assert_eq!(a.len(), b.len());
+                for (i, (a, b)) in a.iter().zip(&b).enumerate() {
+                    assert!((a - b).abs() <= 1e-5 * (1.0 + b.abs()), "{kernel}x{kernel} {what} element {i}: {a} vs {b}");
+                }
+            };
+            close(values(ours.clone().inner()), values(reference.clone().inner()), "output");
+            let grads_ours = (ours * r.clone()).sum().backward();
+            let grads_reference = (reference * r).sum().backward();
+            close(values(x.grad(&grads_ours).unwrap()), values(x.grad(&grads_reference).unwrap()), "input gradient");
+            close(values(conv.weight.grad(&grads_ours).unwrap()), values(conv.weight.grad(&grads_reference).unwrap()), "weight gradient");
+            let bias = conv.bias.as_ref().unwrap();
+            let (b_ours, b_ref) = (bias.grad(&grads_ours).unwrap(), bias.grad(&grads_reference).unwrap());
+            close(b_ours.into_data().try_to_vec::<f32>().unwrap(), b_ref.into_data().try_to_vec::<f32>().unwrap(), "bias gradient");
+        }
+    }
+
+    /// Strided convolutions keep burn's path.
+    #[test]
+    fn strided_convolutions_are_burns() {
+        let device = Device::flex();
+        device.seed(6);
+        let conv = Conv2dConfig::new([3, 4], [3, 3]).with_stride([2, 2]).with_padding(PaddingConfig2d::Explicit(1, 1, 1, 1)).init(&device);
+        let x = Tensor::<4>::random([1, 3, 5, 5], Distribution::Uniform(-1.0, 1.0), &device);
+        assert_eq!(values(apply_conv(&conv, x.clone())), values(conv.forward(x)));
+    }
 }

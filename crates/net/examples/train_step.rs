@@ -1,0 +1,139 @@
+//! Where one CPU training step of the `quick` networks goes (issue 14, part 3): the whole step
+//! as the training loop runs it, then forward + loss, backward and the AdamW update apart, then
+//! each sub-network's forward pass and single convolutions at the shapes the step uses. Weights
+//! are random and the data synthetic, so only time is measured; `tools/torch-compare` times the
+//! same network in PyTorch on the same CPU.
+//!
+//!     cargo run --release -p glassbake-net --example train_step -- [batch] [crop] [objects]
+
+use std::time::Instant;
+
+use burn::module::Module;
+use burn::optim::{AdamWConfig, GradientsParams};
+use burn::prelude::*;
+use burn::tensor::module::{conv2d, conv_transpose2d};
+use burn::tensor::ops::{ConvOptions, ConvTransposeOptions};
+use burn::tensor::Distribution;
+use glassbake_core::layout::{OPAQUE_CHANNELS, TRANSPARENT_CHANNELS};
+use glassbake_net::blocks::positional_encoding;
+use glassbake_net::burn;
+use glassbake_net::loss::training_loss;
+use glassbake_net::{GlassNet, ModelKind, NetConfig, NetInputs};
+
+const VARIABLES: usize = 4;
+
+/// Median wall time of `runs` calls of `f` after two warm-up calls, in milliseconds.
+fn median_ms(runs: usize, mut f: impl FnMut()) -> f64 {
+    f();
+    f();
+    let mut times: Vec<f64> = (0..runs)
+        .map(|_| {
+            let start = Instant::now();
+            f();
+            start.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    times.sort_by(|a, b| a.total_cmp(b));
+    times[runs / 2]
+}
+
+/// Forces a tensor's computation (the backend may defer work until data is read).
+fn sync(t: Tensor<4>) {
+    let _ = t.sum().into_scalar::<f32>();
+}
+
+fn inputs(n: usize, side: usize, objects: usize, device: &Device) -> NetInputs {
+    let uniform = |c: usize| Tensor::<4>::random([n, c, side, side], Distribution::Uniform(0.0, 1.0), device);
+    NetInputs {
+        gbuffer: uniform(OPAQUE_CHANNELS),
+        transparent: (0..objects).map(|_| uniform(TRANSPARENT_CHANNELS)).collect(),
+        values: Tensor::random([n, VARIABLES], Distribution::Uniform(0.0, 1.0), device),
+    }
+}
+
+fn main() {
+    let args: Vec<usize> = std::env::args().skip(1).map(|a| a.parse().expect("arguments are numbers: batch crop objects")).collect();
+    let (n, side, objects) = (args.first().copied().unwrap_or(4), args.get(1).copied().unwrap_or(32), args.get(2).copied().unwrap_or(4));
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    println!("burn 0.22 flex, {threads} hardware threads; batch {n} x {side} px, {objects} transparency buffers, quick preset");
+    let runs = 15;
+
+    for kind in [ModelKind::Glassnet, ModelKind::Naive] {
+        let device = Device::flex().autodiff();
+        device.seed(1);
+        let config = NetConfig::preset("quick", kind, VARIABLES, objects).unwrap();
+        let mut model = GlassNet::new(&config, 1, &device).unwrap();
+        let params = model.num_params();
+        let batch = inputs(n, side, objects, &device);
+        let target = Tensor::<4>::random([n, 3, side, side], Distribution::Uniform(0.0, 1.0), &device);
+        let mut optimizer = AdamWConfig::new().with_weight_decay(1e-4).init();
+
+        let whole = median_ms(runs, || {
+            let loss = training_loss(model.forward(&batch), target.clone(), 1.0);
+            let _ = loss.clone().into_scalar::<f32>();
+            let gradients = GradientsParams::from_grads(loss.backward(), &model);
+            model = optimizer.step(1e-4, model.clone(), gradients);
+        });
+        let forward = median_ms(runs, || {
+            let loss = training_loss(model.forward(&batch), target.clone(), 1.0);
+            let _ = loss.into_scalar::<f32>();
+        });
+        let forward_backward = median_ms(runs, || {
+            let loss = training_loss(model.forward(&batch), target.clone(), 1.0);
+            let _ = GradientsParams::from_grads(loss.backward(), &model);
+        });
+        let pixels_per_s = (n * side * side) as f64 / (whole / 1e3);
+        println!(
+            "{:<8} {params:>7} params: step {whole:7.1} ms ({pixels_per_s:>6.0} px/s) = forward+loss {forward:6.1} + backward {:6.1} + AdamW/rest {:6.1}",
+            kind.name(),
+            forward_backward - forward,
+            whole - forward_backward
+        );
+
+        // Forward passes of the parts, without autodiff.
+        let valid = model.valid();
+        let inner = device.clone().inner();
+        let batch = inputs(n, side, objects, &inner);
+        let f_ms = median_ms(runs, || sync(valid.encode_scene(batch.gbuffer.clone(), batch.values.clone()).sigma));
+        let scene = valid.encode_scene(batch.gbuffer.clone(), batch.values.clone());
+        let encoding_ms = median_ms(runs, || sync(positional_encoding(batch.gbuffer.clone(), config.encoding_frequencies)));
+        let mut line = format!("         no-grad forward: positional encoding of the G-buffer {encoding_ms:.1} ms, F {f_ms:.1} ms");
+        let tau = if kind == ModelKind::Glassnet {
+            let h_ms = median_ms(runs, || sync(valid.transparency_term(&scene, batch.transparent[0].clone())));
+            line += &format!(", h {h_ms:.1} ms per object");
+            let term = valid.transparency_term(&scene, batch.transparent[0].clone());
+            Some(term)
+        } else {
+            None
+        };
+        let decode_ms = median_ms(runs, || sync(valid.decode(&scene, tau.clone())));
+        println!("{line}, B+R {decode_ms:.1} ms, whole {:.1} ms", median_ms(runs, || sync(valid.forward(&batch))));
+    }
+
+    // Single convolutions at the shapes of the quick U-Nets' top level.
+    let device = Device::flex();
+    device.seed(2);
+    let x = |c: usize, s: usize| Tensor::<4>::random([n, c, s, s], Distribution::Uniform(-1.0, 1.0), &device);
+    let w = |o: usize, i: usize, k: usize| Tensor::<4>::random([o, i, k, k], Distribution::Uniform(-0.1, 0.1), &device);
+    let shapes = [(12usize, 12usize, 3usize, side), (24, 12, 3, side), (24, 24, 3, side / 2), (48, 48, 3, side / 4), (157, 12, 1, side), (156, 12, 1, side), (15, 16, 5, side)];
+    for (cin, cout, k, s) in shapes {
+        let (input, weight) = (x(cin, s), w(cout, cin, k));
+        let padding = k / 2;
+        let opts = ConvOptions::new([1, 1], [padding, padding], [1, 1], 1);
+        let ms = median_ms(runs, || sync(conv2d(input.clone(), weight.clone(), None, opts.clone())));
+        let gflops = 2.0 * (n * cout * cin * k * k * s * s) as f64 / (ms / 1e3) / 1e9;
+        // The same convolution's backward pass: gradients for the input and the weights.
+        let grad_device = device.clone().autodiff();
+        let input_g = Tensor::<4>::random([n, cin, s, s], Distribution::Uniform(-1.0, 1.0), &grad_device).require_grad();
+        let weight_g = Tensor::<4>::random([cout, cin, k, k], Distribution::Uniform(-0.1, 0.1), &grad_device).require_grad();
+        let forward_backward = median_ms(runs, || {
+            let _ = conv2d(input_g.clone(), weight_g.clone(), None, opts.clone()).sum().backward();
+        });
+        println!("conv2d {cin:>3}->{cout:<3} {k}x{k} at {s}x{s}: forward {ms:6.2} ms ({gflops:5.2} GFLOP/s), forward+backward {forward_backward:6.2} ms");
+    }
+    let (input, weight) = (x(24, side / 2), w(24, 12, 2));
+    let opts = ConvTransposeOptions::new([2, 2], [0, 0], [0, 0], [1, 1], 1);
+    let ms = median_ms(runs, || sync(conv_transpose2d(input.clone(), weight.clone(), None, opts.clone())));
+    let gflops = 2.0 * (n * 24 * 12 * 4 * (side / 2) * (side / 2)) as f64 / (ms / 1e3) / 1e9;
+    println!("conv_transpose2d 24->12 2x2 stride 2 from {}x{}: {ms:6.2} ms ({gflops:5.2} GFLOP/s)", side / 2, side / 2);
+}
