@@ -257,7 +257,8 @@ pub struct TrainConfig {
 
 impl TrainConfig {
     pub fn preset(name: &str) -> Result<TrainConfig> {
-        // quick: 32 px crops keep a step near 0.35 s on two CPU cores (64 px frames, t = 4).
+        // quick: batch 4 of 32 px crops, ~0.27 s a GlassNet step on a slow 2-core box with 4 objects
+        // (docs/benchmarks.md, `--example train_step`).
         let base = TrainConfig {
             steps: 1500,
             batch_size: 4,
