@@ -24,15 +24,16 @@ fn conv(in_channels: usize, out_channels: usize, kernel: usize, device: &Device)
 /// ~75x slower than their forward pass, and of the 3x3 layers ~9x
 /// (`cargo run --release -p glassbake-net --example train_step`). So a 1x1 convolution is
 /// computed as the matrix product over channels it is, and a stride-1 k x k convolution with
-/// "same" padding, when training, as one product over the k*k shifted copies of the input
-/// (im2col); the backward passes are then matrix products too. Without gradients burn's own
-/// k x k forward pass is faster than im2col and is kept, as are strided convolutions. The
+/// "same" padding, when training on flex, as one product over the k*k shifted copies of the
+/// input (im2col); the backward passes are then matrix products too. Without gradients flex's
+/// own k x k forward pass is faster than im2col and is kept, as are strided convolutions; GPU
+/// backends keep their convolution kernels, where the k*k copies would only cost memory. The
 /// parameters are the same `Conv2d` either way, so saved models are unchanged.
 pub fn apply_conv(conv: &Conv2d, x: Tensor<4>) -> Tensor<4> {
     let [k, k2] = conv.kernel_size;
     let same = k == 1 || matches!(conv.padding, PaddingConfig2d::Same);
-    let training = conv.weight.val().is_require_grad();
-    if k != k2 || k % 2 == 0 || !same || (k > 1 && !training) || conv.stride != [1, 1] || conv.dilation != [1, 1] || conv.groups != 1 {
+    let training_on_flex = conv.weight.val().is_require_grad() && conv.weight.device().inner() == Device::flex();
+    if k != k2 || k % 2 == 0 || !same || (k > 1 && !training_on_flex) || conv.stride != [1, 1] || conv.dilation != [1, 1] || conv.groups != 1 {
         return conv.forward(x);
     }
     let [n, c, h, w] = x.dims();
