@@ -101,8 +101,7 @@ fn main() {
         let tau = if kind == ModelKind::Glassnet {
             let h_ms = median_ms(runs, || sync(valid.transparency_term(&scene, batch.transparent[0].clone())));
             line += &format!(", h {h_ms:.1} ms per object");
-            let term = valid.transparency_term(&scene, batch.transparent[0].clone());
-            Some(term)
+            Some(valid.transparency_term(&scene, batch.transparent[0].clone()))
         } else {
             None
         };
