@@ -92,13 +92,39 @@ fn the_exact_sum_passes_gradients_straight_through_inside_its_bound() {
     assert_eq!(g, vec![1.0, 2.0, 0.0, 4.0]);
 }
 
+/// A network with every weight random, T's last layer included: a new GlassNet starts with that
+/// layer at zero (tau = 0), which would make tests of how T combines objects vacuous.
+fn random_net(config: &NetConfig, seed: u64, device: &Device) -> GlassNet {
+    glassbake_net::init::initialize(GlassNet::new(config, seed, device).unwrap(), seed)
+}
+
+#[test]
+fn a_new_glassnet_starts_as_the_naive_network_on_the_opaque_gbuffer_and_learns_tau() {
+    let device = Device::flex();
+    device.seed(4);
+    let frames = vec![common::frame(50, 16, 2, 1)];
+    let batch = common::batch(&frames);
+    let inputs = batch.inputs(&device);
+    let mut no_glass = inputs.clone();
+    no_glass.transparent.clear();
+    let net = GlassNet::new(&NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap(), 4, &device).unwrap();
+    assert_eq!(bits(net.forward(&inputs)), bits(net.forward(&no_glass)), "tau must start at zero");
+    // ... but not stay there: the head of T gets a gradient.
+    let train_device = Device::flex().autodiff();
+    let net = GlassNet::new(&NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap(), 4, &train_device).unwrap();
+    let grads = net.forward(&batch.inputs(&train_device)).sum().backward();
+    let head = &net.transparency_encoder.as_ref().unwrap().head.weight;
+    let gradient: Vec<f32> = head.grad(&grads).expect("T's head has a gradient").into_data().try_to_vec::<f32>().unwrap();
+    assert!(gradient.iter().any(|g| g.abs() > 1e-6), "T's head gets no gradient: {gradient:?}");
+}
+
 fn permutation_exactness(device: &Device, sizes: &[usize]) {
     device.seed(5);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
     for &objects in sizes {
         let frames = vec![common::frame(100 + objects as u64, 16, objects, 1)];
         let batch = common::batch(&frames);
-        let net = GlassNet::new(&NetConfig::preset("tiny", ModelKind::Glassnet, 1, objects).unwrap(), 5, device).unwrap();
+        let net = random_net(&NetConfig::preset("tiny", ModelKind::Glassnet, 1, objects).unwrap(), 5, device);
         let mut inputs = batch.inputs(device);
         let reference = bits(net.forward(&inputs));
         for _ in 0..4 {
@@ -107,6 +133,31 @@ fn permutation_exactness(device: &Device, sizes: &[usize]) {
         }
         inputs.transparent.reverse();
         assert_eq!(bits(net.forward(&inputs)), reference, "t = {objects}: reversing changed the output");
+    }
+}
+
+#[test]
+fn an_object_that_covers_no_pixel_adds_nothing_when_terms_are_masked() {
+    let device = Device::flex();
+    device.seed(8);
+    let frames = vec![common::frame(40, 16, 3, 1)];
+    let batch = common::batch(&frames);
+    let mut inputs = batch.inputs(&device);
+    // Object 2 keeps its other attributes but covers no pixel.
+    let coverage = glassbake_core::layout::transparent::COVERAGE;
+    let hidden = inputs.transparent[2].clone();
+    let [n, c, h, w] = hidden.dims();
+    let hidden = hidden.slice_assign([0..n, coverage..coverage + 1, 0..h, 0..w], Tensor::zeros([n, 1, h, w], &device));
+    inputs.transparent[2] = hidden;
+    let mut without = inputs.clone();
+    without.transparent.truncate(2);
+    assert_eq!(c, glassbake_core::layout::TRANSPARENT_CHANNELS);
+    for masked in [true, false] {
+        let config = NetConfig { terms_masked_by_coverage: masked, ..NetConfig::preset("tiny", ModelKind::Glassnet, 1, 3).unwrap() };
+        let net = random_net(&config, 6, &device);
+        let same = bits(net.forward(&inputs)) == bits(net.forward(&without));
+        // Unmasked, h of the empty buffer still adds a term that depends on sigma.
+        assert_eq!(same, masked, "masked = {masked}");
     }
 }
 
@@ -152,7 +203,7 @@ fn the_concat_baseline_depends_on_object_order() {
     let device = Device::flex();
     device.seed(5);
     let batch = common::batch(&[common::frame(7, 16, 3, 1)]);
-    let net = GlassNet::new(&NetConfig::preset("tiny", ModelKind::Concat, 1, 3).unwrap(), 5, &device).unwrap();
+    let net = random_net(&NetConfig::preset("tiny", ModelKind::Concat, 1, 3).unwrap(), 5, &device);
     let mut inputs = batch.inputs(&device);
     let reference = bits(net.forward(&inputs));
     inputs.transparent.reverse();
