@@ -268,9 +268,10 @@ pub struct TrainConfig {
 impl TrainConfig {
     pub fn preset(name: &str) -> Result<TrainConfig> {
         // quick: batch 4 of 32 px crops, ~0.27 s a GlassNet step on a slow 2-core box with 4 objects
-        // (docs/benchmarks.md, `--example train_step`).
+        // (docs/benchmarks.md, `--example train_step`); 2,000 steps of GlassNet and naive keep
+        // the default cornellbox bake under 30 minutes on that box.
         let base = TrainConfig {
-            steps: 1500,
+            steps: 2000,
             batch_size: 4,
             crop: Some(32),
             learning_rate: 2e-3,
