@@ -18,7 +18,8 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
-OPAQUE, TRANSPARENT = 17, 16
+# Channels of glassbake_core::layout (OPAQUE_CHANNELS, TRANSPARENT_CHANNELS).
+OPAQUE, TRANSPARENT = 17, 19
 LEAK = 0.1
 
 

@@ -29,8 +29,16 @@ pub const OPAQUE_ATTRIBUTES: [Attribute; 7] = [
     Attribute { name: "Ld", components: RGB },
 ];
 
-/// One transparency buffer (only its object drawn, front-most surface): 16 channels.
-pub const TRANSPARENT_ATTRIBUTES: [Attribute; 8] = [
+/// One transparency buffer (only its object drawn, front-most surface): 19 channels.
+///
+/// `Ld` is the direct light the transparent surface itself reflects (glass: the specular
+/// highlight of each light, LTC GGX with the surface's roughness and F0 0.04), computed as
+/// the opaque G-buffer's. The paper lists no L_d in a transparency buffer, but its naive
+/// baseline reads L_d at the glass surface in its G-buffer; without it GlassNet had to
+/// infer highlights from normals alone and missed them: 34 highlight pixels of 40,370
+/// transparent pixels cost it 1.8 dB T.PSNR on the default cornellbox bake
+/// (docs/benchmarks.md, 2026-11-24).
+pub const TRANSPARENT_ATTRIBUTES: [Attribute; 9] = [
     Attribute { name: "normal", components: XYZ },
     Attribute { name: "position", components: XYZ },
     Attribute { name: "albedo", components: RGB },
@@ -39,10 +47,11 @@ pub const TRANSPARENT_ATTRIBUTES: [Attribute; 8] = [
     Attribute { name: "depth", components: SCALAR },
     Attribute { name: "relative_depth", components: SCALAR },
     Attribute { name: "coverage", components: SCALAR },
+    Attribute { name: "Ld", components: RGB },
 ];
 
 pub const OPAQUE_CHANNELS: usize = 17;
-pub const TRANSPARENT_CHANNELS: usize = 16;
+pub const TRANSPARENT_CHANNELS: usize = 19;
 
 /// Channel offsets within the opaque (and naive) G-buffer.
 pub mod opaque {
@@ -65,6 +74,7 @@ pub mod transparent {
     pub const DEPTH: usize = 13;
     pub const RELATIVE_DEPTH: usize = 14;
     pub const COVERAGE: usize = 15;
+    pub const LD: usize = 16;
 }
 
 /// EXR layer of the opaque G-buffer.
@@ -129,6 +139,8 @@ mod tests {
         assert_eq!(offset_of(t, "depth"), transparent::DEPTH);
         assert_eq!(offset_of(t, "relative_depth"), transparent::RELATIVE_DEPTH);
         assert_eq!(offset_of(t, "coverage"), transparent::COVERAGE);
+        assert_eq!(offset_of(t, "Ld"), transparent::LD);
+        assert_eq!(transparent_channel_names(1)[18], "transparent.1.Ld.B");
         assert_eq!(transparent_channel_names(2)[14], "transparent.2.relative_depth.Y");
         assert_eq!(opaque_channel_names()[14], "opaque.Ld.R");
     }

@@ -8,7 +8,9 @@ use glassbake_core::{Camera, Error, Result};
 use glassbake_scene::Scene;
 use serde::{Deserialize, Serialize};
 
-pub const FORMAT_VERSION: u32 = 1;
+/// 2: transparency buffers gained `Ld` (19 channels). A version-1 dataset is still read: its
+/// ground truth is good, and its cached buffers, which lack `Ld`, are rasterized again.
+pub const FORMAT_VERSION: u32 = 2;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -211,6 +213,12 @@ impl DatasetManifest {
             },
             samples,
         }
+    }
+
+    /// Whether training and evaluation read the cached buffer files. A version-1 dataset's
+    /// cached transparency buffers lack `Ld`, so its buffers are rasterized on demand instead.
+    pub fn reads_cached_buffers(&self) -> bool {
+        self.spec.cache_buffers && self.format_version >= 2
     }
 
     /// Why `self` (on disk) and `other` (asked for now) are not the same dataset, if they

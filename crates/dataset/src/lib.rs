@@ -13,7 +13,7 @@ pub mod loader;
 pub mod merge;
 pub mod store;
 
-pub use format::{DatasetManifest, DatasetSpec, SampleRecord, Split, TraceDevice};
+pub use format::{DatasetManifest, DatasetSpec, SampleRecord, Split, TraceDevice, FORMAT_VERSION};
 pub use generate::{generate, GenerateOptions, GenerateProgress, GenerateSummary, ShardSpec};
 pub use loader::{Example, Loader, LoaderOptions};
 pub use merge::merge;

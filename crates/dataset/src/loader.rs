@@ -118,7 +118,7 @@ fn load_example(shared: &Shared, rasterizer: &mut Option<Rasterizer>, job: Job) 
         .ok_or_else(|| Error::bad_input(store.dir.join("manifest.json").display(), "samples", format!("no sample {}", job.index)))?;
     let res = manifest.spec.resolution;
     let t = manifest.scene.transparent_objects.len();
-    let (opaque, naive, transparent_buffers) = if manifest.spec.cache_buffers {
+    let (opaque, naive, transparent_buffers) = if manifest.reads_cached_buffers() {
         let all = PlanarImage::read_exr(&store.buffers_path(job.index))?;
         let opaque = all.select(&layout::opaque_channel_names())?;
         let naive = if shared.options.naive { Some(all.select(&layout::naive_channel_names())?) } else { None };
@@ -191,9 +191,9 @@ impl Loader {
         if options.batch_size == 0 || options.workers == 0 {
             return Err(Error::bad_input("loader", "batch_size/workers", "must be at least 1"));
         }
-        if !store.manifest.spec.cache_buffers {
+        if !store.manifest.reads_cached_buffers() {
             let scene = scene.as_ref().ok_or_else(|| {
-                Error::bad_input(dir.display(), "scene", "the dataset has no cached buffers, so its scene is needed to rasterize them")
+                Error::bad_input(dir.display(), "scene", "the dataset has no cached buffers (or, made by an older glassbake, none with transparent Ld), so its scene is needed to rasterize them")
             })?;
             if scene.content_hash() != store.manifest.scene.hash {
                 return Err(Error::bad_input(dir.display(), "scene", format!("scene {} is not the one this dataset was made from", scene.name)));

@@ -7,7 +7,7 @@ use glassbake_core::image::write_bytes_atomically;
 use glassbake_core::layout;
 use glassbake_core::{Error, PlanarImage, Result};
 
-use crate::format::{DatasetManifest, Split, TraceDevice};
+use crate::format::{DatasetManifest, Split, TraceDevice, FORMAT_VERSION};
 
 pub const MANIFEST_FILE: &str = "manifest.json";
 
@@ -81,6 +81,13 @@ pub fn read_manifest(dir: &Path) -> Result<DatasetManifest> {
     let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
     let manifest: DatasetManifest =
         serde_json::from_slice(&bytes).map_err(|e| Error::bad_input(path.display(), format!("line {}", e.line()), e.to_string()))?;
+    if manifest.format_version == 0 || manifest.format_version > FORMAT_VERSION {
+        return Err(Error::bad_input(
+            path.display(),
+            "format_version",
+            format!("{} is not a version this glassbake reads (1 to {FORMAT_VERSION}); it was made by a newer glassbake", manifest.format_version),
+        ));
+    }
     if let Some((i, _)) = manifest.samples.iter().enumerate().find(|(i, s)| s.index != *i as u64) {
         return Err(Error::bad_input(path.display(), format!("samples[{i}].index"), "samples must be listed in index order from 0"));
     }

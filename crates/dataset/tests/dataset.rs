@@ -248,6 +248,47 @@ fn loader_batches_crops_and_matches_rasterizing_again() {
     }
 }
 
+/// Rewrites the `format_version` of the dataset manifest in `dir`.
+fn set_format_version(dir: &Path, version: u32) {
+    let path = dir.join("manifest.json");
+    let mut manifest: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    manifest["format_version"] = version.into();
+    std::fs::write(&path, serde_json::to_vec_pretty(&manifest).unwrap()).unwrap();
+}
+
+#[test]
+fn a_dataset_of_the_previous_format_has_its_buffers_rasterized_again() {
+    let scene = builtin("cornell-glass").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("set");
+    generate(&scene, &spec(6), &d, &GenerateOptions::default(), &no_progress).unwrap();
+    let options = LoaderOptions { batch_size: 4, seed: 1, workers: 1, ..Default::default() };
+    let current: Vec<_> = Loader::new(&d, None, options.clone()).unwrap().epoch(0).unwrap().into_iter().flatten().collect();
+
+    // Version 1 cached transparency buffers without L_d: they must not be read at all.
+    set_format_version(&d, 1);
+    for entry in std::fs::read_dir(d.join("buffers")).unwrap().flatten() {
+        std::fs::remove_file(entry.path()).unwrap();
+    }
+    let store = DatasetStore::open(&d).unwrap();
+    assert!(store.manifest.spec.cache_buffers && !store.manifest.reads_cached_buffers());
+    let err = Loader::new(&d, None, options.clone()).err().expect("the scene is required").to_string();
+    assert!(err.contains("scene"), "{err}");
+    let old: Vec<_> = Loader::new(&d, Some(scene.clone()), options).unwrap().epoch(0).unwrap().into_iter().flatten().collect();
+    assert_eq!(old.len(), current.len());
+    for (a, b) in old.iter().zip(&current) {
+        assert_eq!((a.index, &a.ground_truth), (b.index, &b.ground_truth));
+        for (x, y) in a.transparent[0].data().iter().zip(b.transparent[0].data()) {
+            assert!((x - y).abs() <= 2e-3 * x.abs().max(1.0), "{x} vs {y} (f16 cache)");
+        }
+    }
+
+    // A newer format than this build knows is refused, naming the field.
+    set_format_version(&d, glassbake_dataset::FORMAT_VERSION + 1);
+    let err = DatasetStore::open(&d).err().expect("refused").to_string();
+    assert!(err.contains("format_version") && err.contains("newer"), "{err}");
+}
+
 #[test]
 fn two_writers_never_share_a_dataset_directory() {
     let scene = builtin("cornell-glass").unwrap();

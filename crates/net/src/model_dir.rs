@@ -13,11 +13,14 @@ use serde::{Deserialize, Serialize};
 use glassbake_core::image::write_bytes_atomically;
 use glassbake_core::{Error, Result};
 
-use crate::config::{NetConfig, TrainConfig};
+use crate::config::{ModelKind, NetConfig, TrainConfig};
 use crate::super_sampler::SuperSamplerConfig;
 
 pub const CONFIG_FILE: &str = "config.json";
-pub const FORMAT_VERSION: u32 = 1;
+/// 2: transparency buffers gained `Ld` (19 channels). Version-1 networks that read no
+/// transparency buffer (naive, pixelgen, the super-sampler) still load; GlassNet and concat
+/// ones must be retrained.
+pub const FORMAT_VERSION: u32 = 2;
 
 /// The network a directory holds.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -111,10 +114,17 @@ impl ModelFiles {
 fn read_config(path: &Path) -> Result<ModelConfig> {
     let text = fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let config: ModelConfig = serde_json::from_str(&text).map_err(|e| Error::bad_input(path.display(), "config", e.to_string()))?;
-    if config.format_version != FORMAT_VERSION {
-        return Err(Error::bad_input(path.display(), "format_version", format!("{} is not {FORMAT_VERSION}", config.format_version)));
+    let reads_transparency_buffers = matches!(&config.network, Network::Glassnet(n) if matches!(n.model, ModelKind::Glassnet | ModelKind::Concat));
+    match config.format_version {
+        FORMAT_VERSION => Ok(config),
+        1 if !reads_transparency_buffers => Ok(config),
+        1 => Err(Error::bad_input(
+            path.display(),
+            "format_version",
+            "1: trained on 16-channel transparency buffers, before they gained Ld; retrain it with `glassbake train`",
+        )),
+        other => Err(Error::bad_input(path.display(), "format_version", format!("{other} is not a version this glassbake reads (1 to {FORMAT_VERSION})"))),
     }
-    Ok(config)
 }
 
 /// Writes the weights as SafeTensors with PyTorch names, atomically.

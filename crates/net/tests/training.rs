@@ -27,11 +27,11 @@ fn model(net: &NetConfig, seed: u64) -> (GlassNet, Device) {
     (GlassNet::new(net, seed, &device).unwrap(), device)
 }
 
-/// Trains a tiny `kind` for 300 steps on one frame; returns the first loss and the mean of
+/// Trains a tiny `kind` for 500 steps on one frame; returns the first loss and the mean of
 /// the last ten.
 fn overfit_one_frame(kind: ModelKind, objects: usize) -> (f64, f64) {
     let net = NetConfig::preset("tiny", kind, 1, objects).unwrap();
-    let config = TrainConfig { steps: 300, batch_size: 1, learning_rate: 1e-2, warmup_steps: 10, validate_every: 300, checkpoint_every: 300, ..TrainConfig::preset("tiny").unwrap() };
+    let config = TrainConfig { steps: 500, batch_size: 1, learning_rate: 1e-2, warmup_steps: 10, validate_every: 500, checkpoint_every: 500, ..TrainConfig::preset("tiny").unwrap() };
     let mut data = common::SyntheticData { frames: vec![common::frame(42, 16, objects, 1)], batch_size: 1, seed: 0, poison_from_epoch: None };
     let dir = tempfile::tempdir().unwrap();
     let files = files(dir.path(), &net, &config);

@@ -5,7 +5,8 @@
 //   1: position.xyz (world), depth (Euclidean distance to the camera)
 //   2: albedo.rgb (linear, textured), coverage (1 where drawn)
 //   3: w_o.xyz (unit, towards the camera), relative depth (transparency pass only, else 0)
-//   4: L_d.rgb (direct light incl. emission), 0        (G-buffer passes only)
+//   4: L_d.rgb (direct light incl. emission; in the transparency pass the light the
+//      transparent surface reflects), 0
 // The host unpacks these into the planar channel order of glassbake_core::layout.
 
 const PI: f32 = 3.14159265358979;
@@ -350,6 +351,7 @@ struct TransparencyOut {
     @location(1) position_depth: vec4<f32>,
     @location(2) albedo_coverage: vec4<f32>,
     @location(3) wo_relative_depth: vec4<f32>,
+    @location(4) direct_light: vec4<f32>,
 };
 
 @fragment
@@ -369,5 +371,6 @@ fn fs_transparency(in: VsOut) -> TransparencyOut {
     out.position_depth = vec4<f32>(s.position, s.depth);
     out.albedo_coverage = vec4<f32>(s.albedo, 1.0);
     out.wo_relative_depth = vec4<f32>(s.wo, relative);
+    out.direct_light = vec4<f32>(direct_light(s, object.emission.w, object.params.x) + object.emission.rgb, 0.0);
     return out;
 }

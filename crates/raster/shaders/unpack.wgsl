@@ -9,7 +9,7 @@ struct Params {
     base: u32,
     entries: u32,
     // Per entry: first channel in the layout, channel count, target, first component.
-    map: array<vec4<u32>, 8>,
+    map: array<vec4<u32>, 9>,
 }
 
 @group(0) @binding(0) var target0: texture_2d<f32>;

@@ -14,7 +14,7 @@ pub const MAX_RESOLUTION: u32 = 8192;
 
 const TARGET_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-const TRANSPARENCY_TARGETS: u32 = 4;
+const TRANSPARENCY_TARGETS: u32 = 5;
 /// Bytes reserved per object in the per-frame uniform buffer (>= every device's
 /// `min_uniform_buffer_offset_alignment`).
 const OBJECT_STRIDE: u64 = 256;
@@ -36,7 +36,7 @@ const OPAQUE_MAP: [(usize, usize, u32, u32); 7] = [
     (opaque::LD, 3, 4, 0),
 ];
 
-const TRANSPARENT_MAP: [(usize, usize, u32, u32); 8] = [
+const TRANSPARENT_MAP: [(usize, usize, u32, u32); 9] = [
     (transparent::NORMAL, 3, 0, 0),
     (transparent::ROUGHNESS, 1, 0, 3),
     (transparent::POSITION, 3, 1, 0),
@@ -45,6 +45,7 @@ const TRANSPARENT_MAP: [(usize, usize, u32, u32); 8] = [
     (transparent::COVERAGE, 1, 2, 3),
     (transparent::WO, 3, 3, 0),
     (transparent::RELATIVE_DEPTH, 1, 3, 3),
+    (transparent::LD, 3, 4, 0),
 ];
 
 #[repr(C)]
@@ -1043,7 +1044,7 @@ impl Frame<'_> {
         Ok(())
     }
 
-    /// Render transparency buffer `k` and read it back into `planes`: 16 planes of
+    /// Render transparency buffer `k` and read it back into `planes`: `layout::TRANSPARENT_CHANNELS` planes of
     /// width x height f32 in the channel order of `layout::transparent_channel_names`
     /// (planar, row 0 at the top). The streaming path for the network: the caller keeps one
     /// buffer and the GPU one set of targets, whatever the number of objects.
@@ -1068,7 +1069,7 @@ impl Frame<'_> {
         Ok(())
     }
 
-    /// Render transparency buffer `k` and write it into `out` from `byte_offset` on as 16 f32
+    /// Render transparency buffer `k` and write it into `out` from `byte_offset` on as `layout::TRANSPARENT_CHANNELS` f32
     /// planes (`layout::transparent_channel_names(k)` order), on the GPU, in one submission.
     pub fn transparent_to_buffer(&mut self, k: usize, out: &wgpu::Buffer, byte_offset: u64) -> Result<()> {
         if k >= self.transparent_count() {

@@ -5,8 +5,9 @@
 
 use glassbake_core::{Error, Result};
 
-/// Most entries a channel map has (the transparency buffer's 8 attributes).
-const MAX_ENTRIES: usize = 8;
+/// Most entries a channel map has (the transparency buffer's 9 attributes; `map` in
+/// unpack.wgsl has the same length).
+const MAX_ENTRIES: usize = 9;
 /// Colour targets bound (the G-buffer's 5; sets with fewer bind their first one again).
 const BOUND_TARGETS: usize = 5;
 
@@ -83,6 +84,9 @@ impl Unpacker {
         byte_offset: u64,
     ) -> Result<()> {
         use wgpu::util::DeviceExt;
+        if map.len() > MAX_ENTRIES {
+            return Err(Error::Internal(format!("a channel map of {} entries; the unpack shader takes at most {MAX_ENTRIES}", map.len())));
+        }
         let needed = byte_offset + (channels as u64) * (width as u64) * (height as u64) * 4;
         if !byte_offset.is_multiple_of(4) || needed > out.size() {
             return Err(Error::Internal(format!("unpacking {channels} planes of {width}x{height} at byte {byte_offset} into a buffer of {} bytes", out.size())));

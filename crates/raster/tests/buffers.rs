@@ -100,7 +100,7 @@ fn every_channel_of_every_buffer_matches_a_ray_cast() {
 
     let mut checked = 0;
     let (mut max_pos, mut max_dir) = (0.0f32, 0.0f32);
-    let (mut wall, mut lit) = (0, 0);
+    let (mut wall, mut lit, mut glass_lit) = (0, 0, 0);
     let mut counts = [0usize; 4]; // glass 0 drawn, glass 1 drawn, glass 1 without opaque behind, occluded glass
     for y in 0..H {
         for x in 0..W {
@@ -181,6 +181,15 @@ fn every_channel_of_every_buffer_matches_a_ray_cast() {
                         };
                         check("relative depth", im.get(transparent::RELATIVE_DEPTH, x, y), relative, POS_TOL, x, y, &mut max_pos);
                         assert_eq!(im.get(transparent::COVERAGE, x, y), 1.0, "coverage at ({x}, {y})");
+                        // L_d: the light the glass surface reflects, the same as the naive
+                        // G-buffer's where that surface is the front-most one.
+                        if nearest(&quads, ray.origin, ray.direction, |_| true).map(|(i, _)| i) == Some(qi) {
+                            for c in 0..3 {
+                                let (got, want) = (im.get(transparent::LD + c, x, y), b.naive.get(opaque::LD + c, x, y));
+                                check("L_d", got, want, 1e-5 * want.max(1.0), x, y, &mut 0.0);
+                            }
+                            glass_lit += (im.get(transparent::LD, x, y) > 0.0) as usize;
+                        }
                     }
                 }
             }
@@ -191,6 +200,7 @@ fn every_channel_of_every_buffer_matches_a_ray_cast() {
     assert!(checked > (W * H * 8 / 10) as usize);
     assert!(counts.iter().all(|&n| n > 0), "{counts:?}");
     assert!(lit * 10 > wall * 9, "{lit} of {wall} wall pixels lit");
+    assert!(glass_lit > 0, "no glass pixel reflects the light: the L_d check compared only zeros");
 }
 
 #[test]

@@ -160,7 +160,7 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
     let lpips = args.lpips_weights.as_deref().map(Lpips::load).transpose()?;
     let needs_naive = args.path_traced_baseline.is_some() || models.iter().any(|m| m.kind().reads_naive_gbuffer());
     // The scene: to rasterize uncached buffers (the loader checks it then) and to path trace.
-    let scene = if !store.manifest.spec.cache_buffers || args.path_traced_baseline.is_some() { Some(glassbake_scene::load_scene(&store.manifest.spec.scene)?) } else { None };
+    let scene = if !store.manifest.reads_cached_buffers() || args.path_traced_baseline.is_some() { Some(glassbake_scene::load_scene(&store.manifest.spec.scene)?) } else { None };
     if let (Some(scene), Some(spp)) = (&scene, args.path_traced_baseline) {
         if scene.content_hash() != store.manifest.scene.hash {
             return Err(Error::bad_input(
@@ -174,7 +174,7 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
     }
     let noise_floor = noise_floor_row(&store.manifest.spec, split);
     names.extend(noise_floor.clone());
-    let loader_scene = if store.manifest.spec.cache_buffers { None } else { scene.clone() };
+    let loader_scene = if store.manifest.reads_cached_buffers() { None } else { scene.clone() };
     let mut loader = Loader::new(dataset, loader_scene, LoaderOptions { split, batch_size: 1, crop: None, seed: 0, shuffle: false, workers: args.workers, naive: needs_naive, ..Default::default() })?;
     let total = args.frames.unwrap_or(usize::MAX).min(loader.len());
     let mut evaluation = Evaluation::new(&args.out, names.clone(), lpips, dataset.display().to_string(), args.split.to_lowercase())?;

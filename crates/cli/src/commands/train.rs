@@ -133,7 +133,7 @@ fn open_dataset(dir: &Path) -> Result<(DatasetStore, Option<glassbake_scene::Sce
             return Err(Error::bad_input(dir.display(), "frames", format!("{split:?} split is incomplete ({done}/{planned}); finish it by re-running `glassbake dataset`")).into());
         }
     }
-    let scene = if store.manifest.spec.cache_buffers { None } else { Some(load_scene(&store.manifest.spec.scene)?) };
+    let scene = if store.manifest.reads_cached_buffers() { None } else { Some(load_scene(&store.manifest.spec.scene)?) };
     Ok((store, scene))
 }
 
