@@ -316,6 +316,13 @@ fn direct_light(s: Surface, metallic: f32, transmission: f32) -> vec3<f32> {
     return total;
 }
 
+// L_d of a drawn surface of the current object: the lights it reflects plus its emission
+// (emissive meshes emit from both sides). One function for the G-buffer and transparency
+// passes, so a transparency buffer's L_d is the naive G-buffer's at the same surface.
+fn surface_light(s: Surface) -> vec3<f32> {
+    return direct_light(s, object.emission.w, object.params.x) + object.emission.rgb;
+}
+
 struct GBufferOut {
     @location(0) normal_roughness: vec4<f32>,
     @location(1) position_depth: vec4<f32>,
@@ -334,8 +341,7 @@ fn fs_gbuffer(in: VsOut) -> GBufferOut {
             ld = object.emission.rgb;
         }
     } else {
-        // Emissive meshes emit from both sides.
-        ld = direct_light(s, object.emission.w, object.params.x) + object.emission.rgb;
+        ld = surface_light(s);
     }
     var out: GBufferOut;
     out.normal_roughness = vec4<f32>(s.normal, s.roughness);
@@ -371,6 +377,6 @@ fn fs_transparency(in: VsOut) -> TransparencyOut {
     out.position_depth = vec4<f32>(s.position, s.depth);
     out.albedo_coverage = vec4<f32>(s.albedo, 1.0);
     out.wo_relative_depth = vec4<f32>(s.wo, relative);
-    out.direct_light = vec4<f32>(direct_light(s, object.emission.w, object.params.x) + object.emission.rgb, 0.0);
+    out.direct_light = vec4<f32>(surface_light(s), 0.0);
     return out;
 }
