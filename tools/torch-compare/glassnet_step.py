@@ -19,7 +19,7 @@ import torch.nn as nn
 import torch.nn.functional as F
 
 # Channels of glassbake_core::layout (OPAQUE_CHANNELS, TRANSPARENT_CHANNELS).
-OPAQUE, TRANSPARENT = 17, 19
+OPAQUE, TRANSPARENT = 17, 22
 LEAK = 0.1
 
 

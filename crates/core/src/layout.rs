@@ -29,7 +29,7 @@ pub const OPAQUE_ATTRIBUTES: [Attribute; 7] = [
     Attribute { name: "Ld", components: RGB },
 ];
 
-/// One transparency buffer (only its object drawn, front-most surface): 19 channels.
+/// One transparency buffer (only its object drawn, front-most surface): 22 channels.
 ///
 /// `Ld` is the direct light the transparent surface itself reflects (glass: the specular
 /// highlight of each light, LTC GGX with the surface's roughness and F0 0.04), computed as
@@ -38,7 +38,14 @@ pub const OPAQUE_ATTRIBUTES: [Attribute; 7] = [
 /// infer highlights from normals alone and missed them: 34 highlight pixels of 40,370
 /// transparent pixels cost it 1.8 dB T.PSNR on the default cornellbox bake
 /// (docs/benchmarks.md, 2026-11-24).
-pub const TRANSPARENT_ATTRIBUTES: [Attribute; 9] = [
+///
+/// `Ld_far` is the same light at the object's farthest surface in front of the opaque scene
+/// (a second depth pass, "greater"): a thin-walled globe or box reflects each light twice,
+/// in its near wall and in the inside of its far wall, which the camera sees through the
+/// near wall. Those second highlights were 41% of GlassNet's squared error on the transparent
+/// pixels of four cornellbox test frames (docs/benchmarks.md, 2026-11-25). For a single pane
+/// (one surface) it equals `Ld`.
+pub const TRANSPARENT_ATTRIBUTES: [Attribute; 10] = [
     Attribute { name: "normal", components: XYZ },
     Attribute { name: "position", components: XYZ },
     Attribute { name: "albedo", components: RGB },
@@ -48,10 +55,11 @@ pub const TRANSPARENT_ATTRIBUTES: [Attribute; 9] = [
     Attribute { name: "relative_depth", components: SCALAR },
     Attribute { name: "coverage", components: SCALAR },
     Attribute { name: "Ld", components: RGB },
+    Attribute { name: "Ld_far", components: RGB },
 ];
 
 pub const OPAQUE_CHANNELS: usize = 17;
-pub const TRANSPARENT_CHANNELS: usize = 19;
+pub const TRANSPARENT_CHANNELS: usize = 22;
 
 /// Channel offsets within the opaque (and naive) G-buffer.
 pub mod opaque {
@@ -75,6 +83,7 @@ pub mod transparent {
     pub const RELATIVE_DEPTH: usize = 14;
     pub const COVERAGE: usize = 15;
     pub const LD: usize = 16;
+    pub const LD_FAR: usize = 19;
 }
 
 /// EXR layer of the opaque G-buffer.
@@ -140,6 +149,8 @@ mod tests {
         assert_eq!(offset_of(t, "relative_depth"), transparent::RELATIVE_DEPTH);
         assert_eq!(offset_of(t, "coverage"), transparent::COVERAGE);
         assert_eq!(offset_of(t, "Ld"), transparent::LD);
+        assert_eq!(offset_of(t, "Ld_far"), transparent::LD_FAR);
+        assert_eq!(transparent_channel_names(0)[21], "transparent.0.Ld_far.B");
         assert_eq!(transparent_channel_names(1)[18], "transparent.1.Ld.B");
         assert_eq!(transparent_channel_names(2)[14], "transparent.2.relative_depth.Y");
         assert_eq!(opaque_channel_names()[14], "opaque.Ld.R");

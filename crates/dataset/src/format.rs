@@ -8,9 +8,10 @@ use glassbake_core::{Camera, Error, Result};
 use glassbake_scene::Scene;
 use serde::{Deserialize, Serialize};
 
-/// 2: transparency buffers gained `Ld` (19 channels). A version-1 dataset is still read: its
-/// ground truth is good, and its cached buffers, which lack `Ld`, are rasterized again.
-pub const FORMAT_VERSION: u32 = 2;
+/// 2: transparency buffers gained `Ld` (19 channels). 3: they gained `Ld_far` (22 channels),
+/// and smooth surfaces' `Ld` is averaged over the pixel. An older dataset is still read: its
+/// ground truth is good, and its cached buffers, which are not today's, are rasterized again.
+pub const FORMAT_VERSION: u32 = 3;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -215,10 +216,11 @@ impl DatasetManifest {
         }
     }
 
-    /// Whether training and evaluation read the cached buffer files. A version-1 dataset's
-    /// cached transparency buffers lack `Ld`, so its buffers are rasterized on demand instead.
+    /// Whether training and evaluation read the cached buffer files. An older dataset's
+    /// cached buffers lack channels or hold an older `Ld`, so its buffers are rasterized on
+    /// demand instead.
     pub fn reads_cached_buffers(&self) -> bool {
-        self.spec.cache_buffers && self.format_version >= 2
+        self.spec.cache_buffers && self.format_version == FORMAT_VERSION
     }
 
     /// Why `self` (on disk) and `other` (asked for now) are not the same dataset, if they

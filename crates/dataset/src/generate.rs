@@ -181,6 +181,55 @@ pub fn generate(scene: &Scene, spec: &DatasetSpec, dir: &Path, options: &Generat
     Ok(summary)
 }
 
+/// What [`upgrade`] did.
+#[derive(Clone, Debug, Default)]
+pub struct UpgradeSummary {
+    /// The format the dataset had.
+    pub from_version: u32,
+    /// Frames whose cached buffers were rasterized again.
+    pub rasterized: u64,
+    pub elapsed: Duration,
+}
+
+/// Bring a dataset of an older format to [`crate::FORMAT_VERSION`] in place: its ground truth
+/// (the expensive part) is kept, the cached buffers of its finished frames are rasterized again
+/// from `scene`, and the manifest is rewritten last, so an interrupted upgrade leaves the old
+/// format, whose cached buffers are never read, and can be run again. Refused if `scene` is
+/// not the scene the dataset was made from. `progress(done, total)` counts frames.
+pub fn upgrade(dir: &Path, scene: &Scene, options: &RasterizerOptions, progress: &dyn Fn(u64, u64)) -> Result<UpgradeSummary> {
+    let start = Instant::now();
+    let existing = crate::store::read_manifest(dir)?;
+    let mut summary = UpgradeSummary { from_version: existing.format_version, ..Default::default() };
+    if existing.format_version == crate::FORMAT_VERSION {
+        return Ok(summary);
+    }
+    let planned = DatasetManifest::plan(&existing.spec, scene);
+    let mut as_today = existing.clone();
+    as_today.format_version = crate::FORMAT_VERSION;
+    if let Some(why) = as_today.mismatch(&planned) {
+        return Err(Error::bad_input(dir.join("manifest.json").display(), "dataset", format!("cannot upgrade it with this scene: {why}")));
+    }
+    let mut store = DatasetStore::create_or_resume(dir, &existing)?;
+    if existing.spec.cache_buffers {
+        let res = existing.spec.resolution;
+        // Frames not finished yet keep whatever they have; `generate` completes them.
+        let finished: Vec<&SampleRecord> = existing.samples.iter().filter(|s| store.gt_path(s.index).is_file()).collect();
+        let mut rasterizer = Rasterizer::new(options.clone())?;
+        progress(0, finished.len() as u64);
+        for (done, sample) in finished.iter().enumerate() {
+            let instance = scene.instantiate(&sample.values)?;
+            let buffers = rasterizer.render(&instance, &sample.camera, res, res)?.combined()?;
+            buffers.write_exr(&store.buffers_path(sample.index), ExrPrecision::F16)?;
+            summary.rasterized += 1;
+            progress(done as u64 + 1, finished.len() as u64);
+        }
+    }
+    store.manifest = planned;
+    store.write_manifest()?;
+    summary.elapsed = start.elapsed();
+    Ok(summary)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

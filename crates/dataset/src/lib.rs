@@ -3,7 +3,8 @@
 //! It owns the dataset directory format of DESIGN.md §4 (`manifest.json`, `gt/NNNNNN.exr`,
 //! optional `buffers/NNNNNN.exr`), generation (a camera and variable values per frame, seeded
 //! per sample; ground truth path-traced on the CPU or, with `TraceDevice::Wgpu`, a GPU; optionally cached rasterized buffers) with resume after
-//! a kill, sharding across machines and the byte-identical merge of shards, `dataset info`, and
+//! a kill, sharding across machines and the byte-identical merge of shards, the in-place
+//! upgrade of an older format's dataset (its ground truth kept), `dataset info`, and
 //! the training loader (batches of buffers + ground truth + transparency mask with seeded
 //! shuffling and random crops, produced on worker threads).
 
@@ -14,7 +15,7 @@ pub mod merge;
 pub mod store;
 
 pub use format::{DatasetManifest, DatasetSpec, SampleRecord, Split, TraceDevice, FORMAT_VERSION};
-pub use generate::{generate, GenerateOptions, GenerateProgress, GenerateSummary, ShardSpec};
+pub use generate::{generate, upgrade, GenerateOptions, GenerateProgress, GenerateSummary, ShardSpec, UpgradeSummary};
 pub use loader::{Example, Loader, LoaderOptions};
 pub use merge::merge;
 pub use store::{DatasetInfo, DatasetStore};

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use glassbake_core::layout::transparent;
 use glassbake_core::Error;
-use glassbake_dataset::{generate, merge, DatasetSpec, DatasetStore, GenerateOptions, GenerateProgress, Loader, LoaderOptions, ShardSpec, Split, TraceDevice};
+use glassbake_dataset::{generate, merge, upgrade, DatasetSpec, DatasetStore, GenerateOptions, GenerateProgress, Loader, LoaderOptions, ShardSpec, Split, TraceDevice};
 use glassbake_scene::builtin::builtin;
 
 /// A small dataset whose test frames are traced at 4x the training spp (so resume and merge
@@ -265,21 +265,24 @@ fn a_dataset_of_the_previous_format_has_its_buffers_rasterized_again() {
     let options = LoaderOptions { batch_size: 4, seed: 1, workers: 1, ..Default::default() };
     let current: Vec<_> = Loader::new(&d, None, options.clone()).unwrap().epoch(0).unwrap().into_iter().flatten().collect();
 
-    // Version 1 cached transparency buffers without L_d: they must not be read at all.
-    set_format_version(&d, 1);
+    // Cached buffers of format 1 (no L_d) and 2 (no L_d_far, point-sampled L_d) must not be
+    // read at all: with them deleted, the loader rasterizes today's buffers from the scene.
     for entry in std::fs::read_dir(d.join("buffers")).unwrap().flatten() {
         std::fs::remove_file(entry.path()).unwrap();
     }
-    let store = DatasetStore::open(&d).unwrap();
-    assert!(store.manifest.spec.cache_buffers && !store.manifest.reads_cached_buffers());
-    let err = Loader::new(&d, None, options.clone()).err().expect("the scene is required").to_string();
-    assert!(err.contains("scene"), "{err}");
-    let old: Vec<_> = Loader::new(&d, Some(scene.clone()), options).unwrap().epoch(0).unwrap().into_iter().flatten().collect();
-    assert_eq!(old.len(), current.len());
-    for (a, b) in old.iter().zip(&current) {
-        assert_eq!((a.index, &a.ground_truth), (b.index, &b.ground_truth));
-        for (x, y) in a.transparent[0].data().iter().zip(b.transparent[0].data()) {
-            assert!((x - y).abs() <= 2e-3 * x.abs().max(1.0), "{x} vs {y} (f16 cache)");
+    for version in [1, 2] {
+        set_format_version(&d, version);
+        let store = DatasetStore::open(&d).unwrap();
+        assert!(store.manifest.spec.cache_buffers && !store.manifest.reads_cached_buffers());
+        let err = Loader::new(&d, None, options.clone()).err().expect("the scene is required").to_string();
+        assert!(err.contains("scene"), "{err}");
+        let old: Vec<_> = Loader::new(&d, Some(scene.clone()), options.clone()).unwrap().epoch(0).unwrap().into_iter().flatten().collect();
+        assert_eq!(old.len(), current.len());
+        for (a, b) in old.iter().zip(&current) {
+            assert_eq!((a.index, &a.ground_truth), (b.index, &b.ground_truth));
+            for (x, y) in a.transparent[0].data().iter().zip(b.transparent[0].data()) {
+                assert!((x - y).abs() <= 2e-3 * x.abs().max(1.0), "{x} vs {y} (f16 cache)");
+            }
         }
     }
 
@@ -287,6 +290,40 @@ fn a_dataset_of_the_previous_format_has_its_buffers_rasterized_again() {
     set_format_version(&d, glassbake_dataset::FORMAT_VERSION + 1);
     let err = DatasetStore::open(&d).err().expect("refused").to_string();
     assert!(err.contains("format_version") && err.contains("newer"), "{err}");
+}
+
+#[test]
+fn upgrade_rasterizes_the_buffers_again_and_keeps_the_ground_truth() {
+    let scene = builtin("cornell-glass").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("set");
+    generate(&scene, &spec(3), &d, &GenerateOptions::default(), &no_progress).unwrap();
+    let reference = snapshot(&d);
+    let raster = glassbake_raster::RasterizerOptions::default();
+
+    // Today's format: nothing to do.
+    let same = upgrade(&d, &scene, &raster, &|_, _| {}).unwrap();
+    assert_eq!((same.from_version, same.rasterized), (glassbake_dataset::FORMAT_VERSION, 0));
+
+    // A format-2 dataset: its buffer files hold other channels (here: truncated, deleted).
+    set_format_version(&d, 2);
+    let store = DatasetStore::open(&d).unwrap();
+    let buffers = std::fs::read(store.buffers_path(1)).unwrap();
+    std::fs::write(store.buffers_path(1), &buffers[..buffers.len() / 3]).unwrap();
+    std::fs::remove_file(store.buffers_path(4)).unwrap();
+    let other = builtin("cornellbox").unwrap();
+    let err = upgrade(&d, &other, &raster, &|_, _| {}).err().expect("another scene is refused").to_string();
+    assert!(err.contains("manifest.json") && err.contains("scene"), "{err}");
+    assert!(!DatasetStore::open(&d).unwrap().manifest.reads_cached_buffers(), "a refused upgrade leaves the old format");
+
+    let calls = std::sync::Mutex::new(Vec::new());
+    let done = upgrade(&d, &scene, &raster, &|n, total| calls.lock().unwrap().push((n, total))).unwrap();
+    assert_eq!((done.from_version, done.rasterized), (2, 8));
+    assert_eq!(calls.into_inner().unwrap().last(), Some(&(8, 8)));
+    // Byte for byte what generating it today makes: the same manifest, the same ground
+    // truth, the same (deterministically rasterized) buffers.
+    assert_eq!(snapshot(&d), reference);
+    assert!(DatasetStore::open(&d).unwrap().manifest.reads_cached_buffers());
 }
 
 #[test]

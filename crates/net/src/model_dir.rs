@@ -17,10 +17,11 @@ use crate::config::{ModelKind, NetConfig, TrainConfig};
 use crate::super_sampler::SuperSamplerConfig;
 
 pub const CONFIG_FILE: &str = "config.json";
-/// 2: transparency buffers gained `Ld` (19 channels). Version-1 networks that read no
-/// transparency buffer (naive, pixelgen, the super-sampler) still load; GlassNet and concat
-/// ones must be retrained.
-pub const FORMAT_VERSION: u32 = 2;
+/// 2: transparency buffers gained `Ld` (19 channels). 3: they gained `Ld_far` (22 channels)
+/// and smooth surfaces' `Ld` became the pixel's mean. Older networks that read no
+/// transparency buffer (naive, pixelgen, the super-sampler) still load (a naive network's
+/// `Ld` input differs only on small highlights); GlassNet and concat ones must be retrained.
+pub const FORMAT_VERSION: u32 = 3;
 
 /// The network a directory holds.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -117,11 +118,15 @@ fn read_config(path: &Path) -> Result<ModelConfig> {
     let reads_transparency_buffers = matches!(&config.network, Network::Glassnet(n) if matches!(n.model, ModelKind::Glassnet | ModelKind::Concat));
     match config.format_version {
         FORMAT_VERSION => Ok(config),
-        1 if !reads_transparency_buffers => Ok(config),
-        1 => Err(Error::bad_input(
+        1 | 2 if !reads_transparency_buffers => Ok(config),
+        old @ (1 | 2) => Err(Error::bad_input(
             path.display(),
             "format_version",
-            "1: trained on 16-channel transparency buffers, before they gained Ld; retrain it with `glassbake train`",
+            format!(
+                "{old}: trained on {}-channel transparency buffers, before they gained {}; retrain it with `glassbake train`",
+                if old == 1 { 16 } else { 19 },
+                if old == 1 { "Ld and Ld_far" } else { "Ld_far" }
+            ),
         )),
         other => Err(Error::bad_input(path.display(), "format_version", format!("{other} is not a version this glassbake reads (1 to {FORMAT_VERSION})"))),
     }

@@ -256,12 +256,13 @@ fn weights_round_trip_through_safetensors_with_pytorch_names() {
 
 #[test]
 fn a_model_of_the_previous_format_opens_only_if_it_reads_no_transparency_buffers() {
-    // Format 1 predates the transparency buffers' L_d: a GlassNet or concat model of it was
-    // built for 16 channels and cannot run; a naive one never read them.
-    for (kind, opens) in [(ModelKind::Glassnet, false), (ModelKind::Concat, false), (ModelKind::Naive, true)] {
+    // Formats 1 and 2 predate the transparency buffers' L_d and L_d_far: a GlassNet or concat
+    // model of them was built for 16 or 19 channels and cannot run; a naive one never read them.
+    let cases = [(ModelKind::Glassnet, false), (ModelKind::Concat, false), (ModelKind::Naive, true)];
+    for (version, (kind, opens)) in [1, 2].into_iter().flat_map(|v| cases.map(|c| (v, c))) {
         let dir = tempfile::tempdir().unwrap();
         let config = ModelConfig {
-            format_version: 1,
+            format_version: version,
             network: Network::Glassnet(NetConfig::preset("tiny", kind, 1, 2).unwrap()),
             train: TrainConfig::preset("tiny").unwrap(),
             data: DataSource { dataset: "synthetic".into(), scene: "none".into(), scene_hash: "0".into(), resolution: 16 },
@@ -269,9 +270,9 @@ fn a_model_of_the_previous_format_opens_only_if_it_reads_no_transparency_buffers
         std::fs::write(dir.path().join("config.json"), serde_json::to_vec(&config).unwrap()).unwrap();
         std::fs::write(dir.path().join(config.network.weights_file()), b"").unwrap();
         match ModelFiles::open(dir.path()) {
-            Ok(_) => assert!(opens, "{kind:?} of format 1 must be refused"),
+            Ok(_) => assert!(opens, "{kind:?} of format {version} must be refused"),
             Err(err) => {
-                assert!(!opens, "{kind:?} of format 1 must open: {err}");
+                assert!(!opens, "{kind:?} of format {version} must open: {err}");
                 let err = err.to_string();
                 assert!(err.contains("format_version") && err.contains("retrain"), "{err}");
             }

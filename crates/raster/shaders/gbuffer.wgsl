@@ -7,6 +7,9 @@
 //   3: w_o.xyz (unit, towards the camera), relative depth (transparency pass only, else 0)
 //   4: L_d.rgb (direct light incl. emission; in the transparency pass the light the
 //      transparent surface reflects), 0
+// and in the transparency pass's second ("far") pass, which keeps each pixel's farthest
+// surface of the object in front of the opaque scene:
+//   5: L_d.rgb of that far surface (the inside of a globe's far wall), 0
 // The host unpacks these into the planar channel order of glassbake_core::layout.
 
 const PI: f32 = 3.14159265358979;
@@ -102,6 +105,13 @@ struct Surface {
     depth: f32,
     albedo: vec3<f32>,
     roughness: f32,
+    // Screen-space derivatives of the position and of the interpolated (unnormalised,
+    // declared-side) normal, for shading over the pixel's footprint.
+    dp_dx: vec3<f32>,
+    dp_dy: vec3<f32>,
+    dn_dx: vec3<f32>,
+    dn_dy: vec3<f32>,
+    raw_normal: vec3<f32>,
 };
 
 fn surface(in: VsOut) -> Surface {
@@ -110,8 +120,13 @@ fn surface(in: VsOut) -> Surface {
     let to_camera = view.camera_pos.xyz - in.world_pos;
     s.depth = length(to_camera);
     s.wo = to_camera / s.depth;
+    s.dp_dx = dpdx(in.world_pos);
+    s.dp_dy = dpdy(in.world_pos);
+    s.dn_dx = dpdx(in.normal);
+    s.dn_dy = dpdy(in.normal);
+    s.raw_normal = in.normal;
     // Face normal from screen-space derivatives: independent of the mesh's winding order.
-    var ng = cross(dpdx(in.world_pos), dpdy(in.world_pos));
+    var ng = cross(s.dp_dx, s.dp_dy);
     let ng_len = length(ng);
     if ng_len > 0.0 {
         ng = ng / ng_len;
@@ -266,11 +281,9 @@ fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, back: bool) -> f3
 
 // Direct light from the rectangle lights at a surface point (diffuse: exact polygon
 // form factor; specular: GGX by LTC), plus nothing else (emission is added by the caller).
-fn direct_light(s: Surface, metallic: f32, transmission: f32) -> vec3<f32> {
-    let n = s.normal;
-    let v = s.wo;
-    let diffuse_color = s.albedo * (1.0 - metallic) * (1.0 - transmission);
-    let f0 = mix(vec3<f32>(0.04), s.albedo, metallic);
+// The LTC specular lobe of one light at a point with normal n seen from direction v:
+// the lobe's integral over the light's polygon times F0 * A + B.
+fn ltc_specular(light: Light, p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, roughness: f32, f0: vec3<f32>) -> vec3<f32> {
     // Frame: z = n, x towards v.
     var t1 = v - n * dot(v, n);
     if dot(t1, t1) < 1e-12 {
@@ -280,12 +293,42 @@ fn direct_light(s: Surface, metallic: f32, transmission: f32) -> vec3<f32> {
     t1 = normalize(t1);
     let t2 = cross(n, t1);
     let cos_v = clamp(dot(n, v), 0.0, 1.0);
-    let uv = vec2<f32>(s.roughness, sqrt(1.0 - cos_v));
+    let uv = vec2<f32>(roughness, sqrt(1.0 - cos_v));
     let m = ltc_lookup(ltc_matrix, uv);
     let amp = ltc_lookup(ltc_amplitude, uv).xy;
     // Inverse LTC matrix in the (t1, t2, n) frame; columns of a WGSL matrix.
     let minv = mat3x3<f32>(vec3<f32>(m.x, 0.0, m.w), vec3<f32>(0.0, m.z, 0.0), vec3<f32>(m.y, 0.0, 1.0));
-    let spec_scale = f0 * amp.x + vec3<f32>(amp.y);
+    let frame = transpose(mat3x3<f32>(t1, t2, n));
+    let l0 = frame * (light.p0.xyz - p);
+    let l1 = frame * (light.p1.xyz - p);
+    let l2 = frame * (light.p2.xyz - p);
+    let l3 = frame * (light.p3.xyz - p);
+    let form = polygon_form_factor(minv * l0, minv * l1, minv * l2, minv * l3);
+    return (f0 * amp.x + vec3<f32>(amp.y)) * max(form, 0.0);
+}
+
+// Rows t1, t2, n: an orthonormal frame with n as its z axis (the clamped-cosine form factor
+// does not depend on the rotation about n).
+fn frame_around(n: vec3<f32>) -> mat3x3<f32> {
+    let a = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
+    let t1 = normalize(a - n * dot(a, n));
+    return transpose(mat3x3<f32>(t1, cross(n, t1), n));
+}
+
+// Sharper lobes than this are averaged over the pixel's footprint.
+const FOOTPRINT_MAX_ROUGHNESS: f32 = 0.5;
+
+// Direct light from the rectangle lights at a surface point (diffuse: exact polygon
+// form factor; specular: GGX by LTC), plus nothing else (emission is added by the caller).
+// The specular term of smooth surfaces is the mean of a 3 x 3 grid over the pixel (position
+// and normal moved along their screen-space derivatives), as the path-traced ground truth
+// box-filters its pixels: a light reflected in a glass ball is a pixel or two wide, and one
+// sample at the pixel centre either misses it or draws it as a single too-bright dot.
+fn direct_light(s: Surface, metallic: f32, transmission: f32) -> vec3<f32> {
+    let n = s.normal;
+    let diffuse_color = s.albedo * (1.0 - metallic) * (1.0 - transmission);
+    let f0 = mix(vec3<f32>(0.04), s.albedo, metallic);
+    let taps = select(1, 3, s.roughness < FOOTPRINT_MAX_ROUGHNESS);
 
     var total = vec3<f32>(0.0);
     let count = view.params.x;
@@ -301,17 +344,32 @@ fn direct_light(s: Surface, metallic: f32, transmission: f32) -> vec3<f32> {
         let c1 = light.p1.xyz - s.position;
         let c2 = light.p2.xyz - s.position;
         let c3 = light.p3.xyz - s.position;
-        let l0 = vec3<f32>(dot(c0, t1), dot(c0, t2), dot(c0, n));
-        let l1 = vec3<f32>(dot(c1, t1), dot(c1, t2), dot(c1, n));
-        let l2 = vec3<f32>(dot(c2, t1), dot(c2, t2), dot(c2, n));
-        let l3 = vec3<f32>(dot(c3, t1), dot(c3, t2), dot(c3, n));
-        let diffuse = polygon_form_factor(l0, l1, l2, l3);
-        let specular = polygon_form_factor(minv * l0, minv * l1, minv * l2, minv * l3);
-        if diffuse <= 0.0 && specular <= 0.0 {
+        let frame = frame_around(n);
+        let diffuse = polygon_form_factor(frame * c0, frame * c1, frame * c2, frame * c3);
+        var specular = vec3<f32>(0.0);
+        for (var j = 0; j < taps * taps; j = j + 1) {
+            var p = s.position;
+            var sn = n;
+            if taps > 1 {
+                let o = (vec2<f32>(f32(j % taps), f32(j / taps)) + 0.5) / f32(taps) - 0.5;
+                p = s.position + o.x * s.dp_dx + o.y * s.dp_dy;
+                let moved = s.raw_normal + o.x * s.dn_dx + o.y * s.dn_dy;
+                if dot(moved, moved) > 0.0 {
+                    sn = normalize(moved);
+                    if dot(sn, s.face_normal) < 0.0 {
+                        sn = -sn;
+                    }
+                }
+            }
+            let v = normalize(view.camera_pos.xyz - p);
+            specular = specular + ltc_specular(light, p, sn, v, s.roughness, f0);
+        }
+        specular = specular / f32(taps * taps);
+        if diffuse <= 0.0 && all(specular <= vec3<f32>(0.0)) {
             continue;
         }
         let visibility = shadow_visibility(light, s.position, s.face_normal, side < 0.0);
-        total = total + light.radiance.rgb * visibility * (diffuse_color * diffuse + spec_scale * specular);
+        total = total + light.radiance.rgb * visibility * (diffuse_color * diffuse + specular);
     }
     return total;
 }
@@ -379,4 +437,18 @@ fn fs_transparency(in: VsOut) -> TransparencyOut {
     out.wo_relative_depth = vec4<f32>(s.wo, relative);
     out.direct_light = vec4<f32>(surface_light(s), 0.0);
     return out;
+}
+
+// The far pass of a transparency buffer (depth test "greater", cleared to 0): the light the
+// object's farthest visible surface reflects. A thin-walled globe or box shows the lights
+// twice, in its near wall and, seen through it, in the inside of its far wall; the near
+// pass holds only the first.
+@fragment
+fn fs_transparency_far(in: VsOut) -> @location(0) vec4<f32> {
+    let s = surface(in);
+    let opaque_depth = textureLoad(opaque_position_depth, vec2<i32>(in.clip.xy), 0).w;
+    if opaque_depth > 0.0 && s.depth >= opaque_depth {
+        discard;
+    }
+    return vec4<f32>(surface_light(s), 0.0);
 }

@@ -9,7 +9,7 @@ struct Params {
     base: u32,
     entries: u32,
     // Per entry: first channel in the layout, channel count, target, first component.
-    map: array<vec4<u32>, 9>,
+    map: array<vec4<u32>, 10>,
 }
 
 @group(0) @binding(0) var target0: texture_2d<f32>;
@@ -19,6 +19,7 @@ struct Params {
 @group(0) @binding(4) var target4: texture_2d<f32>;
 @group(0) @binding(5) var<storage, read_write> out: array<f32>;
 @group(0) @binding(6) var<uniform> params: Params;
+@group(0) @binding(7) var target5: texture_2d<f32>;
 
 fn texel(t: u32, xy: vec2<i32>) -> vec4<f32> {
     switch t {
@@ -26,7 +27,8 @@ fn texel(t: u32, xy: vec2<i32>) -> vec4<f32> {
         case 1u: { return textureLoad(target1, xy, 0); }
         case 2u: { return textureLoad(target2, xy, 0); }
         case 3u: { return textureLoad(target3, xy, 0); }
-        default: { return textureLoad(target4, xy, 0); }
+        case 4u: { return textureLoad(target4, xy, 0); }
+        default: { return textureLoad(target5, xy, 0); }
     }
 }
 

@@ -14,7 +14,10 @@ pub const MAX_RESOLUTION: u32 = 8192;
 
 const TARGET_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-const TRANSPARENCY_TARGETS: u32 = 5;
+/// The transparency pass's targets: 5 written by its near pass (as the G-buffer's), 1 by
+/// its far pass (L_d of the object's farthest visible surface).
+const TRANSPARENCY_TARGETS: u32 = 6;
+const TRANSPARENCY_NEAR_TARGETS: usize = 5;
 /// Bytes reserved per object in the per-frame uniform buffer (>= every device's
 /// `min_uniform_buffer_offset_alignment`).
 const OBJECT_STRIDE: u64 = 256;
@@ -36,7 +39,7 @@ const OPAQUE_MAP: [(usize, usize, u32, u32); 7] = [
     (opaque::LD, 3, 4, 0),
 ];
 
-const TRANSPARENT_MAP: [(usize, usize, u32, u32); 9] = [
+const TRANSPARENT_MAP: [(usize, usize, u32, u32); 10] = [
     (transparent::NORMAL, 3, 0, 0),
     (transparent::ROUGHNESS, 1, 0, 3),
     (transparent::POSITION, 3, 1, 0),
@@ -46,6 +49,7 @@ const TRANSPARENT_MAP: [(usize, usize, u32, u32); 9] = [
     (transparent::WO, 3, 3, 0),
     (transparent::RELATIVE_DEPTH, 1, 3, 3),
     (transparent::LD, 3, 4, 0),
+    (transparent::LD_FAR, 3, 5, 0),
 ];
 
 #[repr(C)]
@@ -112,8 +116,9 @@ impl TargetSet {
         TargetSet { textures, views, readback, padded_row }
     }
 
-    fn color_attachments(&self) -> Vec<Option<wgpu::RenderPassColorAttachment<'_>>> {
-        self.views
+    /// Attachments of targets `range`, cleared to 0.
+    fn color_attachments(&self, range: std::ops::Range<usize>) -> Vec<Option<wgpu::RenderPassColorAttachment<'_>>> {
+        self.views[range]
             .iter()
             .map(|view| {
                 Some(wgpu::RenderPassColorAttachment {
@@ -275,6 +280,7 @@ pub struct Rasterizer {
     shading_layout: wgpu::BindGroupLayout,
     gbuffer_pipeline: wgpu::RenderPipeline,
     transparency_pipeline: wgpu::RenderPipeline,
+    transparency_far_pipeline: wgpu::RenderPipeline,
     shadow_pipeline: wgpu::RenderPipeline,
     material_sampler: wgpu::Sampler,
     shadow_sampler: wgpu::Sampler,
@@ -451,18 +457,19 @@ impl Rasterizer {
             cull_mode: None,
             ..Default::default()
         };
-        let depth_state = |bias: wgpu::DepthBiasState| wgpu::DepthStencilState {
+        let depth_state = |compare: wgpu::CompareFunction, bias: wgpu::DepthBiasState| wgpu::DepthStencilState {
             format: DEPTH_FORMAT,
             depth_write_enabled: Some(true),
-            depth_compare: Some(wgpu::CompareFunction::Less),
+            depth_compare: Some(compare),
             stencil: wgpu::StencilState::default(),
             bias,
         };
         let vertex_layouts = [Some(resources::vertex_layout())];
         let target = Some(wgpu::ColorTargetState { format: TARGET_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL });
         let gbuffer_targets = vec![target.clone(); GBUFFER_TARGETS as usize];
-        let transparency_targets = vec![target; TRANSPARENCY_TARGETS as usize];
-        let make_pipeline = |label: &str, fragment: &str, targets: &[Option<wgpu::ColorTargetState>]| {
+        let transparency_targets = vec![target.clone(); TRANSPARENCY_NEAR_TARGETS];
+        let far_targets = vec![target; TRANSPARENCY_TARGETS as usize - TRANSPARENCY_NEAR_TARGETS];
+        let make_pipeline = |label: &str, fragment: &str, targets: &[Option<wgpu::ColorTargetState>], compare: wgpu::CompareFunction| {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
                 layout: Some(&shading_pipeline_layout),
@@ -473,7 +480,7 @@ impl Rasterizer {
                     buffers: &vertex_layouts,
                 },
                 primitive,
-                depth_stencil: Some(depth_state(wgpu::DepthBiasState::default())),
+                depth_stencil: Some(depth_state(compare, wgpu::DepthBiasState::default())),
                 multisample: wgpu::MultisampleState::default(),
                 fragment: Some(wgpu::FragmentState {
                     module: &module,
@@ -485,8 +492,10 @@ impl Rasterizer {
                 cache: None,
             })
         };
-        let gbuffer_pipeline = make_pipeline("gbuffer", "fs_gbuffer", &gbuffer_targets);
-        let transparency_pipeline = make_pipeline("transparency", "fs_transparency", &transparency_targets);
+        let less = wgpu::CompareFunction::Less;
+        let gbuffer_pipeline = make_pipeline("gbuffer", "fs_gbuffer", &gbuffer_targets, less);
+        let transparency_pipeline = make_pipeline("transparency", "fs_transparency", &transparency_targets, less);
+        let transparency_far_pipeline = make_pipeline("transparency far", "fs_transparency_far", &far_targets, wgpu::CompareFunction::Greater);
         let shadow_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("shadow"),
             layout: Some(&shadow_pipeline_layout),
@@ -497,7 +506,7 @@ impl Rasterizer {
                 buffers: &vertex_layouts,
             },
             primitive,
-            depth_stencil: Some(depth_state(wgpu::DepthBiasState { constant: 2, slope_scale: 2.0, clamp: 0.0 })),
+            depth_stencil: Some(depth_state(wgpu::CompareFunction::Less, wgpu::DepthBiasState { constant: 2, slope_scale: 2.0, clamp: 0.0 })),
             multisample: wgpu::MultisampleState::default(),
             fragment: None,
             multiview_mask: None,
@@ -547,6 +556,7 @@ impl Rasterizer {
             shading_layout,
             gbuffer_pipeline,
             transparency_pipeline,
+            transparency_far_pipeline,
             shadow_pipeline,
             material_sampler,
             shadow_sampler,
@@ -962,13 +972,41 @@ impl Frame<'_> {
             PassKind::Naive => (targets.naive.as_ref().expect("created"), &r.gbuffer_pipeline, &self.shading_opaque),
             PassKind::Transparency(_) => (&targets.transparency, &r.transparency_pipeline, &self.shading_transparency),
         };
-        let attachments = set.color_attachments();
+        let near_targets = match kind {
+            PassKind::Transparency(_) => 0..TRANSPARENCY_NEAR_TARGETS,
+            _ => 0..set.views.len(),
+        };
+        // Nearest surfaces: depth cleared to 1, "less".
+        let draws: Vec<&Draw> = match kind {
+            PassKind::Opaque => self.draws.iter().filter(|d| d.class != DrawClass::Transparent).collect(),
+            PassKind::Naive => self.draws.iter().collect(),
+            // An object without drawable geometry leaves its buffer cleared: coverage 0.
+            PassKind::Transparency(k) => self.draws.get(self.transparent_slot[k]).into_iter().collect(),
+        };
+        self.encode_draws(encoder, &set.color_attachments(near_targets), pipeline, shading, 1.0, &draws);
+        if let PassKind::Transparency(_) = kind {
+            // Farthest surfaces of the same object: depth cleared to 0, "greater".
+            let far = set.color_attachments(TRANSPARENCY_NEAR_TARGETS..TRANSPARENCY_TARGETS as usize);
+            self.encode_draws(encoder, &far, &r.transparency_far_pipeline, shading, 0.0, &draws);
+        }
+    }
+
+    fn encode_draws(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        attachments: &[Option<wgpu::RenderPassColorAttachment<'_>>],
+        pipeline: &wgpu::RenderPipeline,
+        shading: &wgpu::BindGroup,
+        clear_depth: f32,
+        draws: &[&Draw],
+    ) {
+        let targets = self.rasterizer.targets.as_ref().expect("frame has targets");
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("gbuffer"),
-            color_attachments: &attachments,
+            color_attachments: attachments,
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: &targets.depth,
-                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(clear_depth), store: wgpu::StoreOp::Store }),
                 stencil_ops: None,
             }),
             timestamp_writes: None,
@@ -978,22 +1016,12 @@ impl Frame<'_> {
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, &self.view, &[]);
         pass.set_bind_group(2, shading, &[]);
-        let mut draw = |d: &Draw| {
+        for d in draws {
             let (v, i, n) = &self.meshes[d.mesh];
             pass.set_bind_group(1, &self.object_groups[d.slot], &[]);
             pass.set_vertex_buffer(0, v.slice(..));
             pass.set_index_buffer(i.slice(..), wgpu::IndexFormat::Uint32);
             pass.draw_indexed(0..*n, 0, 0..1);
-        };
-        match kind {
-            PassKind::Opaque => self.draws.iter().filter(|d| d.class != DrawClass::Transparent).for_each(&mut draw),
-            PassKind::Naive => self.draws.iter().for_each(&mut draw),
-            // An object without drawable geometry leaves its buffer cleared: coverage 0.
-            PassKind::Transparency(k) => {
-                if let Some(d) = self.draws.get(self.transparent_slot[k]) {
-                    draw(d)
-                }
-            }
         }
     }
 

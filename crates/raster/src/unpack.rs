@@ -5,11 +5,20 @@
 
 use glassbake_core::{Error, Result};
 
-/// Most entries a channel map has (the transparency buffer's 9 attributes; `map` in
+/// Most entries a channel map has (the transparency buffer's 10 attributes; `map` in
 /// unpack.wgsl has the same length).
-const MAX_ENTRIES: usize = 9;
-/// Colour targets bound (the G-buffer's 5; sets with fewer bind their first one again).
-const BOUND_TARGETS: usize = 5;
+const MAX_ENTRIES: usize = 10;
+/// Colour targets bound (the transparency pass's 6; sets with fewer bind their first one
+/// again). Bindings 0-4 and 7: 5 and 6 are the output buffer and the parameters.
+const BOUND_TARGETS: usize = 6;
+
+fn target_binding(target: usize) -> u32 {
+    if target < 5 {
+        target as u32
+    } else {
+        target as u32 + 2
+    }
+}
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -32,9 +41,9 @@ impl Unpacker {
             label: Some("unpack.wgsl"),
             source: wgpu::ShaderSource::Wgsl(include_str!("../shaders/unpack.wgsl").into()),
         });
-        let mut entries: Vec<wgpu::BindGroupLayoutEntry> = (0..BOUND_TARGETS as u32)
-            .map(|binding| wgpu::BindGroupLayoutEntry {
-                binding,
+        let mut entries: Vec<wgpu::BindGroupLayoutEntry> = (0..BOUND_TARGETS)
+            .map(|target| wgpu::BindGroupLayoutEntry {
+                binding: target_binding(target),
                 visibility: wgpu::ShaderStages::COMPUTE,
                 ty: wgpu::BindingType::Texture {
                     sample_type: wgpu::TextureSampleType::Float { filterable: false },
@@ -105,7 +114,7 @@ impl Unpacker {
         }
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some("unpack params"), contents: bytemuck::bytes_of(&params), usage: wgpu::BufferUsages::UNIFORM });
         let mut bindings: Vec<wgpu::BindGroupEntry> =
-            (0..BOUND_TARGETS).map(|i| wgpu::BindGroupEntry { binding: i as u32, resource: wgpu::BindingResource::TextureView(views.get(i).unwrap_or(&views[0])) }).collect();
+            (0..BOUND_TARGETS).map(|i| wgpu::BindGroupEntry { binding: target_binding(i), resource: wgpu::BindingResource::TextureView(views.get(i).unwrap_or(&views[0])) }).collect();
         bindings.push(wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding { buffer: out, offset: bind_offset, size: Some(bind_size) }) });
         bindings.push(wgpu::BindGroupEntry { binding: 6, resource: uniform.as_entire_binding() });
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("unpack"), layout: &self.layout, entries: &bindings });

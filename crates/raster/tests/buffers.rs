@@ -190,6 +190,10 @@ fn every_channel_of_every_buffer_matches_a_ray_cast() {
                             }
                             glass_lit += (im.get(transparent::LD, x, y) > 0.0) as usize;
                         }
+                        // A single pane is its own farthest surface.
+                        for c in 0..3 {
+                            check("L_d far", im.get(transparent::LD_FAR + c, x, y), im.get(transparent::LD + c, x, y), 0.0, x, y, &mut 0.0);
+                        }
                     }
                 }
             }
@@ -399,4 +403,69 @@ fn the_occluder_shadows_the_wall_as_seen_from_the_lights_centre() {
     assert!(lit_min > 0.0, "every clear wall point receives light");
     let shadow_max = shadowed.iter().copied().fold(0.0, f32::max);
     assert!(shadow_max <= 0.02 * lit_min, "shadowed L_d up to {shadow_max}, lit at least {lit_min}");
+}
+
+#[test]
+fn the_far_pass_holds_the_light_reflected_by_the_far_wall() {
+    // One transparent object of two walls, as a thin glass box's front and back: its L_d is
+    // the near wall's and its L_d_far the far wall's, each equal to the L_d of a transparency
+    // buffer of that wall alone. A light above, between camera and walls, shows in both, unalike.
+    let wall_scene = |walls: &[(Vec3, f32)]| {
+        let mut scene = empty_scene("walls");
+        add_quads(&mut scene, &[Quad { centre: Vec3::new(0.0, 0.0, -1.0), u: Vec3::X * 4.0, v: Vec3::Y * 4.0, albedo: Vec3::splat(0.5), roughness: 0.8, transparent: false }]);
+        let mut mesh = glassbake_scene::Mesh::default();
+        for &(centre, tilt) in walls {
+            let v = Vec3::new(0.0, tilt.cos(), tilt.sin());
+            mesh.append(&glassbake_scene::shapes::rect(centre - Vec3::X * 0.6 - v * 0.6, Vec3::X * 1.2, v * 1.2, glam::Vec2::ONE));
+        }
+        scene.meshes.push(std::sync::Arc::new(mesh));
+        scene.materials.push(glassbake_scene::Material::glass("glass", Vec3::ONE, 0.4, 1.5, true));
+        scene.objects.push(glassbake_scene::Object {
+            name: "walls".into(),
+            mesh: scene.meshes.len() - 1,
+            material: scene.materials.len() - 1,
+            transform: glam::Affine3A::IDENTITY,
+            transparent: true,
+        });
+        scene.rect_lights.push(light(Vec3::new(-0.5, 1.2, 1.4), Vec3::X, Vec3::Z * 0.8, Vec3::splat(8.0)));
+        scene
+    };
+    let near = (Vec3::new(0.0, 0.0, 1.0), -0.2);
+    let far = (Vec3::new(0.0, 0.0, 0.2), -0.7);
+    let cam = camera(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 50.0);
+    let mut r = rasterizer();
+    let mut ld = |walls: &[(Vec3, f32)]| r.render(&wall_scene(walls), &cam, W, H).unwrap().transparent.remove(0);
+    let (both, near_only, far_only) = (ld(&[near, far]), ld(&[near]), ld(&[far]));
+    let (mut compared, mut differ) = (0, 0);
+    for y in 0..H {
+        for x in 0..W {
+            let covered = |im: &PlanarImage| im.get(transparent::COVERAGE, x, y) == 1.0;
+            // Pixels inside both walls, away from their edges (where which one covers a
+            // pixel is a rasterization detail).
+            let inside = (-1..=1).all(|dy: i32| {
+                (-1..=1).all(|dx: i32| {
+                    let (px, py) = ((x as i32 + dx).clamp(0, W as i32 - 1) as u32, (y as i32 + dy).clamp(0, H as i32 - 1) as u32);
+                    near_only.get(transparent::COVERAGE, px, py) == 1.0 && far_only.get(transparent::COVERAGE, px, py) == 1.0
+                })
+            });
+            if !inside {
+                continue;
+            }
+            assert!(covered(&both));
+            compared += 1;
+            for c in 0..3 {
+                let (got_near, want_near) = (both.get(transparent::LD + c, x, y), near_only.get(transparent::LD + c, x, y));
+                let (got_far, want_far) = (both.get(transparent::LD_FAR + c, x, y), far_only.get(transparent::LD + c, x, y));
+                check("L_d of the near wall", got_near, want_near, 1e-6 * want_near.max(1.0), x, y, &mut 0.0);
+                check("L_d_far of the far wall", got_far, want_far, 1e-6 * want_far.max(1.0), x, y, &mut 0.0);
+                // A single wall is its own far surface.
+                check("L_d_far of one wall", far_only.get(transparent::LD_FAR + c, x, y), want_far, 1e-6 * want_far.max(1.0), x, y, &mut 0.0);
+            }
+            let (l_near, l_far) = (both.get(transparent::LD, x, y), both.get(transparent::LD_FAR, x, y));
+            differ += (l_near > 0.0 && l_far > 0.0 && (l_near - l_far).abs() > 0.05 * l_near.max(l_far)) as usize;
+        }
+    }
+    eprintln!("{compared} pixels inside both walls, {differ} with both lit, unalike");
+    assert!(compared > 100, "{compared}");
+    assert!(differ * 2 > compared, "near and far walls are unlit or lit alike in {} of {compared} pixels: the check cannot tell them apart", compared - differ);
 }

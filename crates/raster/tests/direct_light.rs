@@ -170,3 +170,44 @@ fn diffuse_wall_with_the_light_across_its_horizon_matches_monte_carlo() {
     assert!(n > 50, "{n}");
     assert!(max_rel < 0.02, "max relative error {max_rel}");
 }
+
+#[test]
+fn a_sharp_highlight_is_the_mean_over_the_pixel() {
+    // A nearly mirror-like metal floor reflects a small light as a highlight a few pixels
+    // wide. The path tracer box-filters each pixel, so L_d must be the pixel's mean, not the
+    // value at its centre: compare L_d at RES with the 4 x 4 block means of L_d at 4 x RES,
+    // and with the value at one of the four sub-pixels around each centre (what a single
+    // centre sample would give).
+    let mut scene = floor_scene(0.9, 0.1, 1.0);
+    scene.rect_lights[0] = light(Vec3::new(-0.1, 1.0, -0.36), Vec3::X * 0.2, Vec3::Z * 0.12, Vec3::splat(4.0));
+    let cam = camera(Vec3::new(0.0, 0.6, 2.0), Vec3::new(0.0, 0.0, -0.3), 40.0);
+    let mut r = rasterizer();
+    let coarse = r.render(&scene, &cam, RES, RES).unwrap().opaque;
+    let fine = r.render(&scene, &cam, 4 * RES, 4 * RES).unwrap().opaque;
+    let peak = (0..RES * RES).map(|i| coarse.get(opaque::LD, i % RES, i / RES)).fold(0.0, f32::max);
+    let (mut err_mean, mut err_centre, mut sum_coarse, mut sum_fine, mut lit) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0);
+    for y in 0..RES {
+        for x in 0..RES {
+            let block: f32 = (0..16).map(|i| fine.get(opaque::LD, 4 * x + i % 4, 4 * y + i / 4)).sum::<f32>() / 16.0;
+            let centre = fine.get(opaque::LD, 4 * x + 2, 4 * y + 2);
+            let got = coarse.get(opaque::LD, x, y);
+            if block.max(got) > 0.05 * peak {
+                lit += 1;
+                err_mean += (got - block).abs() as f64;
+                err_centre += (centre - block).abs() as f64;
+                sum_coarse += got as f64;
+                sum_fine += block as f64;
+            }
+        }
+    }
+    eprintln!(
+        "highlight: {lit} pixels, L1 error of L_d vs the block means {:.4}, of a centre sample {:.4}, energy ratio {:.4}",
+        err_mean / sum_fine,
+        err_centre / sum_fine,
+        sum_coarse / sum_fine
+    );
+    assert!((4..200).contains(&lit), "the highlight covers {lit} pixels: not a sharp highlight");
+    assert!(err_mean / sum_fine < 0.1, "L_d is not the pixel mean: relative L1 error {}", err_mean / sum_fine);
+    assert!(err_mean * 2.0 < err_centre, "no better than a centre sample: {err_mean} vs {err_centre}");
+    assert!((sum_coarse / sum_fine - 1.0).abs() < 0.05, "energy ratio {}", sum_coarse / sum_fine);
+}

@@ -1,11 +1,12 @@
-//! `glassbake dataset`: make a dataset (resumable, shardable), merge shards, describe one.
+//! `glassbake dataset`: make a dataset (resumable, shardable), merge shards, upgrade an older
+//! format's dataset in place, describe one.
 
 use std::path::PathBuf;
 use std::time::Duration;
 
 use anyhow::Result;
 use clap::{Args, Subcommand};
-use glassbake_dataset::{generate, merge, DatasetSpec, DatasetStore, GenerateOptions, GenerateProgress, ShardSpec, TraceDevice};
+use glassbake_dataset::{generate, merge, upgrade, DatasetSpec, DatasetStore, GenerateOptions, GenerateProgress, ShardSpec, TraceDevice, FORMAT_VERSION};
 use glassbake_scene::load_scene;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -31,6 +32,14 @@ enum DatasetCommand {
     },
     /// Counts per split, resolution, spp, disk use, scene hash.
     Info { dir: PathBuf },
+    /// Bring a dataset made by an older glassbake to today's format in place: the ground
+    /// truth is kept, the cached buffers are rasterized again (seconds, not hours).
+    Upgrade {
+        dir: PathBuf,
+        /// The scene it was made from (default: the one its manifest names).
+        #[arg(long)]
+        scene: Option<String>,
+    },
 }
 
 #[derive(Args, Clone)]
@@ -122,6 +131,31 @@ pub fn run(args: DatasetArgs) -> Result<()> {
                 println!("  {:<6} {done}/{planned} frames complete", format!("{split:?}").to_lowercase());
             }
             println!("  disk {}", human_bytes(info.disk_bytes));
+        }
+        (Some(DatasetCommand::Upgrade { dir, scene }), _) => {
+            let store = DatasetStore::open(&dir)?;
+            let scene = load_scene(scene.as_deref().unwrap_or(&store.manifest.spec.scene))?;
+            drop(store);
+            let bar = ProgressBar::new(0);
+            bar.set_style(ProgressStyle::with_template("{spinner} rasterizing buffers [{elapsed_precise}] {wide_bar} {pos}/{len}").expect("static template").progress_chars("=> "));
+            let progress = |done: u64, total: u64| {
+                bar.set_length(total);
+                bar.set_position(done);
+            };
+            let summary = upgrade(&dir, &scene, &Default::default(), &progress);
+            bar.finish_and_clear();
+            let summary = summary?;
+            if summary.from_version == FORMAT_VERSION {
+                println!("dataset {} is already format {FORMAT_VERSION}: nothing to do", dir.display());
+            } else {
+                println!(
+                    "dataset {}: format {} -> {FORMAT_VERSION}, buffers of {} frame(s) rasterized again in {:.1} s, ground truth kept",
+                    dir.display(),
+                    summary.from_version,
+                    summary.rasterized,
+                    summary.elapsed.as_secs_f64()
+                );
+            }
         }
         (Some(DatasetCommand::Merge { out, shards }), _) => {
             let shard_paths: Vec<&std::path::Path> = shards.iter().map(|p| p.as_path()).collect();
