@@ -40,6 +40,11 @@ impl ModelKind {
         matches!(self, ModelKind::Naive | ModelKind::Pixelgen)
     }
 
+    /// Whether the network reads transparency buffers (GlassNet and the concat baseline).
+    pub fn reads_transparency_buffers(self) -> bool {
+        matches!(self, ModelKind::Glassnet | ModelKind::Concat)
+    }
+
     pub fn parse(name: &str) -> Option<ModelKind> {
         match name {
             "glassnet" => Some(ModelKind::Glassnet),

@@ -85,7 +85,8 @@ impl GlassNet {
             ModelKind::Naive | ModelKind::Pixelgen => (None, sigma),
         };
         let blending = UNet::new(blend_input, &config.blending, device);
-        let renderer = Renderer::new(config.blending.out_channels + 3, &config.renderer, 3, device);
+        let glass_light = if config.model.reads_transparency_buffers() { GLASS_LIGHT_CHANNELS } else { 0 };
+        let renderer = Renderer::new(config.blending.out_channels + 3 + glass_light, &config.renderer, 3, device);
         let net = GlassNet {
             scene_encoder: Some(scene_encoder),
             transparency_encoder,
@@ -106,6 +107,19 @@ impl GlassNet {
                     zeros.require_grad()
                 } else {
                     zeros
+                }
+            });
+        }
+        // Likewise R's weights on the glass light (its last input channels) start at zero.
+        if glass_light > 0 {
+            let r = net.renderer.as_mut().expect("built above");
+            r.large.conv.weight = r.large.conv.weight.clone().map(|w| {
+                let [out, inputs, kh, kw] = w.dims();
+                let zeroed = w.clone().slice_assign([0..out, inputs - glass_light..inputs, 0..kh, 0..kw], Tensor::zeros([out, glass_light, kh, kw], &w.device()));
+                if w.is_require_grad() {
+                    zeroed.detach().require_grad()
+                } else {
+                    zeroed
                 }
             });
         }
@@ -154,35 +168,48 @@ impl GlassNet {
     }
 
     /// h for one transparency buffer (times the buffer's coverage, see
-    /// [`NetConfig::terms_masked_by_coverage`]), snapped for the exact sum. GlassNet only.
+    /// [`NetConfig::terms_masked_by_coverage`]), followed by the buffer's glass light
+    /// ([`GLASS_LIGHT_CHANNELS`]), snapped for the exact sum. GlassNet only.
     pub fn transparency_term(&self, scene: &SceneCode, buffer: Tensor<4>) -> Tensor<4> {
         assert_eq!(self.config.model, ModelKind::Glassnet, "transparency_term is GlassNet's T");
         let h = self.transparency_encoder.as_ref().expect("GlassNet has h");
         let coverage = buffer.clone().narrow(1, layout::transparent::COVERAGE, 1);
+        let light = glass_light(&buffer);
         let encoded = positional_encoding(buffer, self.config.encoding_frequencies);
         let term = h.forward(Tensor::cat(vec![encoded, scene.sigma.clone()], 1));
         let term = if self.config.terms_masked_by_coverage { term * coverage } else { term };
-        snap_to_grid(term)
+        snap_to_grid(Tensor::cat(vec![term, light], 1))
     }
 
-    /// The concat baseline's tau: every buffer at once, in the given (fixed) order.
+    /// The concat baseline's tau: every buffer at once, in the given (fixed) order, followed
+    /// by the buffers' summed glass light, as GlassNet's.
     pub fn concat_term(&self, scene: &SceneCode, buffers: &[Tensor<4>]) -> Tensor<4> {
         assert_eq!(self.config.model, ModelKind::Concat, "concat_term is the concat baseline's");
         let cnn = self.transparency_encoder.as_ref().expect("concat has its CNN");
         let mut inputs: Vec<Tensor<4>> = buffers.iter().map(|b| positional_encoding(b.clone(), self.config.encoding_frequencies)).collect();
         inputs.push(scene.sigma.clone());
-        cnn.forward(Tensor::cat(inputs, 1))
+        let term = cnn.forward(Tensor::cat(inputs, 1));
+        let [n, _, h, w] = term.dims();
+        let light = buffers.iter().map(glass_light).reduce(|a, b| a + b).unwrap_or_else(|| Tensor::zeros([n, GLASS_LIGHT_CHANNELS, h, w], &term.device()));
+        Tensor::cat(vec![term, light], 1)
     }
 
-    /// B and R: (sigma, tau) -> phi -> linear RGB.
+    /// B and R: (sigma, tau) -> phi -> linear RGB. For the models that read transparency
+    /// buffers, `tau`'s last [`GLASS_LIGHT_CHANNELS`] are the summed glass light, which goes to
+    /// R beside the G-buffer's L_d instead of through B.
     pub fn decode(&self, scene: &SceneCode, tau: Option<Tensor<4>>) -> Tensor<4> {
+        let (b, r) = (self.blending.as_ref().expect("pixelgen has no B"), self.renderer.as_ref().expect("pixelgen has no R"));
+        let mut renderer_input = vec![scene.direct_light.clone()];
         let blend_input = match tau {
-            Some(tau) => Tensor::cat(vec![scene.sigma.clone(), tau], 1),
+            Some(tau) => {
+                let features = tau.dims()[1] - GLASS_LIGHT_CHANNELS;
+                renderer_input.push(tau.clone().narrow(1, features, GLASS_LIGHT_CHANNELS));
+                Tensor::cat(vec![scene.sigma.clone(), tau.narrow(1, 0, features)], 1)
+            }
             None => scene.sigma.clone(),
         };
-        let (b, r) = (self.blending.as_ref().expect("pixelgen has no B"), self.renderer.as_ref().expect("pixelgen has no R"));
-        let phi = b.forward(blend_input);
-        r.forward(Tensor::cat(vec![phi, scene.direct_light.clone()], 1))
+        renderer_input.insert(0, b.forward(blend_input));
+        r.forward(Tensor::cat(renderer_input, 1))
     }
 
     /// The whole network on a batch. GlassNet streams the buffers through h one at a time.
@@ -214,9 +241,22 @@ impl GlassNet {
                         sum.add(self.transparency_term(&scene, b));
                     }
                 }
-                Some(sum.finish([n, self.config.transparency_encoder.out_channels, h, w], &device))
+                Some(sum.finish([n, self.config.transparency_encoder.out_channels + GLASS_LIGHT_CHANNELS, h, w], &device))
             }
         };
         self.decode(&scene, tau)
     }
+}
+
+/// Channels of a transparency buffer's glass light: L_d and L_d far, times its coverage.
+pub const GLASS_LIGHT_CHANNELS: usize = 6;
+
+/// The light a transparency buffer's surfaces reflect (L_d then L_d far, masked by the
+/// coverage). Summed over the objects it reaches R directly, as the naive network's L_d does:
+/// through h and B the highlights, a pixel or two wide and several times brighter than
+/// anything else, came out smeared (docs/design.md §5).
+fn glass_light(buffer: &Tensor<4>) -> Tensor<4> {
+    const { assert!(layout::transparent::LD_FAR == layout::transparent::LD + 3) };
+    let coverage = buffer.clone().narrow(1, layout::transparent::COVERAGE, 1);
+    buffer.clone().narrow(1, layout::transparent::LD, GLASS_LIGHT_CHANNELS) * coverage
 }

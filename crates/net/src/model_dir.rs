@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 use glassbake_core::image::write_bytes_atomically;
 use glassbake_core::{Error, Result};
 
-use crate::config::{ModelKind, NetConfig, TrainConfig};
+use crate::config::{NetConfig, TrainConfig};
 use crate::super_sampler::SuperSamplerConfig;
 
 pub const CONFIG_FILE: &str = "config.json";
@@ -115,7 +115,7 @@ impl ModelFiles {
 fn read_config(path: &Path) -> Result<ModelConfig> {
     let text = fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let config: ModelConfig = serde_json::from_str(&text).map_err(|e| Error::bad_input(path.display(), "config", e.to_string()))?;
-    let reads_transparency_buffers = matches!(&config.network, Network::Glassnet(n) if matches!(n.model, ModelKind::Glassnet | ModelKind::Concat));
+    let reads_transparency_buffers = matches!(&config.network, Network::Glassnet(n) if n.model.reads_transparency_buffers());
     match config.format_version {
         FORMAT_VERSION => Ok(config),
         1 | 2 if !reads_transparency_buffers => Ok(config),

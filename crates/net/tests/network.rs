@@ -116,6 +116,15 @@ fn a_new_glassnet_starts_as_the_naive_network_on_the_opaque_gbuffer_and_learns_t
     let head = &net.transparency_encoder.as_ref().unwrap().head.weight;
     let gradient: Vec<f32> = head.grad(&grads).expect("T's head has a gradient").into_data().try_to_vec::<f32>().unwrap();
     assert!(gradient.iter().any(|g| g.abs() > 1e-6), "T's head gets no gradient: {gradient:?}");
+    // R's weights on the summed glass light (its last input channels) start at zero too, and
+    // get a gradient.
+    let r = &net.renderer.as_ref().unwrap().large.conv.weight;
+    let [_, inputs, _, _] = r.dims();
+    let light = glassbake_net::model::GLASS_LIGHT_CHANNELS;
+    let weights: Vec<f32> = r.val().narrow(1, inputs - light, light).into_data().try_to_vec::<f32>().unwrap();
+    assert!(weights.iter().all(|&w| w == 0.0), "R's glass-light weights start at {weights:?}");
+    let gradient: Vec<f32> = r.grad(&grads).expect("R has a gradient").narrow(1, inputs - light, light).into_data().try_to_vec::<f32>().unwrap();
+    assert!(gradient.iter().any(|g| g.abs() > 1e-6), "R's glass-light weights get no gradient");
 }
 
 fn permutation_exactness(device: &Device, sizes: &[usize]) {
