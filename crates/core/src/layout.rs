@@ -43,7 +43,7 @@ pub const OPAQUE_ATTRIBUTES: [Attribute; 7] = [
 /// (a second depth pass, "greater"): a thin-walled globe or box reflects each light twice,
 /// in its near wall and in the inside of its far wall, which the camera sees through the
 /// near wall. Those second highlights were 41% of GlassNet's squared error on the transparent
-/// pixels of four cornellbox test frames (docs/benchmarks.md, 2026-11-25). For a single pane
+/// pixels of four cornellbox test frames (docs/benchmarks.md, 2026-11-24). For a single pane
 /// (one surface) it equals `Ld`.
 pub const TRANSPARENT_ATTRIBUTES: [Attribute; 10] = [
     Attribute { name: "normal", components: XYZ },
