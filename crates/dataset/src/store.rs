@@ -107,11 +107,14 @@ impl DatasetStore {
         if path.exists() {
             let existing = read_manifest(dir)?;
             if let Some(why) = existing.mismatch(planned) {
-                return Err(Error::bad_input(
-                    path.display(),
-                    "dataset",
-                    format!("refusing to add to this dataset: {why}; choose another --out or delete it"),
-                ));
+                let mut upgraded = existing.clone();
+                upgraded.format_version = planned.format_version;
+                let remedy = if existing.format_version < planned.format_version && upgraded.mismatch(planned).is_none() {
+                    format!("`glassbake dataset upgrade {}` brings it to today's format and keeps its ground truth", dir.display())
+                } else {
+                    "choose another --out or delete it".to_string()
+                };
+                return Err(Error::bad_input(path.display(), "dataset", format!("refusing to add to this dataset: {why}; {remedy}")));
             }
         } else {
             if dir.exists() && std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?.next().is_some() {
