@@ -17,8 +17,9 @@ use crate::config::{NetConfig, TrainConfig};
 use crate::super_sampler::SuperSamplerConfig;
 
 pub const CONFIG_FILE: &str = "config.json";
-/// 2: transparency buffers gained `Ld` (19 channels). 3: they gained `Ld_far` (22 channels)
-/// and smooth surfaces' `Ld` became the pixel's mean. Older networks that read no
+/// 2: transparency buffers gained `Ld` (19 channels). 3: they gained `Ld_far` (22 channels),
+/// smooth surfaces' `Ld` became the pixel's mean, and GlassNet's and concat's renderer reads
+/// the summed glass light (6 more input channels). Older networks that read no
 /// transparency buffer (naive, pixelgen, the super-sampler) still load (a naive network's
 /// `Ld` input differs only on small highlights); GlassNet and concat ones must be retrained.
 pub const FORMAT_VERSION: u32 = 3;
