@@ -5,7 +5,10 @@
 //!   c_i object i's coverage and q the exact-sum snapping of `sum.rs`; `concat` replaces it by
 //!   one CNN over all buffers concatenated in a fixed order, `naive` drops it
 //! - B, the blending network (U-Net): (sigma, tau) -> phi
-//! - R, the rendering network: (phi, L_d) -> linear RGB (clamped to [0, 1] by the tone map)
+//! - R, the rendering network: (phi, L_d) -> linear RGB (clamped to [0, 1] by the tone map).
+//!   For the models that read transparency buffers, R also reads the glass light and the glass
+//!   transmittance (see [`GLASS_DIRECT_CHANNELS`]) and the transmittance multiplies part of
+//!   its output
 //!
 //! The `pixelgen` baseline replaces all four by one per-pixel MLP on the encoded naive
 //! G-buffer and variable planes (`blocks::PixelGenerator`).
@@ -85,8 +88,8 @@ impl GlassNet {
             ModelKind::Naive | ModelKind::Pixelgen => (None, sigma),
         };
         let blending = UNet::new(blend_input, &config.blending, device);
-        let glass_light = if config.model.reads_transparency_buffers() { GLASS_LIGHT_CHANNELS } else { 0 };
-        let renderer = Renderer::new(config.blending.out_channels + 3 + glass_light, &config.renderer, 3, device);
+        let (glass_direct, renderer_outputs) = if config.model.reads_transparency_buffers() { (GLASS_DIRECT_CHANNELS, 9) } else { (0, 3) };
+        let renderer = Renderer::new(config.blending.out_channels + 3 + glass_direct, &config.renderer, renderer_outputs, device);
         let net = GlassNet {
             scene_encoder: Some(scene_encoder),
             transparency_encoder,
@@ -110,18 +113,14 @@ impl GlassNet {
                 }
             });
         }
-        // Likewise R's weights on the glass light (its last input channels) start at zero.
-        if glass_light > 0 {
+        // Likewise R's weights on the glass light and transmittance (its last input channels)
+        // start at zero, and so do its two transmitted outputs (all but the first 3), so a new
+        // network still renders what the naive one would.
+        if glass_direct > 0 {
             let r = net.renderer.as_mut().expect("built above");
-            r.large.conv.weight = r.large.conv.weight.clone().map(|w| {
-                let [out, inputs, kh, kw] = w.dims();
-                let zeroed = w.clone().slice_assign([0..out, inputs - glass_light..inputs, 0..kh, 0..kw], Tensor::zeros([out, glass_light, kh, kw], &w.device()));
-                if w.is_require_grad() {
-                    zeroed.detach().require_grad()
-                } else {
-                    zeroed
-                }
-            });
+            r.large.conv.weight = r.large.conv.weight.clone().map(|w| zero_last(w, 1, glass_direct));
+            r.head.weight = r.head.weight.clone().map(|w| zero_last(w, 0, renderer_outputs - 3));
+            r.head.bias = r.head.bias.take().map(|b| b.map(|b| zero_last(b, 0, renderer_outputs - 3)));
         }
         Ok(net)
     }
@@ -168,21 +167,21 @@ impl GlassNet {
     }
 
     /// h for one transparency buffer (times the buffer's coverage, see
-    /// [`NetConfig::terms_masked_by_coverage`]), followed by the buffer's glass light
-    /// ([`GLASS_LIGHT_CHANNELS`]), snapped for the exact sum. GlassNet only.
+    /// [`NetConfig::terms_masked_by_coverage`]), followed by the buffer's glass light and log
+    /// transmittance ([`GLASS_DIRECT_CHANNELS`]), snapped for the exact sum. GlassNet only.
     pub fn transparency_term(&self, scene: &SceneCode, buffer: Tensor<4>) -> Tensor<4> {
         assert_eq!(self.config.model, ModelKind::Glassnet, "transparency_term is GlassNet's T");
         let h = self.transparency_encoder.as_ref().expect("GlassNet has h");
         let coverage = buffer.clone().narrow(1, layout::transparent::COVERAGE, 1);
-        let light = glass_light(&buffer);
+        let direct = glass_direct(&buffer);
         let encoded = positional_encoding(buffer, self.config.encoding_frequencies);
         let term = h.forward(Tensor::cat(vec![encoded, scene.sigma.clone()], 1));
         let term = if self.config.terms_masked_by_coverage { term * coverage } else { term };
-        snap_to_grid(Tensor::cat(vec![term, light], 1))
+        snap_to_grid(Tensor::cat(vec![term, direct], 1))
     }
 
     /// The concat baseline's tau: every buffer at once, in the given (fixed) order, followed
-    /// by the buffers' summed glass light, as GlassNet's.
+    /// by the buffers' summed glass light and log transmittance, as GlassNet's.
     pub fn concat_term(&self, scene: &SceneCode, buffers: &[Tensor<4>]) -> Tensor<4> {
         assert_eq!(self.config.model, ModelKind::Concat, "concat_term is the concat baseline's");
         let cnn = self.transparency_encoder.as_ref().expect("concat has its CNN");
@@ -190,26 +189,28 @@ impl GlassNet {
         inputs.push(scene.sigma.clone());
         let term = cnn.forward(Tensor::cat(inputs, 1));
         let [n, _, h, w] = term.dims();
-        let light = buffers.iter().map(glass_light).reduce(|a, b| a + b).unwrap_or_else(|| Tensor::zeros([n, GLASS_LIGHT_CHANNELS, h, w], &term.device()));
-        Tensor::cat(vec![term, light], 1)
+        let direct = buffers.iter().map(glass_direct).reduce(|a, b| a + b).unwrap_or_else(|| Tensor::zeros([n, GLASS_DIRECT_CHANNELS, h, w], &term.device()));
+        Tensor::cat(vec![term, direct], 1)
     }
 
     /// B and R: (sigma, tau) -> phi -> linear RGB. For the models that read transparency
-    /// buffers, `tau`'s last [`GLASS_LIGHT_CHANNELS`] are the summed glass light, which goes to
-    /// R beside the G-buffer's L_d instead of through B.
+    /// buffers, `tau`'s last [`GLASS_DIRECT_CHANNELS`] are the summed glass light and log
+    /// transmittance, which go to R beside the G-buffer's L_d instead of through B; R then
+    /// renders `a + t b1 + t^2 b2` from its 9 outputs (a, b1, b2), t the transmittance (1 where
+    /// there is no glass; t^2 for solid glass, tinted where light enters and leaves).
     pub fn decode(&self, scene: &SceneCode, tau: Option<Tensor<4>>) -> Tensor<4> {
         let (b, r) = (self.blending.as_ref().expect("pixelgen has no B"), self.renderer.as_ref().expect("pixelgen has no R"));
-        let mut renderer_input = vec![scene.direct_light.clone()];
-        let blend_input = match tau {
-            Some(tau) => {
-                let features = tau.dims()[1] - GLASS_LIGHT_CHANNELS;
-                renderer_input.push(tau.clone().narrow(1, features, GLASS_LIGHT_CHANNELS));
-                Tensor::cat(vec![scene.sigma.clone(), tau.narrow(1, 0, features)], 1)
-            }
-            None => scene.sigma.clone(),
+        let Some(tau) = tau else {
+            let phi = b.forward(scene.sigma.clone());
+            return r.forward(Tensor::cat(vec![phi, scene.direct_light.clone()], 1));
         };
-        renderer_input.insert(0, b.forward(blend_input));
-        r.forward(Tensor::cat(renderer_input, 1))
+        let features = tau.dims()[1] - GLASS_DIRECT_CHANNELS;
+        let light = tau.clone().narrow(1, features, GLASS_LIGHT_CHANNELS);
+        let transmittance = tau.clone().narrow(1, features + GLASS_LIGHT_CHANNELS, 3).exp();
+        let phi = b.forward(Tensor::cat(vec![scene.sigma.clone(), tau.narrow(1, 0, features)], 1));
+        let out = r.forward(Tensor::cat(vec![phi, scene.direct_light.clone(), light, transmittance.clone()], 1));
+        let [a, b1, b2] = [0, 3, 6].map(|c| out.clone().narrow(1, c, 3));
+        a + (b1 + b2 * transmittance.clone()) * transmittance
     }
 
     /// The whole network on a batch. GlassNet streams the buffers through h one at a time.
@@ -241,7 +242,7 @@ impl GlassNet {
                         sum.add(self.transparency_term(&scene, b));
                     }
                 }
-                Some(sum.finish([n, self.config.transparency_encoder.out_channels + GLASS_LIGHT_CHANNELS, h, w], &device))
+                Some(sum.finish([n, self.config.transparency_encoder.out_channels + GLASS_DIRECT_CHANNELS, h, w], &device))
             }
         };
         self.decode(&scene, tau)
@@ -250,13 +251,40 @@ impl GlassNet {
 
 /// Channels of a transparency buffer's glass light: L_d and L_d far, times its coverage.
 pub const GLASS_LIGHT_CHANNELS: usize = 6;
+/// What each transparency buffer adds to the exact sum beside h's output and R reads without
+/// going through h and B: the glass light, then the log transmittance (3 channels).
+pub const GLASS_DIRECT_CHANNELS: usize = GLASS_LIGHT_CHANNELS + 3;
+/// Tints darker than this count as this (ln 1/256 = -5.5 stays well inside the exact sum's
+/// term bound).
+const DARKEST_TINT: f32 = 1.0 / 256.0;
 
 /// The light a transparency buffer's surfaces reflect (L_d then L_d far, masked by the
-/// coverage). Summed over the objects it reaches R directly, as the naive network's L_d does:
-/// through h and B the highlights, a pixel or two wide and several times brighter than
-/// anything else, came out smeared (docs/design.md §5).
-fn glass_light(buffer: &Tensor<4>) -> Tensor<4> {
+/// coverage), then the log of its tint (albedo) times the coverage. Summed over the objects,
+/// the first reaches R directly, as the naive network's L_d does: through h and B the
+/// highlights, a pixel or two wide and several times brighter than anything else, came out
+/// smeared. The second is the log of the product of the tints in front of each pixel, so R
+/// multiplies what it sees through glass by the glass's colour instead of learning the
+/// product (desk, whose tints are the variables: both networks drew its glass grey or brown;
+/// docs/design.md §5).
+fn glass_direct(buffer: &Tensor<4>) -> Tensor<4> {
     const { assert!(layout::transparent::LD_FAR == layout::transparent::LD + 3) };
     let coverage = buffer.clone().narrow(1, layout::transparent::COVERAGE, 1);
-    buffer.clone().narrow(1, layout::transparent::LD, GLASS_LIGHT_CHANNELS) * coverage
+    let light = buffer.clone().narrow(1, layout::transparent::LD, GLASS_LIGHT_CHANNELS);
+    let log_tint = buffer.clone().narrow(1, layout::transparent::ALBEDO, 3).clamp(DARKEST_TINT, 1.0).log();
+    Tensor::cat(vec![light, log_tint], 1) * coverage
 }
+
+/// `w` with its last `count` entries along `dim` set to zero, still trainable if it was.
+fn zero_last<const D: usize>(w: Tensor<D>, dim: usize, count: usize) -> Tensor<D> {
+    let dims = w.dims();
+    let ranges: [std::ops::Range<usize>; D] = std::array::from_fn(|d| if d == dim { dims[d] - count..dims[d] } else { 0..dims[d] });
+    let mut zero_dims = dims;
+    zero_dims[dim] = count;
+    let zeroed = w.clone().slice_assign(ranges, Tensor::zeros(zero_dims, &w.device()));
+    if w.is_require_grad() {
+        zeroed.detach().require_grad()
+    } else {
+        zeroed
+    }
+}
+

@@ -19,10 +19,12 @@ use crate::super_sampler::SuperSamplerConfig;
 pub const CONFIG_FILE: &str = "config.json";
 /// 2: transparency buffers gained `Ld` (19 channels). 3: they gained `Ld_far` (22 channels),
 /// smooth surfaces' `Ld` became the pixel's mean, and GlassNet's and concat's renderer reads
-/// the summed glass light (6 more input channels). Older networks that read no
-/// transparency buffer (naive, pixelgen, the super-sampler) still load (a naive network's
-/// `Ld` input differs only on small highlights); GlassNet and concat ones must be retrained.
-pub const FORMAT_VERSION: u32 = 3;
+/// the summed glass light (6 more input channels). 4: that renderer also reads the glass
+/// transmittance (3 more input channels) and has 9 outputs, two of them multiplied by it.
+/// Older networks that read no transparency buffer (naive, pixelgen, the super-sampler) still
+/// load (a naive network's `Ld` input differs only on small highlights); GlassNet and concat
+/// ones must be retrained.
+pub const FORMAT_VERSION: u32 = 4;
 
 /// The network a directory holds.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -119,7 +121,7 @@ fn read_config(path: &Path) -> Result<ModelConfig> {
     let reads_transparency_buffers = matches!(&config.network, Network::Glassnet(n) if n.model.reads_transparency_buffers());
     match config.format_version {
         FORMAT_VERSION => Ok(config),
-        1 | 2 if !reads_transparency_buffers => Ok(config),
+        1..=3 if !reads_transparency_buffers => Ok(config),
         old @ (1 | 2) => Err(Error::bad_input(
             path.display(),
             "format_version",
@@ -128,6 +130,11 @@ fn read_config(path: &Path) -> Result<ModelConfig> {
                 if old == 1 { 16 } else { 19 },
                 if old == 1 { "Ld and Ld_far" } else { "Ld_far" }
             ),
+        )),
+        3 => Err(Error::bad_input(
+            path.display(),
+            "format_version",
+            "3: its renderer predates the glass transmittance input (format 4); retrain it with `glassbake train`",
         )),
         other => Err(Error::bad_input(path.display(), "format_version", format!("{other} is not a version this glassbake reads (1 to {FORMAT_VERSION})"))),
     }

@@ -116,15 +116,55 @@ fn a_new_glassnet_starts_as_the_naive_network_on_the_opaque_gbuffer_and_learns_t
     let head = &net.transparency_encoder.as_ref().unwrap().head.weight;
     let gradient: Vec<f32> = head.grad(&grads).expect("T's head has a gradient").into_data().try_to_vec::<f32>().unwrap();
     assert!(gradient.iter().any(|g| g.abs() > 1e-6), "T's head gets no gradient: {gradient:?}");
-    // R's weights on the summed glass light (its last input channels) start at zero too, and
-    // get a gradient.
+    // R's weights on the summed glass light and transmittance (its last input channels) start
+    // at zero too, and get a gradient; so do its outputs that the transmittance multiplies.
     let r = &net.renderer.as_ref().unwrap().large.conv.weight;
     let [_, inputs, _, _] = r.dims();
-    let light = glassbake_net::model::GLASS_LIGHT_CHANNELS;
+    let light = glassbake_net::model::GLASS_DIRECT_CHANNELS;
     let weights: Vec<f32> = r.val().narrow(1, inputs - light, light).into_data().try_to_vec::<f32>().unwrap();
     assert!(weights.iter().all(|&w| w == 0.0), "R's glass-light weights start at {weights:?}");
     let gradient: Vec<f32> = r.grad(&grads).expect("R has a gradient").narrow(1, inputs - light, light).into_data().try_to_vec::<f32>().unwrap();
     assert!(gradient.iter().any(|g| g.abs() > 1e-6), "R's glass-light weights get no gradient");
+    let head = &net.renderer.as_ref().unwrap().head.weight;
+    let transmitted: Vec<f32> = head.val().narrow(0, 3, 6).into_data().try_to_vec::<f32>().unwrap();
+    assert!(transmitted.iter().all(|&w| w == 0.0), "R's transmitted outputs start at {transmitted:?}");
+    let gradient: Vec<f32> = head.grad(&grads).expect("R's head has a gradient").narrow(0, 3, 6).into_data().try_to_vec::<f32>().unwrap();
+    assert!(gradient.iter().any(|g| g.abs() > 1e-6), "R's transmitted outputs get no gradient");
+}
+
+#[test]
+fn the_transmitted_outputs_are_multiplied_by_the_product_of_the_tints_in_front() {
+    // R's head set to render only b1 = 1 (then only b2 = 1): the output is the transmittance t
+    // (then t^2), t = prod_k tint_k^coverage_k over the transparency buffers, computed here
+    // independently in f64 from the buffers' planes.
+    use glassbake_core::layout::transparent::{ALBEDO, COVERAGE};
+    let device = Device::flex();
+    let (size, objects) = (8, 2);
+    let frames = vec![common::frame(61, size, objects, 1)];
+    let batch = common::batch(&frames);
+    let inputs = batch.inputs(&device);
+    let mut net = random_net(&NetConfig::preset("tiny", ModelKind::Glassnet, 1, objects).unwrap(), 7, &device);
+    for (power, bias) in [(1, [0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0]), (2, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0])] {
+        let head = &mut net.renderer.as_mut().unwrap().head;
+        head.weight = head.weight.clone().map(|w| w.zeros_like());
+        head.bias = Some(burn::module::Param::from_tensor(Tensor::<1>::from_floats(bias, &device)));
+        let out = values(net.forward(&inputs));
+        let mut checked_below_one = 0;
+        for c in 0..3 {
+            for i in 0..size * size {
+                let log_t: f64 = frames[0]
+                    .transparent
+                    .iter()
+                    .map(|b| b.plane(COVERAGE)[i] as f64 * (b.plane(ALBEDO + c)[i] as f64).clamp(1.0 / 256.0, 1.0).ln())
+                    .sum();
+                let expected = (log_t * power as f64).exp();
+                let got = out[c * size * size + i] as f64;
+                assert!((got - expected).abs() <= 1e-4 * expected, "t^{power}, channel {c}, pixel {i}: {got} vs {expected}");
+                checked_below_one += (expected < 0.9) as usize;
+            }
+        }
+        assert!(checked_below_one > size * size, "the synthetic tints barely attenuate: the check would not see a missing t");
+    }
 }
 
 fn permutation_exactness(device: &Device, sizes: &[usize]) {
@@ -265,10 +305,11 @@ fn weights_round_trip_through_safetensors_with_pytorch_names() {
 
 #[test]
 fn a_model_of_the_previous_format_opens_only_if_it_reads_no_transparency_buffers() {
-    // Formats 1 and 2 predate the transparency buffers' L_d and L_d_far: a GlassNet or concat
-    // model of them was built for 16 or 19 channels and cannot run; a naive one never read them.
+    // Formats 1 and 2 predate the transparency buffers' L_d and L_d_far, format 3 the glass
+    // transmittance in R: a GlassNet or concat model of them was built for other inputs and
+    // cannot run; a naive one never read them.
     let cases = [(ModelKind::Glassnet, false), (ModelKind::Concat, false), (ModelKind::Naive, true)];
-    for (version, (kind, opens)) in [1, 2].into_iter().flat_map(|v| cases.map(|c| (v, c))) {
+    for (version, (kind, opens)) in [1, 2, 3].into_iter().flat_map(|v| cases.map(|c| (v, c))) {
         let dir = tempfile::tempdir().unwrap();
         let config = ModelConfig {
             format_version: version,
