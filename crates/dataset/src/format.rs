@@ -79,6 +79,12 @@ pub struct DatasetSpec {
     /// evaluation can state the noise floor. Absent in older manifests (test at `spp`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub test_spp: Option<u32>,
+    /// Samples per pixel of the test split's ground truth on the pixels that show glass
+    /// (`glassbake_trace::glass_pixels`), when more than the test spp: the transparent-pixel
+    /// metrics are then measured against a reference converged where they look. Absent in
+    /// older manifests (every test pixel at the test spp).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_glass_spp: Option<u32>,
     pub seed: u64,
     pub train: u64,
     pub val: u64,
@@ -99,6 +105,14 @@ impl DatasetSpec {
         match (split, self.test_spp) {
             (Split::Test, Some(test_spp)) => test_spp,
             _ => self.spp,
+        }
+    }
+
+    /// Samples per pixel of the ground truth of a frame of `split` on its glass pixels.
+    pub fn glass_spp_of(&self, split: Split) -> u32 {
+        match (split, self.test_glass_spp) {
+            (Split::Test, Some(glass_spp)) => glass_spp,
+            _ => self.spp_of(split),
         }
     }
 
@@ -128,6 +142,15 @@ impl DatasetSpec {
         }
         if self.test_spp == Some(0) {
             return Err(Error::bad_input("dataset", "--test-spp", "must be at least 1"));
+        }
+        if let Some(glass_spp) = self.test_glass_spp {
+            if glass_spp < self.spp_of(Split::Test) {
+                return Err(Error::bad_input(
+                    "dataset",
+                    "--test-glass-spp",
+                    format!("{glass_spp} is below the test split's {} spp: glass pixels get at least as many samples as the others", self.spp_of(Split::Test)),
+                ));
+            }
         }
         if self.total() == 0 {
             return Err(Error::bad_input("dataset", "--train/--val/--test", "the dataset would have no frames"));
@@ -240,10 +263,11 @@ impl DatasetManifest {
                 short(&other.scene.hash)
             ));
         }
-        let fields: [(&str, String, String); 8] = [
+        let fields: [(&str, String, String); 9] = [
             ("--res", a.resolution.to_string(), b.resolution.to_string()),
             ("--spp", a.spp.to_string(), b.spp.to_string()),
             ("--test-spp", a.spp_of(Split::Test).to_string(), b.spp_of(Split::Test).to_string()),
+            ("--test-glass-spp", a.glass_spp_of(Split::Test).to_string(), b.glass_spp_of(Split::Test).to_string()),
             ("--seed", a.seed.to_string(), b.seed.to_string()),
             ("--train/--val/--test", format!("{}/{}/{}", a.train, a.val, a.test), format!("{}/{}/{}", b.train, b.val, b.test)),
             ("--cache-buffers", a.cache_buffers.to_string(), b.cache_buffers.to_string()),

@@ -89,10 +89,13 @@ pub struct GenerateProgress {
 
 pub type Progress<'a> = &'a dyn Fn(GenerateProgress);
 
-/// Samples per pixel traced to make frame `sample`.
+/// Samples per pixel traced to make frame `sample` (an estimate where glass pixels get more:
+/// which pixels show glass is known only once the frame is traced; a quarter is typical of the
+/// built-in scenes).
 fn frame_work(spec: &DatasetSpec, sample: &SampleRecord) -> u64 {
     let copy = if spec.has_train_spp_copy(sample.split) { spec.spp } else { 0 };
-    u64::from(spec.spp_of(sample.split)) + u64::from(copy)
+    let glass_extra = (spec.glass_spp_of(sample.split) - spec.spp_of(sample.split)) / 4;
+    u64::from(spec.spp_of(sample.split)) + u64::from(glass_extra) + u64::from(copy)
 }
 
 fn make_frame(
@@ -110,23 +113,30 @@ fn make_frame(
         buffers.write_exr(&store.buffers_path(sample.index), ExrPrecision::F16)?;
     }
     let spec = &store.manifest.spec;
-    let trace = |spp: u32, seed: u64| -> Result<glassbake_trace::TraceOutput> {
+    let trace = |spp: u32, glass_spp: u32, seed: u64| -> Result<glassbake_trace::TraceOutput> {
         let mut settings = TraceSettings::new(res, res, spp, seed);
         settings.threads = threads;
         match gpu_tracer {
-            Some(tracer) => tracer.render(&instance, &sample.camera, &settings, None),
-            None => glassbake_trace::render(&instance, &sample.camera, &settings, None),
+            // The GPU tracer draws every pixel at one spp: the glass pixels' for all of them.
+            Some(tracer) => {
+                settings.spp = glass_spp;
+                tracer.render(&instance, &sample.camera, &settings, None)
+            }
+            None => {
+                settings.glass_spp = Some(glass_spp);
+                glassbake_trace::render(&instance, &sample.camera, &settings, None)
+            }
         }
     };
     let mut discarded = 0;
     if spec.has_train_spp_copy(sample.split) {
         // An independent trace at the training spp: its error against the high-spp ground
         // truth is the noise floor of what the models learned from.
-        let copy = trace(spec.spp, purpose_seed(sample.seed, "training-spp copy of a test frame"))?;
+        let copy = trace(spec.spp, spec.spp, purpose_seed(sample.seed, "training-spp copy of a test frame"))?;
         copy.image.write_exr(&store.train_spp_gt_path(sample.index), ExrPrecision::F32)?;
         discarded += copy.discarded_samples;
     }
-    let traced = trace(spec.spp_of(sample.split), sample_trace_seed(sample.seed))?;
+    let traced = trace(spec.spp_of(sample.split), spec.glass_spp_of(sample.split), sample_trace_seed(sample.seed))?;
     traced.image.write_png_rgb(&store.preview_path(sample.index), [0, 1, 2])?;
     // Ground truth last: it is what marks a frame as started-and-finished for humans too.
     traced.image.write_exr(&store.gt_path(sample.index), ExrPrecision::F32)?;

@@ -57,6 +57,8 @@ pub struct DatasetInfo {
     pub spp: u32,
     /// Samples per pixel of the test split's ground truth.
     pub test_spp: u32,
+    /// ... on the pixels that show glass.
+    pub test_glass_spp: u32,
     pub seed: u64,
     pub cache_buffers: bool,
     /// Where the ground truth was path-traced.
@@ -258,6 +260,7 @@ impl DatasetStore {
             resolution: m.spec.resolution,
             spp: m.spec.spp,
             test_spp: m.spec.spp_of(Split::Test),
+            test_glass_spp: m.spec.glass_spp_of(Split::Test),
             device: m.spec.device,
             seed: m.spec.seed,
             cache_buffers: m.spec.cache_buffers,

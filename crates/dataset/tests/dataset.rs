@@ -10,10 +10,22 @@ use glassbake_core::Error;
 use glassbake_dataset::{generate, merge, upgrade, DatasetSpec, DatasetStore, GenerateOptions, GenerateProgress, Loader, LoaderOptions, ShardSpec, Split, TraceDevice};
 use glassbake_scene::builtin::builtin;
 
-/// A small dataset whose test frames are traced at 4x the training spp (so resume and merge
-/// cover the test frames' training-spp copies too).
+/// A small dataset whose test frames are traced at 4x the training spp, 6x on glass pixels
+/// (so resume and merge cover the test frames' training-spp copies too).
 fn spec(seed: u64) -> DatasetSpec {
-    DatasetSpec { scene: "cornell-glass".into(), resolution: 8, spp: 2, seed, train: 4, val: 2, test: 2, cache_buffers: true, device: TraceDevice::Cpu, test_spp: Some(8) }
+    DatasetSpec {
+        scene: "cornell-glass".into(),
+        resolution: 8,
+        spp: 2,
+        seed,
+        train: 4,
+        val: 2,
+        test: 2,
+        cache_buffers: true,
+        device: TraceDevice::Cpu,
+        test_spp: Some(8),
+        test_glass_spp: Some(12),
+    }
 }
 
 fn no_progress(_: GenerateProgress) {}
@@ -57,7 +69,7 @@ fn resume_redoes_exactly_what_is_missing_or_corrupt() {
 }
 
 #[test]
-fn test_frames_are_traced_at_the_test_spp_with_an_independent_training_spp_copy() {
+fn test_frames_are_traced_at_the_test_spp_and_glass_spp_with_an_independent_training_spp_copy() {
     let scene = builtin("cornell-glass").unwrap();
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path().join("set");
@@ -65,23 +77,22 @@ fn test_frames_are_traced_at_the_test_spp_with_an_independent_training_spp_copy(
     generate(&scene, &s, &d, &GenerateOptions::default(), &no_progress).unwrap();
     let store = DatasetStore::open(&d).unwrap();
     let info = store.info();
-    assert_eq!((info.spp, info.test_spp), (2, 8));
-    let trace = |index: u64, spp: u32, seed: u64| {
+    assert_eq!((info.spp, info.test_spp, info.test_glass_spp), (2, 8, 12));
+    let trace_with_glass = |index: u64, spp: u32, glass_spp: u32, seed: u64| {
         let sample = &store.manifest.samples[index as usize];
-        let settings = glassbake_trace::TraceSettings::new(8, 8, spp, seed);
+        let settings = glassbake_trace::TraceSettings { glass_spp: Some(glass_spp), ..glassbake_trace::TraceSettings::new(8, 8, spp, seed) };
         glassbake_trace::render(&scene.instantiate(&sample.values).unwrap(), &sample.camera, &settings, None).unwrap().image
     };
+    let trace = |index: u64, spp: u32, seed: u64| trace_with_glass(index, spp, spp, seed);
+    let mut glass_shown = false;
     let read = |path: &Path| glassbake_core::PlanarImage::read_exr(path).unwrap();
     for sample in &store.manifest.samples {
         let gt = read(&store.gt_path(sample.index));
         let copy_path = store.train_spp_gt_path(sample.index);
         if sample.split == Split::Test {
-            assert_eq!(
-                gt.plane_by_name("R"),
-                trace(sample.index, 8, glassbake_trace::sample_trace_seed(sample.seed)).plane_by_name("R"),
-                "frame {}",
-                sample.index
-            );
+            let seed = glassbake_trace::sample_trace_seed(sample.seed);
+            assert_eq!(gt.plane_by_name("R"), trace_with_glass(sample.index, 8, 12, seed).plane_by_name("R"), "frame {}", sample.index);
+            glass_shown |= gt.plane_by_name("R") != trace(sample.index, 8, seed).plane_by_name("R");
             let copy = read(&copy_path);
             let seed = glassbake_core::seed::purpose_seed(sample.seed, "training-spp copy of a test frame");
             assert_eq!(copy.plane_by_name("R"), trace(sample.index, 2, seed).plane_by_name("R"));
@@ -91,6 +102,7 @@ fn test_frames_are_traced_at_the_test_spp_with_an_independent_training_spp_copy(
             assert!(!copy_path.exists(), "frame {} is not a test frame", sample.index);
         }
     }
+    assert!(glass_shown, "no test frame shows the pane: the glass spp went unchecked");
     // A test frame without its copy is incomplete and is made again.
     let test_frame = store.manifest.indices_of(Split::Test)[0];
     std::fs::remove_file(store.train_spp_gt_path(test_frame)).unwrap();
@@ -99,7 +111,7 @@ fn test_frames_are_traced_at_the_test_spp_with_an_independent_training_spp_copy(
     assert_eq!((again.generated, again.skipped), (1, 7));
     // Without --test-spp nothing changes for old datasets: no copies, test at --spp.
     let plain = dir.path().join("plain");
-    generate(&scene, &DatasetSpec { test_spp: None, ..s.clone() }, &plain, &GenerateOptions::default(), &no_progress).unwrap();
+    generate(&scene, &DatasetSpec { test_spp: None, test_glass_spp: None, ..s.clone() }, &plain, &GenerateOptions::default(), &no_progress).unwrap();
     assert_eq!(std::fs::read_dir(plain.join("gt-train-spp")).unwrap().count(), 0);
     let manifest = std::fs::read_to_string(plain.join("manifest.json")).unwrap();
     assert!(!manifest.contains("test_spp"), "an old-style manifest stays as it was");
@@ -113,9 +125,10 @@ fn progress_counts_traced_samples() {
     let record = |p: GenerateProgress| seen.lock().unwrap().push(p);
     generate(&scene, &spec(8), &dir.path().join("set"), &GenerateOptions::default(), &record).unwrap();
     let seen = seen.into_inner().unwrap();
-    // 6 train/val frames at 2 spp, 2 test frames at 8 spp plus a 2-spp copy each.
+    // 6 train/val frames at 2 spp, 2 test frames at 8 spp (a quarter of the 4 more on glass
+    // pixels, as estimated) plus a 2-spp copy each.
     let last = *seen.last().unwrap();
-    assert_eq!((last.frames_done, last.frames_total, last.work_done, last.work_total), (8, 8, 6 * 2 + 2 * (8 + 2), 32));
+    assert_eq!((last.frames_done, last.frames_total, last.work_done, last.work_total), (8, 8, 6 * 2 + 2 * (8 + 1 + 2), 34));
     assert_eq!(seen.len(), 9);
     assert!(seen.windows(2).all(|w| w[1].work_done > w[0].work_done));
 }
@@ -156,7 +169,8 @@ fn a_different_command_on_an_existing_dataset_is_refused() {
         (scene.clone(), DatasetSpec { seed: 4, ..tiny.clone() }, "--seed"),
         (scene.clone(), DatasetSpec { resolution: 16, ..tiny.clone() }, "--res"),
         (scene.clone(), DatasetSpec { spp: 4, ..tiny.clone() }, "--spp"),
-        (scene.clone(), DatasetSpec { test_spp: Some(16), ..tiny.clone() }, "--test-spp"),
+        (scene.clone(), DatasetSpec { test_spp: Some(16), test_glass_spp: Some(16), ..tiny.clone() }, "--test-spp"),
+        (scene.clone(), DatasetSpec { test_glass_spp: Some(16), ..tiny.clone() }, "--test-glass-spp"),
         (scene.clone(), DatasetSpec { train: 2, ..tiny.clone() }, "--train"),
         (other_scene, tiny.clone(), "different scene"),
     ];
@@ -169,6 +183,11 @@ fn a_different_command_on_an_existing_dataset_is_refused() {
             other => panic!("expected a refusal for {why}, got {:?}", other.map(|s| s.generated)),
         }
     }
+    // Glass pixels below the test spp are refused before anything is written.
+    let below = dir.path().join("below");
+    let result = generate(&scene, &DatasetSpec { test_glass_spp: Some(4), ..spec(3) }, &below, &GenerateOptions::default(), &no_progress);
+    assert!(matches!(&result, Err(Error::BadInput { field, .. }) if field == "--test-glass-spp"), "{:?}", result.map(|s| s.generated));
+    assert!(!below.exists());
     // A non-empty directory that is not a dataset is never written into.
     let foreign = dir.path().join("foreign");
     std::fs::create_dir(&foreign).unwrap();
@@ -180,7 +199,7 @@ fn a_different_command_on_an_existing_dataset_is_refused() {
 #[test]
 fn splits_are_disjoint_and_cover_the_set() {
     let scene = builtin("cornellbox").unwrap();
-    let s = DatasetSpec { scene: "cornellbox".into(), resolution: 8, spp: 1, seed: 0, train: 7, val: 3, test: 5, cache_buffers: false, device: TraceDevice::Cpu, test_spp: None };
+    let s = DatasetSpec { scene: "cornellbox".into(), resolution: 8, spp: 1, seed: 0, train: 7, val: 3, test: 5, cache_buffers: false, device: TraceDevice::Cpu, test_spp: None, test_glass_spp: None };
     let manifest = glassbake_dataset::DatasetManifest::plan(&s, &scene);
     let train = manifest.indices_of(Split::Train);
     let val = manifest.indices_of(Split::Val);

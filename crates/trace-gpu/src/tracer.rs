@@ -120,6 +120,9 @@ impl GpuTracer {
                 "path guiding runs on the CPU only; with --device wgpu use plain or solid-angle",
             ));
         }
+        if settings.glass_spp.is_some_and(|glass_spp| glass_spp > settings.spp) {
+            return Err(Error::bad_input("trace settings", "glass_spp", "the GPU tracer renders every pixel at one spp: trace at the glass pixels' spp instead"));
+        }
         let (width, height) = (settings.width, settings.height);
         let pixels = width as u64 * height as u64;
         let samples = pixels * settings.spp as u64;

@@ -25,4 +25,4 @@ mod bsdf_tests;
 
 pub use bsdf::{Bsdf, MaterialModel, SurfaceMaterial};
 pub use integrator::{Integrator, PreparedScene, SurfaceHit};
-pub use render::{render, sample_trace_seed, unlit_warning, Progress, TraceOutput, TraceSettings};
+pub use render::{glass_pixels, render, sample_trace_seed, unlit_warning, Progress, TraceOutput, TraceSettings};

@@ -1,5 +1,6 @@
 //! Whole images: settings, validation, tiles over rayon, deterministic per-pixel sampling,
-//! the discarding of non-finite samples, and the guided estimator's learning passes.
+//! the discarding of non-finite samples, the guided estimator's learning passes, and more
+//! samples on the pixels that show glass when asked (`TraceSettings::glass_spp`).
 //!
 //! The guided estimator (opt-in) spends the first quarter of the sample budget learning: passes of
 //! 1, 2, 4, ... samples per pixel, each rendered with the tree the previous one built; the
@@ -18,6 +19,7 @@ use glassbake_scene::Scene;
 use rayon::prelude::*;
 
 use crate::bsdf::MaterialModel;
+use crate::geometry::Owner;
 use crate::guiding::{GuidingRecord, SdTree};
 use crate::integrator::{Guide, Integrator, PathScratch, PathSettings, PreparedScene};
 use crate::rng::Pcg32;
@@ -32,6 +34,13 @@ pub struct TraceSettings {
     pub height: u32,
     /// Samples per pixel.
     pub spp: u32,
+    /// Samples per pixel on the pixels that show a transparent object in front of everything
+    /// else (see [`glass_pixels`]), when more than `spp`. Which pixels those are follows from
+    /// the geometry alone, never from the samples, so every pixel stays an unbiased mean; and
+    /// as a pixel's samples are drawn from its own stream in order, each pixel is exactly the
+    /// one a uniform render at its spp gives. A test image is thus converged where the
+    /// transparent-pixel metrics measure it, at a fraction of the cost of a uniform render.
+    pub glass_spp: Option<u32>,
     /// The image seed; for dataset sample `s` it is [`sample_trace_seed`]`(s)`.
     pub seed: u64,
     /// Longest path in segments (Mitsuba's convention: 1 = emitters only, 2 = direct light).
@@ -60,6 +69,7 @@ impl TraceSettings {
             width,
             height,
             spp,
+            glass_spp: None,
             seed,
             max_depth: Self::DEFAULT_MAX_DEPTH,
             rr_depth: Self::DEFAULT_RR_DEPTH,
@@ -78,6 +88,14 @@ impl TraceSettings {
         if self.spp == 0 {
             return Err(Error::bad_input(SOURCE, "spp", "must be at least 1"));
         }
+        if let Some(glass_spp) = self.glass_spp {
+            if glass_spp < self.spp {
+                return Err(Error::bad_input(SOURCE, "glass_spp", format!("{glass_spp} is below spp {}: glass pixels get at least spp samples", self.spp)));
+            }
+            if self.integrator == Integrator::Guided {
+                return Err(Error::bad_input(SOURCE, "glass_spp", "the guided estimator renders every pixel at one spp (its learning passes)"));
+            }
+        }
         if self.max_depth == 0 {
             return Err(Error::bad_input(SOURCE, "max_depth", "must be at least 1 (1 = emitters seen directly)"));
         }
@@ -94,7 +112,7 @@ pub struct TraceOutput {
     pub image: PlanarImage,
     /// Samples that came out NaN or infinite and were left out of their pixel's mean.
     pub discarded_samples: u64,
-    /// Samples traced in all (pixels x spp).
+    /// Samples traced in all (pixels x spp, glass pixels at `glass_spp`).
     pub samples: u64,
     pub warnings: Vec<String>,
     /// Wall time of the render, BVH build included.
@@ -164,10 +182,17 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
     let channels: Vec<String> = GROUND_TRUTH_CHANNELS.iter().map(|c| c.to_string()).collect();
     let mut image = PlanarImage::new(width, height, channels);
     let total_pixels = width as u64 * height as u64;
-    let samples = total_pixels * settings.spp as u64;
     let mut warnings = Vec::new();
 
     let prepared = PreparedScene::for_integrator(scene, settings.integrator);
+    // Samples of each pixel in the main pass: spp, or glass_spp where glass shows.
+    let pixel_spp: Vec<u32> = match settings.glass_spp {
+        Some(glass_spp) if glass_spp > settings.spp => {
+            glass_pixels(&prepared, camera, width, height).into_iter().map(|glass| if glass { glass_spp } else { settings.spp }).collect()
+        }
+        _ => vec![settings.spp; total_pixels as usize],
+    };
+    let samples: u64 = pixel_spp.iter().map(|&s| s as u64).sum();
     if let Some(warning) = unlit_warning(scene, prepared.lights.is_empty()) {
         warnings.push(warning);
         if let Some(p) = progress {
@@ -185,21 +210,24 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         }
     }
     let done = AtomicU64::new(0);
-    let pass = |spp: u32, seed: u64, tree: Option<&SdTree>, learn: bool| -> Vec<TileResult> {
+    // `spp_of(x, y)`: the pass's samples of pixel (x, y).
+    let pass = |spp_of: &(dyn Fn(u32, u32) -> u32 + Sync), seed: u64, tree: Option<&SdTree>, learn: bool| -> Vec<TileResult> {
         tiles
             .par_iter()
             .map(|tile| {
                 let pixel_count = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
                 let mut result = TileResult { pixels: Vec::with_capacity(pixel_count), records: Vec::new() };
                 let mut scratch = PathScratch::default();
+                let mut tile_samples = 0u64;
                 for y in tile.y0..tile.y1 {
                     for x in tile.x0..tile.x1 {
                         let mut guide = Guide { tree, records: learn.then_some(&mut result.records) };
+                        let spp = spp_of(x, y);
                         let sums = render_pixel(&prepared, camera, (settings.width, settings.height, spp, seed), &path_settings, x, y, &mut guide, &mut scratch);
                         result.pixels.push(sums);
+                        tile_samples += spp as u64;
                     }
                 }
-                let tile_samples = pixel_count as u64 * spp as u64;
                 let finished = done.fetch_add(tile_samples, Ordering::Relaxed) + tile_samples;
                 if let Some(p) = progress {
                     p(finished, samples);
@@ -231,7 +259,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         let mut index = 0u32;
         while learning_spp + pass_spp <= settings.spp / LEARNING_SHARE && total_pixels * pass_spp as u64 <= MAX_LEARNING_PATHS {
             let pass_seed = glassbake_core::seed::purpose_seed(settings.seed, &format!("guiding pass {index}"));
-            let mut results = pass(pass_spp, pass_seed, tree.as_ref(), true);
+            let mut results = pass(&|_, _| pass_spp, pass_seed, tree.as_ref(), true);
             let records: Vec<GuidingRecord> = results.iter_mut().flat_map(|r| std::mem::take(&mut r.records)).collect();
             accumulate(results);
             tree = SdTree::build(records);
@@ -244,7 +272,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
             tracing::debug!("guiding: learned over {learning_spp} spp, {leaves} guiding leaves, {cells} direction nodes");
         }
     }
-    accumulate(pass(settings.spp - learning_spp, settings.seed, tree.as_ref(), false));
+    accumulate(pass(&|x, y| pixel_spp[(y * width + x) as usize] - learning_spp, settings.seed, tree.as_ref(), false));
 
     let mut discarded_samples = 0;
     for y in 0..height {
@@ -262,6 +290,29 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         warnings.push(warning);
     }
     Ok(TraceOutput { image, discarded_samples, samples, warnings, elapsed: start.elapsed(), learning_spp })
+}
+
+/// Sub-pixel positions per side at which [`glass_pixels`] looks.
+const GLASS_PROBES: u32 = 3;
+
+/// Which pixels show a transparent object (`Object::transparent`, the objects that get a
+/// transparency buffer) in front of everything else: a camera ray through any of a 3x3 grid
+/// of points in the pixel meets one first. Row-major, `width` x `height`. The rasterizer's
+/// coverage of the transparency buffers marks the same pixels (up to the sub-pixel grid),
+/// and it is what the evaluation's transparent-pixel metrics read.
+pub fn glass_pixels(prepared: &PreparedScene, camera: &Camera, width: u32, height: u32) -> Vec<bool> {
+    let scene = prepared.scene;
+    (0..width * height)
+        .into_par_iter()
+        .map(|index| {
+            let (x, y) = (index % width, index / width);
+            (0..GLASS_PROBES * GLASS_PROBES).any(|probe| {
+                let offset = |i: u32| (i as f32 + 0.5) / GLASS_PROBES as f32;
+                let ray = camera.ray(x as f32 + offset(probe % GLASS_PROBES), y as f32 + offset(probe / GLASS_PROBES), width, height);
+                matches!(prepared.intersect(&ray).map(|hit| hit.owner), Some(Owner::Object { object, .. }) if scene.objects[object as usize].transparent)
+            })
+        })
+        .collect()
 }
 
 /// One tile's pixels of one pass, and its guiding records when learning.

@@ -359,6 +359,76 @@ fn images_are_bit_identical_whatever_the_thread_count() {
     assert_ne!(images[0], other_seed);
 }
 
+/// With `glass_spp`, the pixels that show glass get more samples from their own streams:
+/// each pixel is bit-identical to a uniform render at its spp, and the glass pixels are where
+/// the pane projects (checked against the projected corners of its rectangle, independently
+/// of the tracer's ray casts).
+#[test]
+fn glass_pixels_get_glass_spp_and_match_a_uniform_render_at_it() {
+    let scene = glassbake_scene::builtin::builtin("cornell-glass").unwrap();
+    let camera = scene.sample(0, 0).camera;
+    let (w, h) = (24, 20);
+    let render_at = |spp: u32, glass_spp: Option<u32>| render(&scene, &camera, &TraceSettings { glass_spp, ..TraceSettings::new(w, h, spp, 42) }, None).unwrap();
+    let (low, high, mixed) = (render_at(2, None), render_at(6, None), render_at(2, Some(6)));
+    let glass = glassbake_trace::glass_pixels(&PreparedScene::new(&scene), &camera, w, h);
+    let glass_count = glass.iter().filter(|&&g| g).count();
+    assert_eq!(mixed.samples, (w * h) as u64 * 2 + glass_count as u64 * 4);
+    let (low, high, mixed) = (bits(&low.image), bits(&high.image), bits(&mixed.image));
+    let pixels = (w * h) as usize;
+    for (i, &is_glass) in glass.iter().enumerate() {
+        for c in 0..3 {
+            let expected = if is_glass { high[c * pixels + i] } else { low[c * pixels + i] };
+            assert_eq!(mixed[c * pixels + i], expected, "pixel {i} (glass: {is_glass}), channel {c}");
+        }
+    }
+    // The pane's projected rectangle: pixels wholly inside it show glass, pixels more than a
+    // pixel outside do not (the scene has no other transparent object).
+    let pane = scene.objects.iter().position(|o| o.transparent).unwrap();
+    let corners: Vec<Vec2> = scene.world_mesh(pane).positions.iter().map(|&p| camera.project(p, w, h).map(|(x, y)| Vec2::new(x, y)).unwrap()).collect();
+    assert_eq!(corners.len(), 4, "the pane is one rectangle");
+    let hull = convex_hull(&corners);
+    let signed_distance = |p: Vec2| -> f32 {
+        // Negative inside: the largest signed distance to the hull's edges (counter-clockwise).
+        (0..hull.len()).map(|k| {
+            let (a, b) = (hull[k], hull[(k + 1) % hull.len()]);
+            let edge = (b - a).normalize();
+            -(edge.perp_dot(p - a))
+        }).fold(f32::MIN, f32::max)
+    };
+    let (mut inside, mut outside) = (0, 0);
+    for (i, &is_glass) in glass.iter().enumerate() {
+        let centre = Vec2::new((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
+        let d = signed_distance(centre);
+        if d < -0.75 {
+            assert!(is_glass, "pixel {i} lies inside the pane's projection but is not a glass pixel");
+            inside += 1;
+        } else if d > 1.5 {
+            assert!(!is_glass, "pixel {i} lies outside the pane's projection but is a glass pixel");
+            outside += 1;
+        }
+    }
+    assert!(inside > 20 && outside > 20, "the view must show both: {inside} inside, {outside} outside");
+}
+
+/// The convex hull of a few points, counter-clockwise (gift wrapping).
+fn convex_hull(points: &[Vec2]) -> Vec<Vec2> {
+    let start = points.iter().copied().fold(points[0], |a, b| if b.x < a.x { b } else { a });
+    let mut hull = vec![start];
+    loop {
+        let current = *hull.last().unwrap();
+        let mut next = points[0];
+        for &p in points {
+            if next == current || (next - current).perp_dot(p - current) < 0.0 {
+                next = p;
+            }
+        }
+        if next == start {
+            return hull;
+        }
+        hull.push(next);
+    }
+}
+
 /// The guided estimator's learned tree is built from records gathered in tile order, so its
 /// images do not depend on the thread count either.
 #[test]

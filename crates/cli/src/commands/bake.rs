@@ -14,7 +14,7 @@ use glassbake_eval::EvaluationSummary;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 
 use super::dataset::{make_dataset, MakeArgs};
-use super::dataset::default_test_spp;
+use super::dataset::{default_test_glass_spp, default_test_spp};
 use super::eval::{evaluate, noise_floor_row, path_traced_rows, EvalArgs};
 use super::train::{train_model, Ablation, CommonTrainArgs, TrainArgs};
 
@@ -157,6 +157,7 @@ pub fn run(args: BakeArgs) -> Result<()> {
         res: preset.resolution,
         spp: preset.spp,
         test_spp: None,
+        test_glass_spp: None,
         seed: 0,
         cache_buffers: true,
         shard: None,
@@ -166,11 +167,12 @@ pub fn run(args: BakeArgs) -> Result<()> {
     };
     stage(
         format!(
-            "dataset ({} frames, {} px, {} spp, test split {} spp)",
+            "dataset ({} frames, {} px, {} spp, test split {} spp, {} on glass)",
             preset.train + preset.val + preset.test,
             preset.resolution,
             preset.spp,
-            default_test_spp(preset.spp)
+            default_test_spp(preset.spp),
+            default_test_glass_spp(default_test_spp(preset.spp))
         ),
         &mut || make_dataset(&make, &bar),
     )?;

@@ -66,6 +66,12 @@ pub struct MakeArgs {
     /// --spp, for the noise floor the evaluation reports.
     #[arg(long)]
     pub test_spp: Option<u32>,
+    /// Samples per pixel of the test split's ground truth on the pixels that show a
+    /// transparent object (default: 3 x the test spp), where the transparent-pixel metrics
+    /// measure. Which pixels those are follows from the geometry, so every pixel stays
+    /// unbiased.
+    #[arg(long)]
+    pub test_glass_spp: Option<u32>,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Also store the rasterized buffers (f16 EXR); otherwise they are rasterized again when
@@ -92,6 +98,17 @@ const DEFAULT_TEST_SPP_FACTOR: u32 = 8;
 /// The test split's spp when `--test-spp` is not given.
 pub fn default_test_spp(spp: u32) -> u32 {
     spp.saturating_mul(DEFAULT_TEST_SPP_FACTOR)
+}
+
+/// The test split's glass pixels get this many times its spp by default: the
+/// transparent-pixel metrics are then measured against a reference whose own noise is a
+/// third of the uniform one's (in variance), at about +45% of the test split's trace time on
+/// cornellbox (docs/benchmarks.md, 2026-11-24).
+const DEFAULT_TEST_GLASS_SPP_FACTOR: u32 = 3;
+
+/// The test split's spp on glass pixels when `--test-glass-spp` is not given.
+pub fn default_test_glass_spp(test_spp: u32) -> u32 {
+    test_spp.saturating_mul(DEFAULT_TEST_GLASS_SPP_FACTOR)
 }
 
 /// clap's parser for `--device` of `dataset` and `trace`.
@@ -121,7 +138,11 @@ pub fn run(args: DatasetArgs) -> Result<()> {
                 info.resolution,
                 info.resolution,
                 info.spp,
-                if info.test_spp != info.spp { format!(", test split {} spp", info.test_spp) } else { String::new() },
+                match (info.test_spp != info.spp, info.test_glass_spp != info.test_spp) {
+                    (_, true) => format!(", test split {} spp ({} on glass pixels)", info.test_spp, info.test_glass_spp),
+                    (true, false) => format!(", test split {} spp", info.test_spp),
+                    (false, false) => String::new(),
+                },
                 info.device.name(),
                 info.seed,
                 info.transparent_objects
@@ -183,11 +204,13 @@ pub fn make_dataset(args: &MakeArgs, bar: &ProgressBar) -> Result<bool> {
         Some(text) => ShardSpec::parse(text)?,
         None => ShardSpec::ALL,
     };
+    let test_spp = args.test_spp.unwrap_or_else(|| default_test_spp(args.spp));
     let spec = DatasetSpec {
         scene: args.scene.clone(),
         resolution: args.res,
         spp: args.spp,
-        test_spp: Some(args.test_spp.unwrap_or_else(|| default_test_spp(args.spp))),
+        test_spp: Some(test_spp),
+        test_glass_spp: Some(args.test_glass_spp.unwrap_or_else(|| default_test_glass_spp(test_spp))),
         seed: args.seed,
         train: args.train,
         val: args.val,

@@ -243,20 +243,22 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
     }
     let summary = evaluation.finish()?;
     let training_logs = model_dirs.iter().zip(&names).map(|(dir, name)| TrainingLog { name: name.clone(), path: dir.join("train_log.csv") }).collect();
+    let spec = &store.manifest.spec;
+    let glass_spp = spec.glass_spp_of(split);
+    let truth_spp =
+        if glass_spp != spec.spp_of(split) { format!("{} spp, {glass_spp} on pixels showing glass", spec.spp_of(split)) } else { format!("{} spp", spec.spp_of(split)) };
     let mut report_facts = vec![format!(
-        "dataset {} ({} transparent objects, {} px, {} spp; the {} split's ground truth at {} spp)",
+        "dataset {} ({} transparent objects, {} px, {} spp; the {} split's ground truth at {truth_spp})",
         dataset.display(),
         info.transparent_objects,
         info.resolution,
         info.spp,
         args.split.to_lowercase(),
-        store.manifest.spec.spp_of(split)
     )];
     if let Some(row) = &noise_floor {
         report_facts.push(format!(
-            "noise floor: row {row} is the ground truth traced again at the training spp ({}) with other random numbers, scored against the {}-spp ground truth: how far the frames the models learned from are from converged",
+            "noise floor: row {row} is the ground truth traced again at the training spp ({}) with other random numbers, scored against the ground truth ({truth_spp}): how far the frames the models learned from are from converged",
             info.spp,
-            store.manifest.spec.spp_of(split),
         ));
     }
     report_facts.extend(facts.iter().cloned());

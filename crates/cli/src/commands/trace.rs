@@ -40,6 +40,10 @@ pub struct TraceArgs {
     /// Samples per pixel.
     #[arg(long, default_value_t = 256)]
     spp: u32,
+    /// Samples per pixel on the pixels that show a transparent object (CPU; default: --spp).
+    /// A dataset's test frame is `--sample i --spp <test spp> --glass-spp <its glass spp>`.
+    #[arg(long)]
+    glass_spp: Option<u32>,
     /// Longest path in segments (1 = emitters seen directly, 2 = direct light).
     #[arg(long, default_value_t = TraceSettings::DEFAULT_MAX_DEPTH)]
     max_depth: u32,
@@ -97,6 +101,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
         max_depth: args.max_depth,
         threads: args.threads,
         integrator: args.integrator,
+        glass_spp: args.glass_spp,
         ..TraceSettings::new(args.res, args.res, args.spp, image_seed)
     };
 
@@ -113,7 +118,10 @@ pub fn run(args: TraceArgs) -> Result<()> {
     };
     let on = gpu_tracer.as_ref().map_or_else(|| "CPU".to_string(), |t| t.adapter_name().to_string());
     bar.set_message(format!("tracing {} {}x{} @ {} spp ({}, {on})", scene.name, args.res, args.res, args.spp, args.integrator.name()));
-    let progress = |done: u64, _total: u64| bar.set_position(done);
+    let progress = |done: u64, total: u64| {
+        bar.set_length(total);
+        bar.set_position(done);
+    };
     let output = match &gpu_tracer {
         Some(tracer) => tracer.render(&instance, &camera, &settings, Some(&progress))?,
         None => render(&instance, &camera, &settings, Some(&progress))?,
