@@ -98,6 +98,13 @@ fn frame_work(spec: &DatasetSpec, sample: &SampleRecord) -> u64 {
     u64::from(spec.spp_of(sample.split)) + u64::from(glass_extra) + u64::from(copy)
 }
 
+/// Rasterizes frame `sample` of `instance` and stores its buffers as f16 EXR.
+fn store_buffers(store: &DatasetStore, rasterizer: &mut Rasterizer, instance: &Scene, sample: &SampleRecord) -> Result<()> {
+    let res = store.manifest.spec.resolution;
+    let buffers = rasterizer.render(instance, &sample.camera, res, res)?.combined()?;
+    buffers.write_exr(&store.buffers_path(sample.index), ExrPrecision::F16)
+}
+
 fn make_frame(
     store: &DatasetStore,
     scene: &Scene,
@@ -109,8 +116,7 @@ fn make_frame(
     let res = store.manifest.spec.resolution;
     let instance = scene.instantiate(&sample.values)?;
     if let Some(rasterizer) = rasterizer {
-        let buffers = rasterizer.render(&instance, &sample.camera, res, res)?.combined()?;
-        buffers.write_exr(&store.buffers_path(sample.index), ExrPrecision::F16)?;
+        store_buffers(store, rasterizer, &instance, sample)?;
     }
     let spec = &store.manifest.spec;
     let trace = |spp: u32, glass_spp: u32, seed: u64| -> Result<glassbake_trace::TraceOutput> {
@@ -221,15 +227,12 @@ pub fn upgrade(dir: &Path, scene: &Scene, options: &RasterizerOptions, progress:
     }
     let mut store = DatasetStore::create_or_resume(dir, &existing)?;
     if existing.spec.cache_buffers {
-        let res = existing.spec.resolution;
         // Frames not finished yet keep whatever they have; `generate` completes them.
         let finished: Vec<&SampleRecord> = existing.samples.iter().filter(|s| store.gt_path(s.index).is_file()).collect();
         let mut rasterizer = Rasterizer::new(options.clone())?;
         progress(0, finished.len() as u64);
         for (done, sample) in finished.iter().enumerate() {
-            let instance = scene.instantiate(&sample.values)?;
-            let buffers = rasterizer.render(&instance, &sample.camera, res, res)?.combined()?;
-            buffers.write_exr(&store.buffers_path(sample.index), ExrPrecision::F16)?;
+            store_buffers(&store, &mut rasterizer, &scene.instantiate(&sample.values)?, sample)?;
             summary.rasterized += 1;
             progress(done as u64 + 1, finished.len() as u64);
         }
