@@ -102,8 +102,8 @@ pub fn default_test_spp(spp: u32) -> u32 {
 
 /// The test split's glass pixels get this many times its spp by default: the
 /// transparent-pixel metrics are then measured against a reference whose own noise is a
-/// third of the uniform one's (in variance), at about +45% of the test split's trace time on
-/// cornellbox (docs/benchmarks.md, 2026-11-24).
+/// third of the uniform one's (in variance), at about +50% of the test split's trace time on
+/// cornellbox and +120% on bathroom, whose partition fills most of the view (docs/trace.md).
 const DEFAULT_TEST_GLASS_SPP_FACTOR: u32 = 3;
 
 /// The test split's spp on glass pixels when `--test-glass-spp` is not given.
