@@ -89,9 +89,9 @@ pub struct GenerateProgress {
 
 pub type Progress<'a> = &'a dyn Fn(GenerateProgress);
 
-/// Samples per pixel traced to make frame `sample` (an estimate where glass pixels get more:
-/// which pixels show glass is known only once the frame is traced; a quarter is typical of the
-/// built-in scenes).
+/// Samples per pixel traced to make frame `sample`; where glass pixels get more, an estimate
+/// that counts a quarter of the pixels as glass (which ones is known only once the frame is
+/// traced: a fifth on cornellbox, three quarters on bathroom).
 fn frame_work(spec: &DatasetSpec, sample: &SampleRecord) -> u64 {
     let copy = if spec.has_train_spp_copy(sample.split) { spec.spp } else { 0 };
     let glass_extra = (spec.glass_spp_of(sample.split) - spec.spp_of(sample.split)) / 4;
