@@ -105,12 +105,8 @@ impl GlassNet {
         // validation loss was 0.144 from random, 0.135 from zero (naive: 0.138).
         if let Some(t) = net.transparency_encoder.as_mut() {
             t.head.weight = t.head.weight.clone().map(|w| {
-                let zeros = w.zeros_like();
-                if w.is_require_grad() {
-                    zeros.require_grad()
-                } else {
-                    zeros
-                }
+                let outputs = w.dims()[0];
+                zero_last(w, 0, outputs)
             });
         }
         // Likewise R's weights on the glass light and transmittance (its last input channels)
