@@ -108,16 +108,16 @@ impl GpuTracer {
     }
 
     /// Path trace `scene` as seen by `camera`. `settings.threads` has no meaning here;
-    /// `Integrator::Guided` is refused (guiding runs on the CPU only).
+    /// `Integrator::Guided` and `Integrator::Caustic` are refused (CPU only).
     pub fn render(&self, scene: &Scene, camera: &Camera, settings: &TraceSettings, progress: Option<Progress>) -> Result<TraceOutput> {
         let start = Instant::now();
         settings.validate()?;
         camera.check()?;
-        if settings.integrator == Integrator::Guided {
+        if matches!(settings.integrator, Integrator::Guided | Integrator::Caustic) {
             return Err(Error::bad_input(
                 "--integrator",
-                "guided",
-                "path guiding runs on the CPU only; with --device wgpu use plain or solid-angle",
+                settings.integrator.name(),
+                "path guiding and light tracing run on the CPU only; with --device wgpu use plain or solid-angle",
             ));
         }
         if settings.glass_spp.is_some_and(|glass_spp| glass_spp > settings.spp) {

@@ -1,11 +1,11 @@
 //! Convergence of the plain and the guided estimator on the built-in scenes at equal spp:
 //! per-pixel variance (from two renders with independent seeds), seconds, and efficiency =
 //! 1 / (variance x seconds), overall, on transparent pixels and on pixels lit through glass.
-//! Prints a Markdown table; with --out DIR also writes each render as PNG.
+//! Prints a Markdown table; with --out DIR also writes each render as PNG and EXR.
 //!
 //! cargo run --release -p glassbake-trace --example trace_convergence -- \
 //!     [--res 128] [--spp 256] [--sample 0] [--scenes cornellbox,desk] [--out DIR]
-//!     [--estimators plain,solid-angle,guided] [--max-depth N]
+//!     [--estimators plain,solid-angle,guided,caustic] [--max-depth N]
 //!
 //! Variance of a pixel's estimate is E[(a - b)^2] / 2 for two independent renders a, b of
 //! it, averaged over the pixel's RGB channels and then over the pixels of a mask.
@@ -42,11 +42,11 @@ fn parse_args() -> Args {
         scenes: ["cornell-glass", "cornellbox", "cornellbox8", "desk", "bathroom"].map(String::from).to_vec(),
         out: None,
         max_depth: TraceSettings::DEFAULT_MAX_DEPTH,
-        estimators: vec![Integrator::Plain, Integrator::SolidAngle, Integrator::Guided],
+        estimators: vec![Integrator::Plain, Integrator::SolidAngle, Integrator::Guided, Integrator::Caustic],
     };
     let argv: Vec<String> = std::env::args().skip(1).collect();
     let usage = || -> ! {
-        eprintln!("usage: trace_convergence [--res N] [--spp N] [--sample I] [--scenes a,b] [--estimators plain,solid-angle,guided] [--out DIR] [--max-depth N]");
+        eprintln!("usage: trace_convergence [--res N] [--spp N] [--sample I] [--scenes a,b] [--estimators plain,solid-angle,guided,caustic] [--out DIR] [--max-depth N]");
         std::process::exit(2)
     };
     let mut i = 0;
@@ -185,6 +185,7 @@ fn main() {
                 if let Some(out) = &args.out {
                     let path = out.join(format!("{name}_{}_{}spp_seed{seed}.png", integrator.name(), args.spp));
                     output.image.write_png_rgb(&path, [0, 1, 2]).expect("write png");
+                    output.image.write_exr(&path.with_extension("exr"), glassbake_core::image::ExrPrecision::F32).expect("write exr");
                 }
                 images.push(output.image);
             }

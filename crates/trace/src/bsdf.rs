@@ -180,6 +180,12 @@ impl Bsdf {
             || (self.glass_weight > 0.0 && !matches!(self.dielectric, Dielectric::None) && !self.dielectric.is_delta())
     }
 
+    /// Whether the surface has a transmissive dielectric lobe (glass, smooth or rough, thin
+    /// or solid): the light tracer's split of paths (`light_tracing.rs`) reads it.
+    pub fn is_glass(&self) -> bool {
+        self.glass_weight > 0.0 && !matches!(self.dielectric, Dielectric::None)
+    }
+
     /// Whether a learned distribution of incident light should steer sampling here: the
     /// surface is mostly the diffuse-and-glossy base and has no delta lobe (a mirror or a
     /// smooth pane sends light one way only; nothing learned could help).

@@ -16,6 +16,7 @@ use glassbake_scene::Scene;
 use crate::bsdf::{Bsdf, BsdfSample, MaterialModel, SurfaceMaterial};
 use crate::geometry::{Hit, Owner, SceneGeometry};
 use crate::guiding::{GuidingRecord, SdTree};
+use crate::light_tracing::PathClass;
 use crate::lights::LightSampler;
 use crate::rng::Pcg32;
 use crate::sampling::{luminance, power_heuristic};
@@ -31,6 +32,9 @@ pub struct PathSettings {
     /// Russian roulette applies to paths longer than this many segments.
     pub rr_depth: u32,
     pub material_model: MaterialModel,
+    /// Leave out the paths that the light tracer takes (`light_tracing.rs`): the `caustic`
+    /// estimator's path-tracing half.
+    pub leave_caustics_to_light_tracing: bool,
 }
 
 /// Which light-transport estimator traces the paths. All three are unbiased and converge
@@ -47,6 +51,9 @@ pub enum Integrator {
     /// Rectangle lights sampled by solid angle and path guiding learned over the first
     /// quarter of the samples.
     Guided,
+    /// The plain path tracer without the caustic paths, plus a light tracer for those
+    /// (`light_tracing.rs`): light that reached opaque surfaces through glass.
+    Caustic,
 }
 
 impl Integrator {
@@ -55,6 +62,7 @@ impl Integrator {
             Integrator::Plain => "plain",
             Integrator::SolidAngle => "solid-angle",
             Integrator::Guided => "guided",
+            Integrator::Caustic => "caustic",
         }
     }
 
@@ -63,6 +71,7 @@ impl Integrator {
             "plain" => Some(Integrator::Plain),
             "solid-angle" => Some(Integrator::SolidAngle),
             "guided" => Some(Integrator::Guided),
+            "caustic" => Some(Integrator::Caustic),
             _ => None,
         }
     }
@@ -121,7 +130,7 @@ pub struct SurfaceHit {
 
 /// Hard cap on path vertices, pane crossings included: a guard against pathological scenes
 /// (two mirrors facing each other with Russian roulette off), never reached in practice.
-const MAX_VERTICES: u32 = 4096;
+pub(crate) const MAX_VERTICES: u32 = 4096;
 
 impl<'a> PreparedScene<'a> {
     /// Ready for the default estimator's light sampling.
@@ -130,7 +139,7 @@ impl<'a> PreparedScene<'a> {
     }
 
     pub fn for_integrator(scene: &'a Scene, integrator: Integrator) -> Self {
-        let lights = LightSampler::new(scene, integrator != Integrator::Plain);
+        let lights = LightSampler::new(scene, matches!(integrator, Integrator::SolidAngle | Integrator::Guided));
         let geometry = SceneGeometry::build(scene, &|owner, index| lights.emitter_of(owner, index));
         PreparedScene { scene, geometry, lights }
     }
@@ -140,7 +149,7 @@ impl<'a> PreparedScene<'a> {
         self.intersect_from(ray.origin, ray.direction, 0.0, f32::INFINITY)
     }
 
-    fn intersect_from(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
+    pub(crate) fn intersect_from(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
         let hit = self.geometry.closest_hit(origin, direction, t_min, t_max)?;
         Some(self.surface_hit(&hit))
     }
@@ -168,6 +177,14 @@ impl<'a> PreparedScene<'a> {
             owner: a.owner,
             emitter: a.emitter,
         }
+    }
+
+    /// Whether object `object` is glass ([`Bsdf::is_glass`]) under `model`: its material
+    /// has a transmissive dielectric lobe (textures never change that).
+    pub fn object_is_glass(&self, object: usize, model: MaterialModel) -> bool {
+        let material = &self.scene.materials[self.scene.objects[object].material];
+        let surface = SurfaceMaterial::new(material.base_color, material.roughness, material.metallic, material.transmission);
+        Bsdf::new(&surface, Vec3::Z, model).is_glass()
     }
 
     /// Material parameters at a hit, textures applied.
@@ -226,6 +243,9 @@ impl<'a> PreparedScene<'a> {
         let mut specular = true;
         let mut mis_origin = origin;
         let mut mis_pdf = 0.0f32;
+        // Which of the light tracer's paths this one may become.
+        let mut class = PathClass::default();
+        let split = settings.leave_caustics_to_light_tracing;
 
         for _ in 0..MAX_VERTICES {
             let Some(hit) = self.intersect_from(origin, direction, t_min, f32::INFINITY) else {
@@ -236,7 +256,7 @@ impl<'a> PreparedScene<'a> {
 
             if let Some(emitter) = hit.emitter {
                 let emitted = self.lights.emitters[emitter as usize].emitted(wo);
-                if emitted != Vec3::ZERO {
+                if emitted != Vec3::ZERO && !(split && class.light_traced()) {
                     let weight = if specular {
                         1.0
                     } else {
@@ -251,6 +271,8 @@ impl<'a> PreparedScene<'a> {
             if depth >= settings.max_depth {
                 break;
             }
+            let glass = bsdf.is_glass();
+            class.enter_vertex(glass);
             // Segments a shadow ray from here may still cross panes with: a path of
             // `depth + 1 + crossings` segments must fit, as the BSDF-sampled one must.
             let crossings_allowed = settings.max_depth - depth - 1;
@@ -264,7 +286,7 @@ impl<'a> PreparedScene<'a> {
             };
 
             // Next-event estimation.
-            if bsdf.has_non_delta() {
+            if bsdf.has_non_delta() && !(split && class.light_traced_by_shadow_ray(glass)) {
                 let u_select = rng.next_f32();
                 let u_light = rng.next_vec2();
                 if let Some(light) = self.lights.sample(hit.position, u_select, u_light) {
@@ -337,6 +359,7 @@ impl<'a> PreparedScene<'a> {
                 break;
             }
             throughput *= sample.weight;
+            class.leave_vertex(glass, sample.pass_through);
             if guide.records.is_some() && bsdf.suits_guiding() {
                 scratch.vertices.push(PendingRecord {
                     position: hit.position,
@@ -379,7 +402,7 @@ impl<'a> PreparedScene<'a> {
     /// crosses more than `max_crossings` panes, otherwise the product of the smooth thin
     /// panes' transmittances and the product of the probabilities with which BSDF sampling
     /// would have crossed them.
-    fn transmittance(
+    pub(crate) fn transmittance(
         &self,
         origin: Vec3,
         direction: Vec3,

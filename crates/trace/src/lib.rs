@@ -13,6 +13,7 @@ pub mod bsdf;
 pub mod geometry;
 pub mod guiding;
 pub mod integrator;
+pub mod light_tracing;
 pub mod lights;
 pub mod microfacet;
 pub mod render;

@@ -46,6 +46,17 @@ impl Emitter {
         }
     }
 
+    /// The point at `u` in [0, 1)^2, uniformly distributed by area.
+    pub fn point_at(&self, u: Vec2) -> Vec3 {
+        match self.shape {
+            Shape::Parallelogram { corner, edge_u, edge_v } => corner + u.x * edge_u + u.y * edge_v,
+            Shape::Triangle { v0, edge1, edge2 } => {
+                let b = uniform_triangle(u);
+                v0 + b.x * edge1 + b.y * edge2
+            }
+        }
+    }
+
     fn power(&self) -> f64 {
         let sides = if self.two_sided { 2.0 } else { 1.0 };
         let p = luminance(self.radiance).max(0.0) as f64 * self.area as f64 * PI as f64 * sides;
@@ -160,11 +171,17 @@ impl LightSampler {
         }
     }
 
-    pub fn sample(&self, from: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
+    /// An emitter picked in proportion to its power, and its probability.
+    pub fn pick(&self, u_select: f32) -> Option<(usize, f32)> {
         if self.cdf.is_empty() {
             return None;
         }
         let index = self.cdf.partition_point(|&c| c <= u_select as f64).min(self.cdf.len() - 1);
+        Some((index, self.pmf[index]))
+    }
+
+    pub fn sample(&self, from: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
+        let (index, _) = self.pick(u_select)?;
         let emitter = &self.emitters[index];
         if let Some(rect) = self.spherical_rect(emitter, from) {
             let point = rect.sample(u);
@@ -181,13 +198,7 @@ impl LightSampler {
             }
             return (pdf.is_finite() && pdf > 0.0).then_some(LightSample { point, wi, distance, radiance, pdf });
         }
-        let point = match emitter.shape {
-            Shape::Parallelogram { corner, edge_u, edge_v } => corner + u.x * edge_u + u.y * edge_v,
-            Shape::Triangle { v0, edge1, edge2 } => {
-                let b = uniform_triangle(u);
-                v0 + b.x * edge1 + b.y * edge2
-            }
-        };
+        let point = emitter.point_at(u);
         let to_light = point - from;
         let distance2 = to_light.length_squared();
         if distance2 <= 0.0 {

@@ -22,6 +22,7 @@ use crate::bsdf::MaterialModel;
 use crate::geometry::Owner;
 use crate::guiding::{GuidingRecord, SdTree};
 use crate::integrator::{Guide, Integrator, PathScratch, PathSettings, PreparedScene};
+use crate::light_tracing::{LightTracer, Splat, LIGHT_PATHS_PER_CAMERA_PATH, PATHS_PER_CHUNK};
 use crate::rng::Pcg32;
 
 /// Side of the square tiles rayon schedules. Tiles only decide who computes a pixel, never
@@ -201,8 +202,19 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         return Ok(TraceOutput { image, discarded_samples: 0, samples, warnings, elapsed: start.elapsed(), learning_spp: 0 });
     }
 
-    let path_settings =
-        PathSettings { max_depth: settings.max_depth, rr_depth: settings.rr_depth, material_model: settings.material_model };
+    let caustic = settings.integrator == Integrator::Caustic;
+    let path_settings = PathSettings {
+        max_depth: settings.max_depth,
+        rr_depth: settings.rr_depth,
+        material_model: settings.material_model,
+        leave_caustics_to_light_tracing: caustic,
+    };
+    let light_tracer = caustic.then(|| LightTracer::new(&prepared, camera, width, height, path_settings));
+    let light_paths = match &light_tracer {
+        Some(tracer) if tracer.has_work() => ((samples as f64 * LIGHT_PATHS_PER_CAMERA_PATH).ceil() as u64).max(1),
+        _ => 0,
+    };
+    let work = samples + light_paths;
     let mut tiles = Vec::new();
     for y0 in (0..height).step_by(TILE as usize) {
         for x0 in (0..width).step_by(TILE as usize) {
@@ -230,7 +242,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
                 }
                 let finished = done.fetch_add(tile_samples, Ordering::Relaxed) + tile_samples;
                 if let Some(p) = progress {
-                    p(finished, samples);
+                    p(finished, work);
                 }
                 result
             })
@@ -275,11 +287,29 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
     accumulate(pass(&|x, y| pixel_spp[(y * width + x) as usize] - learning_spp, settings.seed, tree.as_ref(), false));
 
     let mut discarded_samples = 0;
+    let light_traced = match &light_tracer {
+        Some(tracer) if light_paths > 0 => {
+            let seed = glassbake_core::seed::purpose_seed(settings.seed, "light tracing");
+            let (splats, discarded) = trace_light_paths(tracer, light_paths, seed, &|paths| {
+                if let Some(p) = progress {
+                    p(samples + paths, work);
+                }
+            });
+            discarded_samples += discarded;
+            splats
+        }
+        _ => Vec::new(),
+    };
     for y in 0..height {
         for x in 0..width {
-            let pixel = &sums[(y * width + x) as usize];
+            let index = (y * width + x) as usize;
+            let pixel = &sums[index];
             discarded_samples += pixel.discarded;
-            for (channel, component) in pixel.mean().to_array().into_iter().enumerate() {
+            let mut value = pixel.mean();
+            if let Some(light) = light_traced.get(index) {
+                value += Vec3::new(light[0] as f32, light[1] as f32, light[2] as f32) / light_paths as f32;
+            }
+            for (channel, component) in value.to_array().into_iter().enumerate() {
                 image.set(channel, x, y, component);
             }
         }
@@ -290,6 +320,47 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         warnings.push(warning);
     }
     Ok(TraceOutput { image, discarded_samples, samples, warnings, elapsed: start.elapsed(), learning_spp })
+}
+
+/// Chunks of light paths traced between two gatherings of their splats: bounds the splats
+/// held in memory.
+const CHUNKS_PER_BATCH: u64 = 64;
+
+/// Trace `paths` light paths and sum their splats per pixel (f64, row-major), plus the count
+/// of splats left out as not finite. Chunk `k` of [`PATHS_PER_CHUNK`] paths draws from its
+/// own stream and chunks are summed in order, so the sums do not depend on the thread count.
+fn trace_light_paths(tracer: &LightTracer, paths: u64, seed: u64, progress: &(dyn Fn(u64) + Sync)) -> (Vec<[f64; 3]>, u64) {
+    let mut sums = vec![[0.0f64; 3]; tracer.pixel_count()];
+    let mut discarded = 0;
+    let chunks = paths.div_ceil(PATHS_PER_CHUNK);
+    let done = AtomicU64::new(0);
+    for batch_start in (0..chunks).step_by(CHUNKS_PER_BATCH as usize) {
+        let batch: Vec<(Vec<Splat>, u64)> = (batch_start..(batch_start + CHUNKS_PER_BATCH).min(chunks))
+            .into_par_iter()
+            .map(|chunk| {
+                let mut rng = Pcg32::for_pixel(seed, chunk);
+                let mut splats = Vec::new();
+                let mut hits = Vec::new();
+                let count = PATHS_PER_CHUNK.min(paths - chunk * PATHS_PER_CHUNK);
+                let mut discarded = 0;
+                for _ in 0..count {
+                    discarded += tracer.trace(&mut rng, &mut splats, &mut hits);
+                }
+                progress(done.fetch_add(count, Ordering::Relaxed) + count);
+                (splats, discarded)
+            })
+            .collect();
+        for (splats, chunk_discarded) in batch {
+            discarded += chunk_discarded;
+            for splat in splats {
+                let sum = &mut sums[splat.pixel as usize];
+                for (s, v) in sum.iter_mut().zip(splat.value.to_array()) {
+                    *s += v as f64;
+                }
+            }
+        }
+    }
+    (sums, discarded)
 }
 
 /// Sub-pixel positions per side at which [`glass_pixels`] looks.

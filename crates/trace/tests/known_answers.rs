@@ -449,7 +449,26 @@ fn guided_images_are_bit_identical_whatever_the_thread_count() {
     assert_ne!(bits(&renders[0].image), bits(&plain.image), "the guided estimator must differ from the plain one");
 }
 
-/// No bias: on every built-in scene the solid-angle and guided estimators converge to the
+/// The light tracer's paths are traced in chunks of their own streams and summed in chunk
+/// order: the caustic estimator's images do not depend on the thread count.
+#[test]
+fn caustic_images_are_bit_identical_whatever_the_thread_count() {
+    let scene = glassbake_scene::builtin::builtin("cornellbox8").unwrap();
+    let sample = scene.sample(0, 0);
+    let instance = scene.instantiate(&sample.values).unwrap();
+    // 40 x 36 x 8 paths: three chunks of light paths, the last one short.
+    let base = TraceSettings { integrator: Integrator::Caustic, ..TraceSettings::new(40, 36, 8, 5) };
+    let renders: Vec<_> = [Some(1), Some(2), Some(3)]
+        .into_iter()
+        .map(|threads| render(&instance, &sample.camera, &TraceSettings { threads, ..base.clone() }, None).unwrap())
+        .collect();
+    assert_eq!(bits(&renders[0].image), bits(&renders[1].image));
+    assert_eq!(bits(&renders[0].image), bits(&renders[2].image));
+    let plain = render(&instance, &sample.camera, &TraceSettings { integrator: Integrator::Plain, ..base.clone() }, None).unwrap();
+    assert_ne!(bits(&renders[0].image), bits(&plain.image), "the caustic estimator must differ from the plain one");
+}
+
+/// No bias: on every built-in scene the solid-angle, guided and caustic estimators converge to the
 /// plain one's image. A z-test on the image means: each estimator renders two independent
 /// images, whose per-pixel differences give the standard error of their mean (about 1% of
 /// the mean here: caustics); the means must agree within 4 standard errors.
@@ -473,7 +492,7 @@ fn every_estimator_converges_to_the_same_image() {
             (mean, pixel_variance_sum / (n * n) / 2.0)
         };
         let (plain, plain_variance) = estimate(Integrator::Plain, 20);
-        for (integrator, seed_base) in [(Integrator::SolidAngle, 30), (Integrator::Guided, 40)] {
+        for (integrator, seed_base) in [(Integrator::SolidAngle, 30), (Integrator::Guided, 40), (Integrator::Caustic, 50)] {
             let (other, other_variance) = estimate(integrator, seed_base);
             let standard_error = (plain_variance + other_variance).sqrt();
             let z = (other - plain).abs() / standard_error;
@@ -678,4 +697,103 @@ fn rectangle_lights_emit_from_their_back_only_when_two_sided() {
             assert_eq!(largest, 0.0, "the back of a one-sided light emits nothing");
         }
     }
+}
+
+/// A caustic with an exact answer: a small light faces up at a large thin pane, whose
+/// reflection is all that lights the floor below (direct light only: max depth 3). Only the
+/// `caustic` estimator's light tracer carries these paths (floor -> bending glass -> light),
+/// so the test checks its camera importance, emission and cone densities and the pane's
+/// reflection weight against quadrature: the floor's BSDF times the light's radiance times the
+/// slab reflectance R'(theta), over the light mirrored in the pane.
+#[test]
+fn a_light_reflected_by_a_thin_pane_matches_quadrature() {
+    use glassbake_trace::microfacet::thin_slab_reflectance;
+    use glassbake_trace::{Bsdf, SurfaceMaterial};
+    // A high index of refraction reflects more, for a less noisy test.
+    const ETA: f32 = 3.0;
+    let radiance = 40.0f32;
+    let pane_height = 1.5f32;
+    let mut scene = empty_scene("mirror pane");
+    let floor_material = Material { roughness: 0.6, ..Material::diffuse("floor", Vec3::splat(0.5)) };
+    add_object(&mut scene, "floor", rect(Vec3::ZERO, Vec3::X * 20.0, Vec3::NEG_Z * 20.0, Vec2::ONE), floor_material);
+    add_object(
+        &mut scene,
+        "pane",
+        rect(Vec3::new(0.0, pane_height, 0.0), Vec3::X * 10.0, Vec3::NEG_Z * 10.0, Vec2::ONE),
+        Material::glass("pane", Vec3::new(0.9, 0.6, 0.3), 0.0, ETA, true),
+    );
+    // edge_u x edge_v = Z x X = +Y: the light faces the pane, its black back the floor.
+    let light = RectLight { name: "light".into(), corner: Vec3::new(-0.2, 1.0, -0.2), edge_u: Vec3::Z * 0.4, edge_v: Vec3::X * 0.4, radiance: Vec3::splat(radiance), two_sided: false };
+    scene.rect_lights.push(light.clone());
+    // Looking down and away from the shadow that the light casts on the floor in the reflection.
+    let camera = Camera::look_at(Vec3::new(2.8, 1.3, 2.2), Vec3::new(2.0, 0.0, 1.5), 60.0);
+    let (w, h) = (16u32, 16u32);
+    // Four independent renders: the spread of their totals gives the standard error (a
+    // light path lands in one pixel or another, so pixels' errors are not independent).
+    let totals: Vec<f64> = (0..4u64)
+        .map(|seed| {
+            let settings = TraceSettings { max_depth: 3, integrator: Integrator::Caustic, ..TraceSettings::new(w, h, 4096, 8 + seed) };
+            let out = render(&scene, &camera, &settings, None).unwrap();
+            (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| out.image.get(1, x, y) as f64).sum()
+        })
+        .collect();
+    let plain = render(&scene, &camera, &TraceSettings { max_depth: 3, ..TraceSettings::new(w, h, 64, 20) }, None).unwrap();
+    let bsdf = Bsdf::new(&SurfaceMaterial::new(Vec3::splat(0.5), 0.6, 0.0, None), Vec3::Y, MaterialModel::Gltf);
+    let blocked_by_light = |p: Vec3, wi: Vec3| {
+        let t = (light.corner.y - p.y) / wi.y;
+        let q = p + wi * t;
+        (-0.2..=0.2).contains(&q.x) && (-0.2..=0.2).contains(&q.z)
+    };
+    let n = 24;
+    let light_area = light.edge_u.cross(light.edge_v).length();
+    let exact = |px: f32, py: f32| -> Option<Vec3> {
+        let ray = camera.ray(px, py, w, h);
+        let t = -ray.origin.y / ray.direction.y;
+        if t <= 0.0 {
+            return None;
+        }
+        let (p, wo) = (ray.at(t), -ray.direction);
+        let mut sum = Vec3::ZERO;
+        for i in 0..n {
+            for j in 0..n {
+                let q = light.corner + light.edge_u * ((i as f32 + 0.5) / n as f32) + light.edge_v * ((j as f32 + 0.5) / n as f32);
+                // The light's mirror image in the pane's plane.
+                let mirrored = Vec3::new(q.x, 2.0 * pane_height - q.y, q.z);
+                let d = mirrored - p;
+                let distance2 = d.length_squared();
+                let wi = d / distance2.sqrt();
+                if blocked_by_light(p, wi) {
+                    continue;
+                }
+                let geometry = wi.y * wi.y / distance2 * light_area / (n * n) as f32;
+                sum += bsdf.eval(wo, wi) * thin_slab_reflectance(wi.y, ETA) * radiance * geometry;
+            }
+        }
+        Some(sum)
+    };
+    let mut expected_total = 0.0f64;
+    let mut plain_total = 0.0f64;
+    for y in 0..h {
+        for x in 0..w {
+            let mut expected = 0.0f64;
+            for sy in 0..4 {
+                for sx in 0..4 {
+                    let value = exact(x as f32 + (sx as f32 + 0.5) / 4.0, y as f32 + (sy as f32 + 0.5) / 4.0).expect("every pixel sees the floor");
+                    expected += value.y as f64 / 16.0;
+                }
+            }
+            expected_total += expected;
+            plain_total += plain.image.get(1, x, y) as f64;
+        }
+    }
+    let n = totals.len() as f64;
+    let mean = totals.iter().sum::<f64>() / n;
+    let standard_error = (totals.iter().map(|t| (t - mean).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt() / expected_total;
+    let bias = mean / expected_total - 1.0;
+    eprintln!(
+        "reflected light: rendered total {mean:.5} vs exact {expected_total:.5}: {bias:+.5} (standard error {standard_error:.5}); plain at 64 spp: {:+.4}",
+        plain_total / expected_total - 1.0
+    );
+    assert!(standard_error < 0.01, "too noisy to test: standard error {standard_error}");
+    assert!(bias.abs() < 4.0 * standard_error.max(0.001), "relative error {bias}, standard error {standard_error}");
 }

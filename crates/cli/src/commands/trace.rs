@@ -68,7 +68,7 @@ pub struct TraceArgs {
 }
 
 fn parse_integrator(name: &str) -> std::result::Result<Integrator, String> {
-    Integrator::parse(name).ok_or_else(|| format!("unknown estimator {name:?}: expected plain, solid-angle or guided"))
+    Integrator::parse(name).ok_or_else(|| format!("unknown estimator {name:?}: expected plain, solid-angle, guided or caustic"))
 }
 
 pub fn run(args: TraceArgs) -> Result<()> {

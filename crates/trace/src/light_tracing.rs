@@ -1,0 +1,484 @@
+//! Light tracing of caustic paths: the half of the `caustic` estimator that starts at the
+//! lights (the other half is the path tracer with these paths left out).
+//!
+//! A path tracer finds light that reached a diffuse surface through glass (a caustic) only
+//! when a direction sampled at that surface happens to pass through the glass and hit a
+//! light: rare, and each hit is a firefly. Traced from the light, the same light is easy to
+//! find: send light towards the glass, follow it through, and where it lands on an opaque
+//! surface connect that point to the camera (Veach 1997, ch. 10, the s = k, t = 1 strategy
+//! of bidirectional path tracing).
+//!
+//! The two halves split the paths between them, so each path is counted exactly once and
+//! the sum is unbiased. Reading a path from the camera (E) to the light (L), with P a
+//! straight crossing of a smooth thin pane, O an opaque surface and G any vertex on glass
+//! (a material with a transmissive dielectric lobe), the light tracer takes exactly the paths
+//!
+//! ```text
+//!     E P* O ... O G+ L     with at least one G that is not a straight pane crossing
+//! ```
+//!
+//! (the camera sees an opaque surface, possibly through smooth panes, which a connection can
+//! reach; the light's last bounce before the final opaque vertex was through glass that bends
+//! or reflects light, which next-event estimation cannot follow). [`PathClass`] is the path
+//! tracer's side of that rule; [`LightTracer::trace`] produces exactly those paths and no
+//! others: its first segment must end on glass, its first opaque vertex must follow a bending
+//! glass event, and it connects to the camera only from opaque vertices, through panes only.
+//!
+//! Light paths leave the lights only towards the glass: a direction is drawn uniformly from
+//! the cones that the bounding spheres of the glass objects subtend (several cones may
+//! overlap; the density counts them). A path whose first segment misses the glass is not one
+//! of the light tracer's, so nothing is lost.
+//!
+//! The measurement contribution uses the path tracer's BSDF argument order (`wo` towards the
+//! camera) and its shading-normal convention, so both halves estimate the same integral:
+//! sampling from the light side multiplies by the adjoint correction |n_s.w_light||n_g.w_next|
+//! / (|n_s.w_next||n_g.w_light|) (Veach 1997, sec. 5.3), and refraction carries no 1/eta^2
+//! (light tracing transports flux, not radiance).
+
+use std::f32::consts::TAU;
+
+use glam::{Vec2, Vec3};
+use glassbake_core::Camera;
+
+use crate::bsdf::Bsdf;
+use crate::geometry::{Hit, Owner};
+use crate::integrator::{offset_origin, PathSettings, PreparedScene, MAX_VERTICES};
+use crate::rng::Pcg32;
+
+/// Light paths traced per camera path. Measured on the built-in scenes at 96 px, 128 spp
+/// (`examples/trace_convergence`, docs/benchmarks.md): one light path per camera path
+/// costs 40-160% more time than the path tracer alone for a little less variance; one per
+/// four keeps nearly all of the gain (desk, the cornell boxes) for 5-30% more time; one per
+/// ten leaves the bathroom's light through its partition noisier than the plain estimator.
+pub const LIGHT_PATHS_PER_CAMERA_PATH: f64 = 0.25;
+
+/// Light paths traced per unit of work: one random stream each, and the grain at which
+/// splats are gathered (in path order, so the image does not depend on the thread count).
+pub const PATHS_PER_CHUNK: u64 = 4096;
+
+/// Where a path traced from the camera stands with respect to the light tracer's share.
+/// Updated vertex by vertex; [`PathClass::light_traced`] says whether a path ending in a
+/// light here belongs to the light tracer (and so is left out of the path tracer).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PathClass {
+    /// The first vertex that is not a straight pane crossing has been met.
+    prefix_decided: bool,
+    /// ... and it was opaque: a light path can connect to the camera there.
+    connectable: bool,
+    /// An opaque vertex has been met since the camera.
+    seen_opaque: bool,
+    /// A glass vertex other than a straight pane crossing follows the last opaque vertex.
+    bent_since_opaque: bool,
+}
+
+impl PathClass {
+    /// Record a vertex before its next-event estimation: `glass` is whether its material has
+    /// a transmissive dielectric lobe ([`Bsdf::is_glass`]).
+    pub fn enter_vertex(&mut self, glass: bool) {
+        if glass {
+            return;
+        }
+        if !self.prefix_decided {
+            self.prefix_decided = true;
+            self.connectable = true;
+        }
+        self.seen_opaque = true;
+        self.bent_since_opaque = false;
+    }
+
+    /// Record the event sampled at the vertex last entered.
+    pub fn leave_vertex(&mut self, glass: bool, straight_pane_crossing: bool) {
+        if glass && !straight_pane_crossing {
+            self.bent_since_opaque = true;
+            if !self.prefix_decided {
+                self.prefix_decided = true;
+                self.connectable = false;
+            }
+        }
+    }
+
+    /// Whether the path traced so far, ended by the emitter it just hit, is the light
+    /// tracer's.
+    pub fn light_traced(&self) -> bool {
+        self.connectable && self.seen_opaque && self.bent_since_opaque
+    }
+
+    /// Whether a shadow ray from the current vertex (through straight pane crossings only)
+    /// makes a path that is the light tracer's: the vertex is glass, so it bends.
+    pub fn light_traced_by_shadow_ray(&self, glass: bool) -> bool {
+        glass && self.connectable && self.seen_opaque
+    }
+}
+
+/// A light path's contribution to one pixel, before dividing by the number of light paths.
+#[derive(Clone, Copy, Debug)]
+pub struct Splat {
+    pub pixel: u32,
+    pub value: Vec3,
+}
+
+/// What the pinhole camera needs to take a connection: the pixel a point projects to and
+/// the importance of that direction.
+struct CameraProjection {
+    position: Vec3,
+    forward: Vec3,
+    right: Vec3,
+    up: Vec3,
+    tan_half_x: f32,
+    tan_half_y: f32,
+    width: u32,
+    height: u32,
+    /// Area of one pixel on the image plane at distance 1.
+    pixel_area: f32,
+}
+
+impl CameraProjection {
+    fn new(camera: &Camera, width: u32, height: u32) -> Self {
+        let frame = camera.frame();
+        let (tan_half_x, tan_half_y) = camera.tan_half_fov(width, height);
+        let pixel_area = (2.0 * tan_half_x / width as f32) * (2.0 * tan_half_y / height as f32);
+        CameraProjection {
+            position: camera.position,
+            forward: frame.forward,
+            right: frame.right,
+            up: frame.up,
+            tan_half_x,
+            tan_half_y,
+            width,
+            height,
+            pixel_area,
+        }
+    }
+
+    /// The pixel (row-major index) whose box contains the projection of `point`, and the
+    /// camera's importance along the ray to it: a pixel's value is (1 / A) times the
+    /// integral of radiance over its area A on the image plane at distance 1, and that
+    /// plane's area element is d(omega) / cos^3 of the angle to the view axis.
+    fn pixel_and_importance(&self, point: Vec3) -> Option<(u32, f32)> {
+        let v = point - self.position;
+        let depth = v.dot(self.forward);
+        if depth <= 0.0 {
+            return None;
+        }
+        let ndc_x = v.dot(self.right) / depth / self.tan_half_x;
+        let ndc_y = v.dot(self.up) / depth / self.tan_half_y;
+        let px = (ndc_x + 1.0) * 0.5 * self.width as f32;
+        let py = (1.0 - ndc_y) * 0.5 * self.height as f32;
+        if !(px >= 0.0 && py >= 0.0 && px < self.width as f32 && py < self.height as f32) {
+            return None;
+        }
+        let (x, y) = ((px as u32).min(self.width - 1), (py as u32).min(self.height - 1));
+        let cos = depth / v.length();
+        Some((y * self.width + x, 1.0 / (self.pixel_area * cos * cos * cos)))
+    }
+}
+
+/// A sphere around one glass object.
+#[derive(Clone, Copy, Debug)]
+struct BoundingSphere {
+    center: Vec3,
+    radius: f32,
+}
+
+/// A cone of directions from a point towards a bounding sphere.
+#[derive(Clone, Copy, Debug)]
+struct Cone {
+    axis: Vec3,
+    /// Cosine of the half angle; -1 for a point inside the sphere (every direction).
+    cos_max: f32,
+    solid_angle: f32,
+}
+
+impl Cone {
+    fn towards(from: Vec3, sphere: &BoundingSphere) -> Cone {
+        let to_center = sphere.center - from;
+        let distance = to_center.length();
+        // Slightly enlarged so that a point on the object's surface is always inside.
+        let radius = sphere.radius * 1.001 + 1e-5;
+        if distance <= radius {
+            return Cone { axis: Vec3::Z, cos_max: -1.0, solid_angle: 2.0 * TAU };
+        }
+        let sin_max = radius / distance;
+        let cos_max = (1.0 - sin_max * sin_max).max(0.0).sqrt();
+        Cone { axis: to_center / distance, cos_max, solid_angle: TAU * (1.0 - cos_max) }
+    }
+
+    fn contains(&self, direction: Vec3) -> bool {
+        self.cos_max <= -1.0 || direction.dot(self.axis) >= self.cos_max
+    }
+
+    /// A direction uniformly within the cone.
+    fn sample(&self, u: Vec2) -> Vec3 {
+        let cos = 1.0 - u.x * (1.0 - self.cos_max);
+        let sin = (1.0 - cos * cos).max(0.0).sqrt();
+        let phi = TAU * u.y;
+        let frame = crate::sampling::Frame::from_normal(self.axis);
+        frame.to_world(Vec3::new(sin * phi.cos(), sin * phi.sin(), cos)).normalize()
+    }
+}
+
+/// Traces light paths into splats on the image of one camera.
+pub struct LightTracer<'a> {
+    prepared: &'a PreparedScene<'a>,
+    camera: CameraProjection,
+    glass: Vec<BoundingSphere>,
+    settings: PathSettings,
+}
+
+impl<'a> LightTracer<'a> {
+    pub fn new(prepared: &'a PreparedScene<'a>, camera: &Camera, width: u32, height: u32, settings: PathSettings) -> Self {
+        let scene = prepared.scene;
+        let glass = (0..scene.objects.len())
+            .filter(|&i| prepared.object_is_glass(i, settings.material_model))
+            .filter_map(|i| {
+                let mesh = scene.world_mesh(i);
+                let (min, max) = mesh.positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+                if mesh.positions.is_empty() {
+                    return None;
+                }
+                let center = 0.5 * (min + max);
+                let radius = mesh.positions.iter().map(|&p| (p - center).length()).fold(0.0f32, f32::max);
+                Some(BoundingSphere { center, radius })
+            })
+            .collect();
+        LightTracer { prepared, camera: CameraProjection::new(camera, width, height), glass, settings }
+    }
+
+    /// Pixels of the image the splats land on.
+    pub fn pixel_count(&self) -> usize {
+        self.camera.width as usize * self.camera.height as usize
+    }
+
+    /// Whether any light path can be the light tracer's: the scene has glass and a light.
+    pub fn has_work(&self) -> bool {
+        !self.glass.is_empty() && !self.prepared.lights.is_empty()
+    }
+
+    /// A direction from `from` towards the glass, and its solid-angle density: a cone picked
+    /// in proportion to its solid angle, then uniformly within it. Every cone containing the
+    /// direction adds to the density, so it is (cones containing it) / (sum of solid angles).
+    fn sample_towards_glass(&self, from: Vec3, u_pick: f32, u: Vec2) -> Option<(Vec3, f32)> {
+        const MAX_CONES: usize = 64;
+        let mut cones = [Cone { axis: Vec3::Z, cos_max: 1.0, solid_angle: 0.0 }; MAX_CONES];
+        let cones = &mut cones[..self.glass.len().min(MAX_CONES)];
+        let mut total = 0.0;
+        for (cone, sphere) in cones.iter_mut().zip(&self.glass) {
+            *cone = Cone::towards(from, sphere);
+            total += cone.solid_angle;
+        }
+        if total <= 0.0 {
+            return None;
+        }
+        let mut target = u_pick * total;
+        let mut picked = cones.len() - 1;
+        for (i, cone) in cones.iter().enumerate() {
+            if target < cone.solid_angle {
+                picked = i;
+                break;
+            }
+            target -= cone.solid_angle;
+        }
+        let direction = cones[picked].sample(u);
+        let covering = cones.iter().filter(|c| c.contains(direction)).count().max(1);
+        Some((direction, covering as f32 / total))
+    }
+
+    /// One light path from the stream `rng`, its camera connections appended to `splats`.
+    /// Returns how many of them were not finite (left out).
+    pub fn trace(&self, rng: &mut Pcg32, splats: &mut Vec<Splat>, hits: &mut Vec<Hit>) -> u64 {
+        debug_assert!(self.glass.len() <= 64, "more glass objects than cones");
+        let lights = &self.prepared.lights;
+        let Some((index, pmf)) = lights.pick(rng.next_f32()) else { return 0 };
+        let emitter = &lights.emitters[index];
+        let point = emitter.point_at(rng.next_vec2());
+        let u_pick = rng.next_f32();
+        let u_direction = rng.next_vec2();
+        let Some((mut direction, density)) = self.sample_towards_glass(point, u_pick, u_direction) else { return 0 };
+        let radiance = emitter.emitted(direction);
+        let cos_light = emitter.normal.dot(direction).abs();
+        if radiance == Vec3::ZERO || cos_light <= 0.0 || emitter.area <= 0.0 || pmf <= 0.0 {
+            return 0;
+        }
+        // Flux carried: L cos / (p(emitter) p(point) p(direction)).
+        let mut beta = radiance * (cos_light * emitter.area / (pmf * density));
+        let start = beta.max_element();
+        let mut origin = offset_origin(point, emitter.normal, direction);
+        // Segments from the light to the vertex about to be found.
+        let mut segments = 1u32;
+        // Whether a glass event that bends light has happened (before the first opaque vertex).
+        let mut bent = false;
+        // Whether the first opaque vertex (after bending glass) has been met.
+        let mut caustic = false;
+
+        let mut discarded = 0;
+
+        for _ in 0..MAX_VERTICES {
+            let Some(hit) = self.prepared.intersect_from(origin, direction, 0.0, f32::INFINITY) else { break };
+            // A rectangle light's surface is black and ends paths.
+            let Owner::Object { material, .. } = hit.owner else { break };
+            let surface = self.prepared.surface_material(material, hit.uv);
+            let bsdf = Bsdf::new(&surface, hit.shading_normal, self.settings.material_model);
+            let glass = bsdf.is_glass();
+            let w_light = -direction;
+            let ng = hit.geometric_normal;
+            let ns = hit.shading_normal;
+            if !glass {
+                if !caustic {
+                    // The path must reach its first opaque vertex through glass that bent it
+                    // (so its first segment ended on glass).
+                    if !bent {
+                        break;
+                    }
+                    caustic = true;
+                }
+                discarded += self.connect_to_camera(&hit, &bsdf, w_light, beta, segments, splats, hits);
+            }
+            // One more segment must leave room for the connection to the camera.
+            if segments + 2 > self.settings.max_depth {
+                break;
+            }
+            let (u_lobe, u_event, u) = (rng.next_f32(), rng.next_f32(), rng.next_vec2());
+            let Some(sample) = bsdf.sample(w_light, u_lobe, u_event, u) else { break };
+            let w_next = sample.wi;
+            if sample.delta {
+                // The sampled weight is in radiance form; flux does not pick up 1/eta^2.
+                let flux_scale = if sample.transmitted { sample.etap * sample.etap } else { 1.0 };
+                beta *= sample.weight * flux_scale;
+            } else {
+                let reflection = w_next.dot(ng) * w_light.dot(ng) > 0.0;
+                if reflection == sample.transmitted {
+                    break;
+                }
+                // f in the path tracer's order (wo towards the camera) and the adjoint
+                // shading-normal correction.
+                let f = bsdf.eval(w_next, w_light);
+                let correction = w_light.dot(ns).abs() * w_next.dot(ng).abs() / w_light.dot(ng).abs();
+                beta *= f * (correction / sample.pdf);
+            }
+            if glass && !sample.pass_through {
+                bent = true;
+            }
+            if !beta.is_finite() || beta == Vec3::ZERO {
+                break;
+            }
+            origin = offset_origin(hit.position, ng, w_next);
+            direction = w_next;
+            segments += 1;
+            if segments > self.settings.rr_depth {
+                let survival = (beta.max_element() / start).min(0.95);
+                if rng.next_f32() >= survival {
+                    break;
+                }
+                beta /= survival;
+            }
+        }
+        discarded
+    }
+
+    /// Connect an opaque vertex reached with flux `beta` along `w_light` after `segments`
+    /// segments to the camera, through smooth thin panes only. Returns 1 if the splat was
+    /// not finite (and so left out).
+    #[allow(clippy::too_many_arguments)]
+    fn connect_to_camera(&self, hit: &crate::integrator::SurfaceHit, bsdf: &Bsdf, w_light: Vec3, beta: Vec3, segments: u32, splats: &mut Vec<Splat>, hits: &mut Vec<Hit>) -> u64 {
+        let Some((pixel, importance)) = self.camera.pixel_and_importance(hit.position) else { return 0 };
+        let ng = hit.geometric_normal;
+        let ns = hit.shading_normal;
+        let to_camera = self.camera.position - hit.position;
+        let distance2 = to_camera.length_squared();
+        if distance2 <= 0.0 {
+            return 0;
+        }
+        let w_camera = to_camera / distance2.sqrt();
+        // The path tracer refuses the same configurations when it samples here.
+        let reflection = w_camera.dot(ng) * w_light.dot(ng) > 0.0;
+        let shading_reflection = w_camera.dot(ns) * w_light.dot(ns) > 0.0;
+        if reflection != shading_reflection {
+            return 0;
+        }
+        let f = bsdf.eval(w_camera, w_light);
+        if f == Vec3::ZERO {
+            return 0;
+        }
+        let origin = offset_origin(hit.position, ng, w_camera);
+        let to_camera = self.camera.position - origin;
+        let distance = to_camera.length();
+        let crossings_allowed = self.settings.max_depth - segments - 1;
+        let Some((transmittance, _)) = self.prepared.transmittance(origin, to_camera / distance, distance, crossings_allowed, &self.settings, hits) else {
+            return 0;
+        };
+        let correction = w_light.dot(ns).abs() / w_light.dot(ng).abs();
+        let geometry = w_camera.dot(ng).abs() / distance2;
+        let value = beta * f * transmittance * (correction * geometry * importance);
+        if !value.is_finite() {
+            return 1;
+        }
+        if value != Vec3::ZERO {
+            splats.push(Splat { pixel, value });
+        }
+        0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Solid angle of the whole sphere.
+    const SPHERE: f32 = 4.0 * std::f32::consts::PI;
+
+    #[test]
+    fn cone_sampling_stays_inside_and_counts_overlaps() {
+        let spheres = [BoundingSphere { center: Vec3::new(0.0, 0.0, -2.0), radius: 0.5 }, BoundingSphere { center: Vec3::new(0.2, 0.0, -2.5), radius: 0.6 }];
+        let from = Vec3::ZERO;
+        let cones: Vec<Cone> = spheres.iter().map(|s| Cone::towards(from, s)).collect();
+        let mut rng = Pcg32::new(3, 4);
+        for cone in &cones {
+            for _ in 0..1000 {
+                assert!(cone.contains(cone.sample(rng.next_vec2())));
+            }
+        }
+        // The union's measure, by Monte Carlo over the sphere, against the sampler's density:
+        // integrating density over the union must give 1.
+        let total: f32 = cones.iter().map(|c| c.solid_angle).sum();
+        let n = 400_000;
+        let mut integral = 0.0f64;
+        for _ in 0..n {
+            let d = crate::sampling::uniform_sphere(rng.next_vec2());
+            let covering = cones.iter().filter(|c| c.contains(d)).count();
+            integral += covering as f64 / total as f64;
+        }
+        integral *= SPHERE as f64 / n as f64;
+        assert!((integral - 1.0).abs() < 0.03, "density integrates to {integral}");
+        // Inside a sphere the cone is every direction.
+        let inside = Cone::towards(Vec3::new(0.0, 0.0, -2.1), &spheres[0]);
+        assert!(inside.contains(Vec3::Z) && inside.contains(Vec3::NEG_Z));
+        assert!((inside.solid_angle - SPHERE).abs() < 1e-5);
+    }
+
+    #[test]
+    fn the_camera_projection_inverts_the_pixel_ray() {
+        let camera = Camera::look_at(Vec3::new(0.3, 1.1, 3.0), Vec3::new(-0.1, 0.9, 0.0), 45.0);
+        let (w, h) = (40, 30);
+        let projection = CameraProjection::new(&camera, w, h);
+        for (px, py) in [(0.5f32, 0.5f32), (20.2, 14.9), (39.7, 29.2), (3.3, 27.5)] {
+            let ray = camera.ray(px, py, w, h);
+            let point = ray.origin + ray.direction * 2.7;
+            let (pixel, _) = projection.pixel_and_importance(point).unwrap();
+            let (x, y) = (px as u32, py as u32);
+            assert_eq!(pixel, y * w + x);
+            // The importance integrates to 1 over the pixel's solid angle, taken exactly as a
+            // spherical rectangle: the pixel's corners on the image plane at distance 1.
+            let f = camera.frame();
+            let (tx, ty) = camera.tan_half_fov(w, h);
+            let corner = camera.position + f.forward + f.right * ((2.0 * x as f32 / w as f32 - 1.0) * tx) + f.up * ((1.0 - 2.0 * y as f32 / h as f32) * ty);
+            let edge_u = f.right * (2.0 * tx / w as f32);
+            let edge_v = -f.up * (2.0 * ty / h as f32);
+            let rect = crate::spherical_rect::SphericalRect::new(corner, edge_u, edge_v, camera.position).unwrap();
+            let centre = camera.ray(x as f32 + 0.5, y as f32 + 0.5, w, h);
+            let (_, centre_importance) = projection.pixel_and_importance(centre.origin + centre.direction).unwrap();
+            let integral = centre_importance as f64 * rect.solid_angle;
+            assert!((integral - 1.0).abs() < 2e-3, "importance x pixel solid angle = {integral}");
+        }
+        assert!(projection.pixel_and_importance(camera.position - camera.frame().forward).is_none());
+    }
+}
