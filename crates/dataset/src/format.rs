@@ -6,6 +6,7 @@
 use glassbake_core::layout;
 use glassbake_core::{Camera, Error, Result};
 use glassbake_scene::Scene;
+use glassbake_trace::Integrator;
 use serde::{Deserialize, Serialize};
 
 /// 2: transparency buffers gained `Ld` (19 channels). 3: they gained `Ld_far` (22 channels),
@@ -65,6 +66,52 @@ impl TraceDevice {
     }
 }
 
+/// Which of the path tracer's estimators traces the ground truth
+/// (`glassbake_trace::Integrator`). Both converge to the same images; their random numbers
+/// differ, so a dataset keeps the estimator it was started with.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GroundTruthEstimator {
+    /// The path tracer alone: datasets made before the caustic estimator, and GPU datasets.
+    #[default]
+    Plain,
+    /// The path tracer plus light tracing of caustic paths (CPU only; the default there).
+    Caustic,
+}
+
+impl GroundTruthEstimator {
+    pub fn parse(name: &str) -> Result<GroundTruthEstimator> {
+        match name {
+            "plain" => Ok(GroundTruthEstimator::Plain),
+            "caustic" => Ok(GroundTruthEstimator::Caustic),
+            other => Err(Error::bad_input("--estimator", other, "expected plain or caustic")),
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            GroundTruthEstimator::Plain => "plain",
+            GroundTruthEstimator::Caustic => "caustic",
+        }
+    }
+
+    /// What a new dataset traced on `device` uses unless told otherwise: the caustic
+    /// estimator on the CPU, the plain one on the GPU (which has no light tracer).
+    pub fn default_for(device: TraceDevice) -> GroundTruthEstimator {
+        match device {
+            TraceDevice::Cpu => GroundTruthEstimator::Caustic,
+            TraceDevice::Wgpu => GroundTruthEstimator::Plain,
+        }
+    }
+
+    pub fn integrator(self) -> Integrator {
+        match self {
+            GroundTruthEstimator::Plain => Integrator::Plain,
+            GroundTruthEstimator::Caustic => Integrator::Caustic,
+        }
+    }
+}
+
 /// What the user asked for: everything that defines a dataset's content.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DatasetSpec {
@@ -93,6 +140,9 @@ pub struct DatasetSpec {
     /// Absent in manifests of CPU datasets (and of datasets older than the GPU tracer).
     #[serde(default, skip_serializing_if = "TraceDevice::is_cpu")]
     pub device: TraceDevice,
+    /// Absent in manifests older than the caustic estimator: those were traced plain.
+    #[serde(default)]
+    pub estimator: GroundTruthEstimator,
 }
 
 impl DatasetSpec {
@@ -154,6 +204,9 @@ impl DatasetSpec {
         }
         if self.total() == 0 {
             return Err(Error::bad_input("dataset", "--train/--val/--test", "the dataset would have no frames"));
+        }
+        if self.device == TraceDevice::Wgpu && self.estimator == GroundTruthEstimator::Caustic {
+            return Err(Error::bad_input("dataset", "--estimator", "caustic runs on the CPU only; with --device wgpu use plain"));
         }
         Ok(())
     }
@@ -263,7 +316,7 @@ impl DatasetManifest {
                 short(&other.scene.hash)
             ));
         }
-        let fields: [(&str, String, String); 9] = [
+        let fields: [(&str, String, String); 10] = [
             ("--res", a.resolution.to_string(), b.resolution.to_string()),
             ("--spp", a.spp.to_string(), b.spp.to_string()),
             ("--test-spp", a.spp_of(Split::Test).to_string(), b.spp_of(Split::Test).to_string()),
@@ -272,6 +325,7 @@ impl DatasetManifest {
             ("--train/--val/--test", format!("{}/{}/{}", a.train, a.val, a.test), format!("{}/{}/{}", b.train, b.val, b.test)),
             ("--cache-buffers", a.cache_buffers.to_string(), b.cache_buffers.to_string()),
             ("--device", a.device.name().to_string(), b.device.name().to_string()),
+            ("--estimator", a.estimator.name().to_string(), b.estimator.name().to_string()),
             ("samples", format!("{}", self.samples.len()), format!("{}", other.samples.len())),
         ];
         for (name, was, now) in fields {
@@ -287,5 +341,36 @@ impl DatasetManifest {
 
     pub fn indices_of(&self, split: Split) -> Vec<u64> {
         self.samples.iter().filter(|s| s.split == split).map(|s| s.index).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Manifests written before the caustic estimator existed have no `estimator`: they were
+    /// traced by the plain path tracer and must be continued with it.
+    #[test]
+    fn a_spec_without_an_estimator_was_traced_plain() {
+        let spec = DatasetSpec {
+            scene: "cornellbox".into(),
+            resolution: 8,
+            spp: 2,
+            test_spp: None,
+            test_glass_spp: None,
+            seed: 0,
+            train: 1,
+            val: 0,
+            test: 0,
+            cache_buffers: false,
+            device: TraceDevice::Cpu,
+            estimator: GroundTruthEstimator::Caustic,
+        };
+        let mut json = serde_json::to_value(&spec).unwrap();
+        assert_eq!(json["estimator"], "caustic");
+        json.as_object_mut().unwrap().remove("estimator");
+        let old: DatasetSpec = serde_json::from_value(json).unwrap();
+        assert_eq!(old.estimator, GroundTruthEstimator::Plain);
+        assert_eq!(old.estimator.integrator(), Integrator::Plain);
     }
 }

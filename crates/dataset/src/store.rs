@@ -7,7 +7,7 @@ use glassbake_core::image::write_bytes_atomically;
 use glassbake_core::layout;
 use glassbake_core::{Error, PlanarImage, Result};
 
-use crate::format::{DatasetManifest, Split, TraceDevice, FORMAT_VERSION};
+use crate::format::{DatasetManifest, GroundTruthEstimator, Split, TraceDevice, FORMAT_VERSION};
 
 pub const MANIFEST_FILE: &str = "manifest.json";
 
@@ -63,6 +63,8 @@ pub struct DatasetInfo {
     pub cache_buffers: bool,
     /// Where the ground truth was path-traced.
     pub device: TraceDevice,
+    /// With which estimator.
+    pub estimator: GroundTruthEstimator,
     pub transparent_objects: usize,
     /// (split, frames planned, frames complete)
     pub splits: Vec<(Split, usize, usize)>,
@@ -262,6 +264,7 @@ impl DatasetStore {
             test_spp: m.spec.spp_of(Split::Test),
             test_glass_spp: m.spec.glass_spp_of(Split::Test),
             device: m.spec.device,
+            estimator: m.spec.estimator,
             seed: m.spec.seed,
             cache_buffers: m.spec.cache_buffers,
             transparent_objects: m.scene.transparent_objects.len(),

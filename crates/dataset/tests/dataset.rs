@@ -7,7 +7,9 @@ use std::path::Path;
 
 use glassbake_core::layout::transparent;
 use glassbake_core::Error;
-use glassbake_dataset::{generate, merge, upgrade, DatasetSpec, DatasetStore, GenerateOptions, GenerateProgress, Loader, LoaderOptions, ShardSpec, Split, TraceDevice};
+use glassbake_dataset::{
+    generate, merge, upgrade, DatasetSpec, DatasetStore, GenerateOptions, GenerateProgress, GroundTruthEstimator, Loader, LoaderOptions, ShardSpec, Split, TraceDevice,
+};
 use glassbake_scene::builtin::builtin;
 
 /// A small dataset whose test frames are traced at 4x the training spp, 6x on glass pixels
@@ -25,6 +27,8 @@ fn spec(seed: u64) -> DatasetSpec {
         device: TraceDevice::Cpu,
         test_spp: Some(8),
         test_glass_spp: Some(12),
+        // The CPU default, so that resume and merge cover the light tracer too.
+        estimator: GroundTruthEstimator::Caustic,
     }
 }
 
@@ -80,7 +84,11 @@ fn test_frames_are_traced_at_the_test_spp_and_glass_spp_with_an_independent_trai
     assert_eq!((info.spp, info.test_spp, info.test_glass_spp), (2, 8, 12));
     let trace_with_glass = |index: u64, spp: u32, glass_spp: u32, seed: u64| {
         let sample = &store.manifest.samples[index as usize];
-        let settings = glassbake_trace::TraceSettings { glass_spp: Some(glass_spp), ..glassbake_trace::TraceSettings::new(8, 8, spp, seed) };
+        let settings = glassbake_trace::TraceSettings {
+            glass_spp: Some(glass_spp),
+            integrator: s.estimator.integrator(),
+            ..glassbake_trace::TraceSettings::new(8, 8, spp, seed)
+        };
         glassbake_trace::render(&scene.instantiate(&sample.values).unwrap(), &sample.camera, &settings, None).unwrap().image
     };
     let trace = |index: u64, spp: u32, seed: u64| trace_with_glass(index, spp, spp, seed);
@@ -172,6 +180,7 @@ fn a_different_command_on_an_existing_dataset_is_refused() {
         (scene.clone(), DatasetSpec { test_spp: Some(16), test_glass_spp: Some(16), ..tiny.clone() }, "--test-spp"),
         (scene.clone(), DatasetSpec { test_glass_spp: Some(16), ..tiny.clone() }, "--test-glass-spp"),
         (scene.clone(), DatasetSpec { train: 2, ..tiny.clone() }, "--train"),
+        (scene.clone(), DatasetSpec { estimator: GroundTruthEstimator::Plain, ..tiny.clone() }, "--estimator"),
         (other_scene, tiny.clone(), "different scene"),
     ];
     for (scene, spec, why) in refusals {
@@ -188,6 +197,11 @@ fn a_different_command_on_an_existing_dataset_is_refused() {
     let result = generate(&scene, &DatasetSpec { test_glass_spp: Some(4), ..spec(3) }, &below, &GenerateOptions::default(), &no_progress);
     assert!(matches!(&result, Err(Error::BadInput { field, .. }) if field == "--test-glass-spp"), "{:?}", result.map(|s| s.generated));
     assert!(!below.exists());
+    // The GPU tracer has no light tracer.
+    let gpu = dir.path().join("gpu");
+    let result = generate(&scene, &DatasetSpec { device: TraceDevice::Wgpu, ..spec(3) }, &gpu, &GenerateOptions::default(), &no_progress);
+    assert!(matches!(&result, Err(Error::BadInput { field, .. }) if field == "--estimator"), "{:?}", result.map(|s| s.generated));
+    assert!(!gpu.exists());
     // A non-empty directory that is not a dataset is never written into.
     let foreign = dir.path().join("foreign");
     std::fs::create_dir(&foreign).unwrap();
@@ -199,7 +213,7 @@ fn a_different_command_on_an_existing_dataset_is_refused() {
 #[test]
 fn splits_are_disjoint_and_cover_the_set() {
     let scene = builtin("cornellbox").unwrap();
-    let s = DatasetSpec { scene: "cornellbox".into(), resolution: 8, spp: 1, seed: 0, train: 7, val: 3, test: 5, cache_buffers: false, device: TraceDevice::Cpu, test_spp: None, test_glass_spp: None };
+    let s = DatasetSpec { scene: "cornellbox".into(), resolution: 8, spp: 1, seed: 0, train: 7, val: 3, test: 5, cache_buffers: false, device: TraceDevice::Cpu, test_spp: None, test_glass_spp: None, estimator: GroundTruthEstimator::Caustic };
     let manifest = glassbake_dataset::DatasetManifest::plan(&s, &scene);
     let train = manifest.indices_of(Split::Train);
     let val = manifest.indices_of(Split::Val);

@@ -37,10 +37,10 @@ pub struct PathSettings {
     pub leave_caustics_to_light_tracing: bool,
 }
 
-/// Which light-transport estimator traces the paths. All three are unbiased and converge
-/// to the same image; `docs/trace.md` has their measured efficiency. Plain stays the default
-/// because, at the 64-256 px and 128-1024 spp of glassbake's datasets, neither alternative
-/// has yet paid for its cost (`examples/trace_convergence`).
+/// Which light-transport estimator traces the paths. All four are unbiased and converge to
+/// the same image; `docs/trace.md` has their measured efficiency. `Caustic` is what the CLI
+/// and new CPU datasets use; `Plain` stays the library's default because it is the one
+/// estimator that every tracer (the GPU one too) implements.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Integrator {
     /// Rectangle lights sampled by area, BSDF sampling only (the default).

@@ -164,6 +164,7 @@ pub fn run(args: BakeArgs) -> Result<()> {
         threads: args.threads,
         // A bake on the GPU path-traces its ground truth there too.
         device: if args.device == "wgpu" { glassbake_dataset::TraceDevice::Wgpu } else { glassbake_dataset::TraceDevice::Cpu },
+        estimator: None,
     };
     stage(
         format!(

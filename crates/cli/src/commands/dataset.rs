@@ -6,7 +6,9 @@ use std::time::Duration;
 
 use anyhow::Result;
 use clap::{Args, Subcommand};
-use glassbake_dataset::{generate, merge, upgrade, DatasetSpec, DatasetStore, GenerateOptions, GenerateProgress, ShardSpec, TraceDevice, FORMAT_VERSION};
+use glassbake_dataset::{
+    generate, merge, upgrade, DatasetSpec, DatasetStore, GenerateOptions, GenerateProgress, GroundTruthEstimator, ShardSpec, TraceDevice, FORMAT_VERSION,
+};
 use glassbake_scene::load_scene;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -89,6 +91,12 @@ pub struct MakeArgs {
     /// device it was started with.
     #[arg(long, default_value = "cpu", value_parser = parse_trace_device)]
     pub device: TraceDevice,
+    /// The ground truth's estimator: `caustic` (the path tracer plus light tracing of the
+    /// light that reaches surfaces through glass: no caustic fireflies; the default on the
+    /// CPU) or `plain` (the path tracer alone; the only one with --device wgpu). Continuing
+    /// a dataset keeps the estimator it was started with.
+    #[arg(long, value_parser = parse_estimator)]
+    pub estimator: Option<GroundTruthEstimator>,
 }
 
 /// The test split's ground truth is traced at this many times the training spp by default:
@@ -109,6 +117,10 @@ const DEFAULT_TEST_GLASS_SPP_FACTOR: u32 = 3;
 /// The test split's spp on glass pixels when `--test-glass-spp` is not given.
 pub fn default_test_glass_spp(test_spp: u32) -> u32 {
     test_spp.saturating_mul(DEFAULT_TEST_GLASS_SPP_FACTOR)
+}
+
+fn parse_estimator(name: &str) -> std::result::Result<GroundTruthEstimator, String> {
+    GroundTruthEstimator::parse(name).map_err(|_| format!("unknown estimator {name:?}: expected plain or caustic"))
 }
 
 /// clap's parser for `--device` of `dataset` and `trace`.
@@ -134,7 +146,7 @@ pub fn run(args: DatasetArgs) -> Result<()> {
             println!("dataset {}", dir.display());
             println!("  scene {} (hash {})", info.scene_name, info.scene_hash);
             println!(
-                "  {}x{} px, {} spp{} (traced on {}), seed {}, {} transparent objects",
+                "  {}x{} px, {} spp{} (traced on {}, {} estimator), seed {}, {} transparent objects",
                 info.resolution,
                 info.resolution,
                 info.spp,
@@ -144,6 +156,7 @@ pub fn run(args: DatasetArgs) -> Result<()> {
                     (false, false) => String::new(),
                 },
                 info.device.name(),
+                info.estimator.name(),
                 info.seed,
                 info.transparent_objects
             );
@@ -217,6 +230,11 @@ pub fn make_dataset(args: &MakeArgs, bar: &ProgressBar) -> Result<bool> {
         test: args.test,
         cache_buffers: args.cache_buffers,
         device: args.device,
+        // A dataset being continued keeps its estimator; a new one gets the device's default.
+        estimator: args.estimator.unwrap_or_else(|| match DatasetStore::open(&args.out) {
+            Ok(existing) => existing.manifest.spec.estimator,
+            Err(_) => GroundTruthEstimator::default_for(args.device),
+        }),
     };
     let options = GenerateOptions { shard, threads: args.threads, ..Default::default() };
     bar.set_length(0);

@@ -47,12 +47,14 @@ pub struct TraceArgs {
     /// Longest path in segments (1 = emitters seen directly, 2 = direct light).
     #[arg(long, default_value_t = TraceSettings::DEFAULT_MAX_DEPTH)]
     max_depth: u32,
-    /// Light-transport estimator: `plain` (area light sampling; what datasets use),
-    /// `solid-angle` (rectangle lights sampled by solid angle) or `guided` (solid angle plus
-    /// path guiding learned over the first quarter of the samples). All three converge to
-    /// the same image; docs/trace.md has their measured efficiency.
-    #[arg(long, default_value = "plain", value_parser = parse_integrator)]
-    integrator: Integrator,
+    /// Light-transport estimator: `caustic` (the path tracer plus light tracing of the light
+    /// that reaches surfaces through glass; the default on the CPU, and what new CPU datasets
+    /// use), `plain` (the path tracer alone, area light sampling; the default with --device
+    /// wgpu), `solid-angle` (rectangle lights sampled by solid angle) or `guided` (solid angle
+    /// plus path guiding learned over the first quarter of the samples). All converge to the
+    /// same image; docs/trace.md has their measured efficiency.
+    #[arg(long, value_parser = parse_integrator)]
+    integrator: Option<Integrator>,
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long, conflicts_with = "device")]
     threads: Option<usize>,
@@ -97,10 +99,14 @@ pub fn run(args: TraceArgs) -> Result<()> {
         }
     };
     let instance = scene.instantiate(&values)?;
+    let integrator = args.integrator.unwrap_or(match args.device {
+        TraceDevice::Cpu => Integrator::Caustic,
+        TraceDevice::Wgpu => Integrator::Plain,
+    });
     let settings = TraceSettings {
         max_depth: args.max_depth,
         threads: args.threads,
-        integrator: args.integrator,
+        integrator,
         glass_spp: args.glass_spp,
         ..TraceSettings::new(args.res, args.res, args.spp, image_seed)
     };
@@ -117,7 +123,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
         TraceDevice::Cpu => None,
     };
     let on = gpu_tracer.as_ref().map_or_else(|| "CPU".to_string(), |t| t.adapter_name().to_string());
-    bar.set_message(format!("tracing {} {}x{} @ {} spp ({}, {on})", scene.name, args.res, args.res, args.spp, args.integrator.name()));
+    bar.set_message(format!("tracing {} {}x{} @ {} spp ({}, {on})", scene.name, args.res, args.res, args.spp, integrator.name()));
     let progress = |done: u64, total: u64| {
         bar.set_length(total);
         bar.set_position(done);
