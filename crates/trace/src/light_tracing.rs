@@ -364,8 +364,12 @@ impl<'a> LightTracer<'a> {
             origin = offset_origin(hit.position, ng, w_next);
             direction = w_next;
             segments += 1;
-            if segments > self.settings.rr_depth {
-                let survival = (beta.max_element() / start).min(0.95);
+            // Russian roulette on the flux lost since the light, from the first bounce: a light
+            // path's value is spread over every surface it lights, so long dim walks are not
+            // worth their connections. Capped at 0.95 beyond the path tracer's rr_depth.
+            let cap = if segments > self.settings.rr_depth { 0.95 } else { 1.0 };
+            let survival = (beta.max_element() / start).min(cap);
+            if survival < 1.0 {
                 if rng.next_f32() >= survival {
                     break;
                 }
