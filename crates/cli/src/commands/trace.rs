@@ -27,6 +27,10 @@ pub struct TraceArgs {
     /// Seed of the sample set (with --sample), or the image seed (otherwise).
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// With --sample: trace it with this image seed instead of its own, for an independent
+    /// re-trace of the same camera and values (a reference, or a second seed to measure noise).
+    #[arg(long, requires = "sample")]
+    image_seed: Option<u64>,
     /// An explicit camera: position and look-at target, optionally the horizontal field of
     /// view in degrees (default: the middle of the scene's range).
     #[arg(long, value_name = "PX,PY,PZ,TX,TY,TZ[,FOV]", allow_hyphen_values = true)]
@@ -86,7 +90,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
     let (camera, values, image_seed) = match args.sample {
         Some(index) => {
             let sample = scene.sample(args.seed, index);
-            let seed = sample_trace_seed(sample.seed);
+            let seed = args.image_seed.map_or_else(|| sample_trace_seed(sample.seed), |s| purpose_seed(s, "independent trace"));
             (sample.camera, sample.values, seed)
         }
         None => {

@@ -1,0 +1,98 @@
+"""Error against a converged reference at equal wall time: glassbake's tracer (an estimator of
+choice) vs Mitsuba 3's path tracer on the same exported scene instance.
+
+    pip install mitsuba numpy
+    python3 tools/mitsuba-compare/equal_time.py --glassbake target/release/glassbake \
+        [--scenes cornellbox,desk] [--sample 0] [--res 128] [--spp 256] [--ref-factor 16] \
+        [--integrator caustic] [--variant llvm_ad_rgb]
+
+Per scene: glassbake traces the instance at --spp (process wall time t, BVH build and EXR
+write included); Mitsuba renders it with as many spp as fit in t (calibrated on a first
+render, kernel compilation excluded, then timed again). Each renderer's error is measured
+against its own reference, --ref-factor times the spp, traced with independent random
+numbers: the two renderers interpret a few materials differently by design (docs/trace.md:
+the default opaque blend is 1-3% brighter in Mitsuba), so a shared reference would measure
+that difference, not convergence. The reference's own noise is 1/ref-factor of a test
+render's variance; the printed MSE is not corrected for it. Prints a Markdown table:
+seconds, spp, MSE over all pixels and the MSE ratio Mitsuba / glassbake.
+"""
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+
+def main():
+    p = argparse.ArgumentParser()
+    p.add_argument("--glassbake", required=True)
+    p.add_argument("--scenes", default="cornell-glass,cornellbox,cornellbox8,desk,bathroom")
+    p.add_argument("--sample", type=int, default=0)
+    p.add_argument("--res", type=int, default=128)
+    p.add_argument("--spp", type=int, default=256)
+    p.add_argument("--ref-factor", type=int, default=16)
+    p.add_argument("--integrator", default="caustic")
+    p.add_argument("--variant", default="llvm_ad_rgb")
+    p.add_argument("--max-depth", type=int, default=64)
+    a = p.parse_args()
+
+    import mitsuba as mi
+    import numpy as np
+
+    mi.set_variant(a.variant)
+    work = tempfile.mkdtemp(prefix="gb-mitsuba-equal-time-")
+    print(f"{a.res}x{a.res}, sample {a.sample}, glassbake --integrator {a.integrator} at {a.spp} spp, Mitsuba {a.variant} `path` at equal wall time;")
+    print(f"references: each renderer at {a.ref_factor}x the spp, independent seeds; MSE over all pixels and RGB")
+    print()
+    print("| scene | glassbake s | glassbake spp | glassbake MSE | Mitsuba s | Mitsuba spp | Mitsuba MSE | Mitsuba / glassbake MSE |")
+    print("|---|---|---|---|---|---|---|---|")
+
+    def trace(scene, spp, out, image_seed=None):
+        cmd = [a.glassbake, "trace", scene, "--sample", str(a.sample), "--res", str(a.res), "--spp", str(spp),
+               "--max-depth", str(a.max_depth), "--integrator", a.integrator, "--out", out]
+        if image_seed is not None:
+            cmd += ["--image-seed", str(image_seed)]
+        t0 = time.time()
+        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        return time.time() - t0, np.array(mi.Bitmap(out))[..., :3].astype(np.float64)
+
+    for name in a.scenes.split(","):
+        xml = os.path.join(work, f"{name}.xml")
+        subprocess.run([a.glassbake, "scene", "mitsuba", name, "--sample", str(a.sample), "--out", xml], check=True, stdout=subprocess.DEVNULL)
+        gb_time, gb = trace(name, a.spp, os.path.join(work, f"{name}_gb.exr"))
+        _, gb_ref = trace(name, a.spp * a.ref_factor, os.path.join(work, f"{name}_gb_ref.exr"), image_seed=1)
+
+        scene = mi.load_file(xml, res=a.res, spp=a.spp, max_depth=a.max_depth)
+
+        def render(spp, seed):
+            # In passes of at most 256 spp: the LLVM variant keeps every sample of a pass in
+            # flight at once.
+            total, done, k = 0.0, 0, 0
+            while done < spp:
+                n = min(256, spp - done)
+                total = total + np.array(mi.render(scene, spp=n, seed=seed * 100_003 + k))[..., :3].astype(np.float64) * n
+                done += n
+                k += 1
+            return total / spp
+
+        render(1, 7)  # kernel compilation on JIT variants
+        t0 = time.time()
+        render(a.spp, 3)
+        per_spp = (time.time() - t0) / a.spp
+        mi_spp = max(1, int(gb_time / per_spp))
+        t0 = time.time()
+        mi_img = render(mi_spp, 0)
+        mi_time = time.time() - t0
+        mi_ref = render(a.spp * a.ref_factor, 1)
+
+        gb_mse = float(((gb - gb_ref) ** 2).mean())
+        mi_mse = float(((mi_img - mi_ref) ** 2).mean())
+        print(f"| {name} | {gb_time:.1f} | {a.spp} | {gb_mse:.3e} | {mi_time:.1f} | {mi_spp} | {mi_mse:.3e} | {mi_mse / gb_mse:.2f}x |")
+        sys.stdout.flush()
+    print()
+    print(f"images in {work}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
