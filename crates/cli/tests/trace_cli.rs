@@ -54,6 +54,21 @@ fn trace_writes_an_rgb_exr_and_a_png_preview_deterministically() {
     let (code, _, err) = trace(&other, &["--camera", "0,1,3.5,0,0.9,0,45", "--set", "pane_x=0.2"]);
     assert_eq!(code, 0, "{err}");
     assert_ne!(read_rgb(&other), image);
+
+    // --image-seed re-traces the same sample with other random numbers, reproducibly.
+    let reseeded: Vec<PlanarImage> = ["a.exr", "b.exr"]
+        .iter()
+        .map(|name| {
+            let path = dir.path().join(name);
+            let (code, _, err) = trace(&path, &["--sample", "3", "--image-seed", "9"]);
+            assert_eq!(code, 0, "{err}");
+            read_rgb(&path)
+        })
+        .collect();
+    assert_eq!(reseeded[0], reseeded[1]);
+    assert_ne!(reseeded[0], image);
+    let mean = |i: &PlanarImage| i.data().iter().map(|&v| v as f64).sum::<f64>() / i.data().len() as f64;
+    assert!((mean(&reseeded[0]) / mean(&image) - 1.0).abs() < 0.5, "same camera and values, other noise");
 }
 
 #[test]

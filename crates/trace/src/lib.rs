@@ -5,8 +5,9 @@
 //! metallic-roughness, smooth / rough / thin dielectrics), rectangle and emissive-mesh
 //! lights (rectangles sampled by solid angle), a unidirectional path tracer with
 //! next-event estimation, MIS, Russian roulette and path guiding (an SD-tree learned over
-//! the first passes), and the tiling over threads that keeps images bit-identical whatever
-//! the thread count. The dataset stage calls [`render`] once per sample; the CLI's `trace`
+//! the first passes), a light tracer for the light that reaches surfaces through glass
+//! (the `caustic` estimator), and the tiling over threads that keeps images bit-identical
+//! whatever the thread count. The dataset stage calls [`render`] once per sample; the CLI's `trace`
 //! command wraps it.
 
 pub mod bsdf;
