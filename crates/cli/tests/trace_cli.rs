@@ -67,8 +67,6 @@ fn trace_writes_an_rgb_exr_and_a_png_preview_deterministically() {
         .collect();
     assert_eq!(reseeded[0], reseeded[1]);
     assert_ne!(reseeded[0], image);
-    let mean = |i: &PlanarImage| i.data().iter().map(|&v| v as f64).sum::<f64>() / i.data().len() as f64;
-    assert!((mean(&reseeded[0]) / mean(&image) - 1.0).abs() < 0.5, "same camera and values, other noise");
 }
 
 #[test]
