@@ -173,6 +173,10 @@ impl CameraProjection {
     }
 }
 
+/// Most cones a light path chooses among (they live on the stack); a scene with more glass
+/// objects gets one sphere around all of them.
+const MAX_CONES: usize = 64;
+
 /// A sphere around one glass object.
 #[derive(Clone, Copy, Debug)]
 struct BoundingSphere {
@@ -228,7 +232,7 @@ pub struct LightTracer<'a> {
 impl<'a> LightTracer<'a> {
     pub fn new(prepared: &'a PreparedScene<'a>, camera: &Camera, width: u32, height: u32, settings: PathSettings) -> Self {
         let scene = prepared.scene;
-        let glass = (0..scene.objects.len())
+        let mut glass: Vec<BoundingSphere> = (0..scene.objects.len())
             .filter(|&i| prepared.object_is_glass(i, settings.material_model))
             .filter_map(|i| {
                 let mesh = scene.world_mesh(i);
@@ -241,6 +245,12 @@ impl<'a> LightTracer<'a> {
                 Some(BoundingSphere { center, radius })
             })
             .collect();
+        if glass.len() > MAX_CONES {
+            // One sphere around them all: coarser, but every piece of glass stays reachable.
+            let center = glass.iter().map(|s| s.center).sum::<Vec3>() / glass.len() as f32;
+            let radius = glass.iter().map(|s| (s.center - center).length() + s.radius).fold(0.0f32, f32::max);
+            glass = vec![BoundingSphere { center, radius }];
+        }
         LightTracer { prepared, camera: CameraProjection::new(camera, width, height), glass, settings }
     }
 
@@ -258,7 +268,6 @@ impl<'a> LightTracer<'a> {
     /// in proportion to its solid angle, then uniformly within it. Every cone containing the
     /// direction adds to the density, so it is (cones containing it) / (sum of solid angles).
     fn sample_towards_glass(&self, from: Vec3, u_pick: f32, u: Vec2) -> Option<(Vec3, f32)> {
-        const MAX_CONES: usize = 64;
         let mut cones = [Cone { axis: Vec3::Z, cos_max: 1.0, solid_angle: 0.0 }; MAX_CONES];
         let cones = &mut cones[..self.glass.len().min(MAX_CONES)];
         let mut total = 0.0;
@@ -286,7 +295,6 @@ impl<'a> LightTracer<'a> {
     /// One light path from the stream `rng`, its camera connections appended to `splats`.
     /// Returns how many of them were not finite (left out).
     pub fn trace(&self, rng: &mut Pcg32, splats: &mut Vec<Splat>, hits: &mut Vec<Hit>) -> u64 {
-        debug_assert!(self.glass.len() <= 64, "more glass objects than cones");
         let lights = &self.prepared.lights;
         let Some((index, pmf)) = lights.pick(rng.next_f32()) else { return 0 };
         let emitter = &lights.emitters[index];
@@ -484,5 +492,31 @@ mod tests {
             assert!((integral - 1.0).abs() < 2e-3, "importance x pixel solid angle = {integral}");
         }
         assert!(projection.pixel_and_importance(camera.position - camera.frame().forward).is_none());
+    }
+
+    /// More glass objects than cones: one sphere around all of them, so no glass is ever
+    /// out of the light paths' reach (which would bias the estimator: the path tracer leaves
+    /// those paths to the light tracer).
+    #[test]
+    fn many_glass_objects_share_one_sphere_that_holds_them_all() {
+        use glassbake_scene::{Material, Object, Scene};
+        let mut scene = Scene::empty("many panes");
+        scene.materials.push(Material::glass("pane", Vec3::ONE, 0.0, 1.5, true));
+        for i in 0..(MAX_CONES + 6) {
+            let centre = Vec3::new(i as f32 * 0.3 - 10.0, 1.0 + (i % 5) as f32, -((i % 7) as f32));
+            scene.meshes.push(std::sync::Arc::new(glassbake_scene::shapes::rect(centre, Vec3::X * 0.2, Vec3::Y * 0.2, Vec2::ONE)));
+            scene.objects.push(Object { name: format!("pane {i}"), mesh: i, material: 0, transform: glam::Affine3A::IDENTITY, transparent: true });
+        }
+        let prepared = PreparedScene::new(&scene);
+        let camera = Camera::look_at(Vec3::new(0.0, 1.0, 5.0), Vec3::ZERO, 50.0);
+        let settings = PathSettings { max_depth: 8, rr_depth: 5, material_model: crate::MaterialModel::Gltf, leave_caustics_to_light_tracing: true };
+        let tracer = LightTracer::new(&prepared, &camera, 8, 8, settings);
+        assert_eq!(tracer.glass.len(), 1);
+        let sphere = tracer.glass[0];
+        for i in 0..scene.objects.len() {
+            for p in scene.world_mesh(i).positions {
+                assert!((p - sphere.center).length() <= sphere.radius * 1.0001, "pane {i} sticks out of the sphere");
+            }
+        }
     }
 }
