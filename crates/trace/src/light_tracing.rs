@@ -47,7 +47,7 @@ use crate::rng::Pcg32;
 
 /// Light paths traced per camera path. Measured on the built-in scenes at 96 px, 128 spp
 /// (`examples/trace_convergence`, docs/benchmarks.md): one light path per camera path
-/// costs 40-160% more time than the path tracer alone for a little less variance; one per
+/// costs 40-200% more time than the path tracer alone for a little less variance; one per
 /// four keeps nearly all of the gain (desk, the cornell boxes) for 5-30% more time; one per
 /// ten leaves the bathroom's light through its partition noisier than the plain estimator.
 pub const LIGHT_PATHS_PER_CAMERA_PATH: f64 = 0.25;
