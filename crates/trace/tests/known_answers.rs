@@ -429,23 +429,30 @@ fn convex_hull(points: &[Vec2]) -> Vec<Vec2> {
     }
 }
 
+/// Sample 0 of built-in `scene` rendered with `base` on 1, 2 and 3 threads, and with the
+/// plain estimator (same settings otherwise).
+fn renders_on_1_2_3_threads_and_plain(scene: &str, base: &TraceSettings) -> (Vec<glassbake_trace::TraceOutput>, glassbake_trace::TraceOutput) {
+    let scene = glassbake_scene::builtin::builtin(scene).unwrap();
+    let sample = scene.sample(0, 0);
+    let instance = scene.instantiate(&sample.values).unwrap();
+    let renders = [Some(1), Some(2), Some(3)]
+        .into_iter()
+        .map(|threads| render(&instance, &sample.camera, &TraceSettings { threads, ..base.clone() }, None).unwrap())
+        .collect();
+    let plain = render(&instance, &sample.camera, &TraceSettings { integrator: Integrator::Plain, ..base.clone() }, None).unwrap();
+    (renders, plain)
+}
+
 /// The guided estimator's learned tree is built from records gathered in tile order, so its
 /// images do not depend on the thread count either.
 #[test]
 fn guided_images_are_bit_identical_whatever_the_thread_count() {
-    let scene = glassbake_scene::builtin::builtin("cornellbox").unwrap();
-    let sample = scene.sample(0, 0);
-    let instance = scene.instantiate(&sample.values).unwrap();
     // 16 spp: learning passes of 1 and 2 spp, then 13 spp with the tree.
     let base = TraceSettings { integrator: Integrator::Guided, ..TraceSettings::new(40, 36, 16, 5) };
-    let renders: Vec<_> = [Some(1), Some(2), Some(3)]
-        .into_iter()
-        .map(|threads| render(&instance, &sample.camera, &TraceSettings { threads, ..base.clone() }, None).unwrap())
-        .collect();
+    let (renders, plain) = renders_on_1_2_3_threads_and_plain("cornellbox", &base);
     assert_eq!(renders[0].learning_spp, 3);
     assert_eq!(bits(&renders[0].image), bits(&renders[1].image));
     assert_eq!(bits(&renders[0].image), bits(&renders[2].image));
-    let plain = render(&instance, &sample.camera, &TraceSettings { integrator: Integrator::Plain, ..base.clone() }, None).unwrap();
     assert_ne!(bits(&renders[0].image), bits(&plain.image), "the guided estimator must differ from the plain one");
 }
 
@@ -453,18 +460,12 @@ fn guided_images_are_bit_identical_whatever_the_thread_count() {
 /// order: the caustic estimator's images do not depend on the thread count.
 #[test]
 fn caustic_images_are_bit_identical_whatever_the_thread_count() {
-    let scene = glassbake_scene::builtin::builtin("cornellbox8").unwrap();
-    let sample = scene.sample(0, 0);
-    let instance = scene.instantiate(&sample.values).unwrap();
-    // 40 x 36 x 8 paths: three chunks of light paths, the last one short.
-    let base = TraceSettings { integrator: Integrator::Caustic, ..TraceSettings::new(40, 36, 8, 5) };
-    let renders: Vec<_> = [Some(1), Some(2), Some(3)]
-        .into_iter()
-        .map(|threads| render(&instance, &sample.camera, &TraceSettings { threads, ..base.clone() }, None).unwrap())
-        .collect();
+    // 40 x 36 x 24 camera samples, a quarter as many light paths: 8,640, three chunks of
+    // 4,096, the last one short.
+    let base = TraceSettings { integrator: Integrator::Caustic, ..TraceSettings::new(40, 36, 24, 5) };
+    let (renders, plain) = renders_on_1_2_3_threads_and_plain("cornellbox8", &base);
     assert_eq!(bits(&renders[0].image), bits(&renders[1].image));
     assert_eq!(bits(&renders[0].image), bits(&renders[2].image));
-    let plain = render(&instance, &sample.camera, &TraceSettings { integrator: Integrator::Plain, ..base.clone() }, None).unwrap();
     assert_ne!(bits(&renders[0].image), bits(&plain.image), "the caustic estimator must differ from the plain one");
 }
 
