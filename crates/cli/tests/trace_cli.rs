@@ -79,6 +79,8 @@ fn bad_input_exits_2_with_one_line_and_writes_nothing() {
         &["--camera", "1,2,3"][..],
         &["--set", "no_such_variable=1"][..],
         &["--set", "pane_x=7"][..],
+        // The guided estimator's learning passes sample every pixel alike.
+        &["--sampling", "adaptive", "--integrator", "guided"][..],
     ] {
         let (code, stdout, err) = trace(&out, extra);
         assert_eq!(code, 2, "{extra:?}: {err}");
@@ -86,6 +88,10 @@ fn bad_input_exits_2_with_one_line_and_writes_nothing() {
         assert_eq!(err.lines().count(), 1, "{extra:?}: {err}");
         assert!(!out.exists() && !out.with_extension("png").exists(), "{extra:?} wrote output");
     }
+    // An unknown value is refused by the argument parser (its message has a usage hint).
+    let (code, _, err) = trace(&out, &["--sampling", "sideways"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("expected adaptive or uniform") && !out.exists(), "{err}");
 }
 
 #[test]
@@ -108,4 +114,30 @@ fn trace_on_the_gpu_is_deterministic_and_refuses_guiding() {
     assert_eq!(code, 2, "{err}");
     assert!(stdout.is_empty() && err.lines().count() == 1 && err.contains("CPU only"), "{err}");
     assert!(!guided.exists() && !guided.with_extension("png").exists());
+
+    let adaptive = dir.path().join("adaptive.exr");
+    let (code, stdout, err) = trace(&adaptive, &["--sampling", "adaptive", "--device", "wgpu"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(stdout.is_empty() && err.lines().count() == 1 && err.contains("CPU only"), "{err}");
+    assert!(!adaptive.exists());
+}
+
+/// Without --sampling the CPU samples adaptively, except for the guided estimator, which
+/// cannot: it is sampled uniformly rather than refused.
+#[test]
+fn sampling_defaults_to_adaptive_where_it_can_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let traced = |name: &str, extra: &[&str]| {
+        let path = dir.path().join(name);
+        let mut args = vec!["--sample", "1", "--spp", "32"];
+        args.extend_from_slice(extra);
+        let (code, _, err) = trace(&path, &args);
+        assert_eq!(code, 0, "{extra:?}: {err}");
+        read_rgb(&path)
+    };
+    let default = traced("default.exr", &[]);
+    assert_eq!(default, traced("adaptive.exr", &["--sampling", "adaptive"]));
+    assert_ne!(default, traced("uniform.exr", &["--sampling", "uniform"]));
+    let guided = traced("guided.exr", &["--integrator", "guided"]);
+    assert_eq!(guided, traced("guided-uniform.exr", &["--integrator", "guided", "--sampling", "uniform"]));
 }

@@ -75,8 +75,13 @@ pub enum GroundTruthEstimator {
     /// The path tracer alone: datasets made before the caustic estimator, and GPU datasets.
     #[default]
     Plain,
-    /// The path tracer plus light tracing of caustic paths (CPU only; the default there).
+    /// The path tracer plus light tracing of caustic paths (CPU only), every pixel at the
+    /// same spp.
     Caustic,
+    /// The caustic estimator with adaptive sampling (`glassbake_trace::adaptive`; CPU only,
+    /// the default there).
+    #[serde(rename = "caustic-adaptive")]
+    CausticAdaptive,
 }
 
 impl GroundTruthEstimator {
@@ -84,7 +89,8 @@ impl GroundTruthEstimator {
         match name {
             "plain" => Ok(GroundTruthEstimator::Plain),
             "caustic" => Ok(GroundTruthEstimator::Caustic),
-            other => Err(Error::bad_input("--estimator", other, "expected plain or caustic")),
+            "caustic-adaptive" => Ok(GroundTruthEstimator::CausticAdaptive),
+            other => Err(Error::bad_input("--estimator", other, "expected plain, caustic or caustic-adaptive")),
         }
     }
 
@@ -92,14 +98,16 @@ impl GroundTruthEstimator {
         match self {
             GroundTruthEstimator::Plain => "plain",
             GroundTruthEstimator::Caustic => "caustic",
+            GroundTruthEstimator::CausticAdaptive => "caustic-adaptive",
         }
     }
 
     /// What a new dataset traced on `device` uses unless told otherwise: the caustic
-    /// estimator on the CPU, the plain one on the GPU (which has no light tracer).
+    /// estimator with adaptive sampling on the CPU, the plain one on the GPU (which has no
+    /// light tracer and samples uniformly).
     pub fn default_for(device: TraceDevice) -> GroundTruthEstimator {
         match device {
-            TraceDevice::Cpu => GroundTruthEstimator::Caustic,
+            TraceDevice::Cpu => GroundTruthEstimator::CausticAdaptive,
             TraceDevice::Wgpu => GroundTruthEstimator::Plain,
         }
     }
@@ -107,8 +115,13 @@ impl GroundTruthEstimator {
     pub fn integrator(self) -> Integrator {
         match self {
             GroundTruthEstimator::Plain => Integrator::Plain,
-            GroundTruthEstimator::Caustic => Integrator::Caustic,
+            GroundTruthEstimator::Caustic | GroundTruthEstimator::CausticAdaptive => Integrator::Caustic,
         }
+    }
+
+    /// Whether pixels are sampled adaptively (`glassbake_trace::TraceSettings::adaptive`).
+    pub fn adaptive(self) -> bool {
+        self == GroundTruthEstimator::CausticAdaptive
     }
 }
 
@@ -205,8 +218,8 @@ impl DatasetSpec {
         if self.total() == 0 {
             return Err(Error::bad_input("dataset", "--train/--val/--test", "the dataset would have no frames"));
         }
-        if self.device == TraceDevice::Wgpu && self.estimator == GroundTruthEstimator::Caustic {
-            return Err(Error::bad_input("dataset", "--estimator", "caustic runs on the CPU only; with --device wgpu use plain"));
+        if self.device == TraceDevice::Wgpu && self.estimator != GroundTruthEstimator::Plain {
+            return Err(Error::bad_input("dataset", "--estimator", format!("{} runs on the CPU only; with --device wgpu use plain", self.estimator.name())));
         }
         Ok(())
     }

@@ -123,6 +123,7 @@ fn make_frame(
         let mut settings = TraceSettings::new(res, res, spp, seed);
         settings.threads = threads;
         settings.integrator = spec.estimator.integrator();
+        settings.adaptive = spec.estimator.adaptive();
         match gpu_tracer {
             // The GPU tracer draws every pixel at one spp: the glass pixels' for all of them.
             Some(tracer) => {

@@ -120,6 +120,9 @@ impl GpuTracer {
                 "path guiding and light tracing run on the CPU only; with --device wgpu use plain or solid-angle",
             ));
         }
+        if settings.adaptive {
+            return Err(Error::bad_input("trace settings", "adaptive", "the GPU tracer samples every pixel uniformly; adaptive sampling runs on the CPU only"));
+        }
         if settings.glass_spp.is_some_and(|glass_spp| glass_spp > settings.spp) {
             return Err(Error::bad_input("trace settings", "glass_spp", "the GPU tracer renders every pixel at one spp: trace at the glass pixels' spp instead"));
         }
@@ -132,7 +135,7 @@ impl GpuTracer {
             if let Some(p) = progress {
                 p(samples, samples);
             }
-            return Ok(TraceOutput { image, discarded_samples: 0, samples, warnings: vec![warning], elapsed: start.elapsed(), learning_spp: 0 });
+            return Ok(TraceOutput { image, discarded_samples: 0, samples, pilot_samples: 0, warnings: vec![warning], elapsed: start.elapsed(), learning_spp: 0 });
         }
         let slots = (TARGET_THREADS / pixels).clamp(1, MAX_SLOTS);
         let limits = self.device.limits();
@@ -266,7 +269,7 @@ impl GpuTracer {
             tracing::warn!("{warning}");
             warnings.push(warning);
         }
-        Ok(TraceOutput { image, discarded_samples, samples, warnings, elapsed: start.elapsed(), learning_spp: 0 })
+        Ok(TraceOutput { image, discarded_samples, samples, pilot_samples: 0, warnings, elapsed: start.elapsed(), learning_spp: 0 })
     }
 
     pub(crate) fn wait(&self) -> Result<()> {

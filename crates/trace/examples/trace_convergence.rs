@@ -1,11 +1,14 @@
-//! Convergence of the plain and the guided estimator on the built-in scenes at equal spp:
+//! Convergence of the path tracer's estimators on the built-in scenes at equal spp:
 //! per-pixel variance (from two renders with independent seeds), seconds, and efficiency =
-//! 1 / (variance x seconds), overall, on transparent pixels and on pixels lit through glass.
+//! 1 / (variance x seconds), on surface pixels, on transparent pixels, on pixels lit through
+//! glass, and on all pixels as the metrics see them (clamped to [0, 1]).
 //! Prints a Markdown table; with --out DIR also writes each render as PNG and EXR.
 //!
 //! cargo run --release -p glassbake-trace --example trace_convergence -- \
 //!     [--res 128] [--spp 256] [--sample 0] [--scenes cornellbox,desk] [--out DIR]
-//!     [--estimators plain,solid-angle,guided,caustic] [--max-depth N]
+//!     [--estimators plain,solid-angle,guided,caustic,caustic+adaptive] [--max-depth N]
+//!
+//! `+adaptive` after an estimator's name turns on adaptive sampling (`TraceSettings::adaptive`).
 //!
 //! Variance of a pixel's estimate is E[(a - b)^2] / 2 for two independent renders a, b of
 //! it, averaged over the pixel's RGB channels and then over the pixels of a mask.
@@ -31,7 +34,8 @@ struct Args {
     scenes: Vec<String>,
     out: Option<PathBuf>,
     max_depth: u32,
-    estimators: Vec<Integrator>,
+    /// (estimator, adaptive sampling)
+    estimators: Vec<(Integrator, bool)>,
 }
 
 fn parse_args() -> Args {
@@ -42,11 +46,11 @@ fn parse_args() -> Args {
         scenes: ["cornell-glass", "cornellbox", "cornellbox8", "desk", "bathroom"].map(String::from).to_vec(),
         out: None,
         max_depth: TraceSettings::DEFAULT_MAX_DEPTH,
-        estimators: vec![Integrator::Plain, Integrator::SolidAngle, Integrator::Guided, Integrator::Caustic],
+        estimators: vec![(Integrator::Plain, false), (Integrator::Caustic, false), (Integrator::Caustic, true)],
     };
     let argv: Vec<String> = std::env::args().skip(1).collect();
     let usage = || -> ! {
-        eprintln!("usage: trace_convergence [--res N] [--spp N] [--sample I] [--scenes a,b] [--estimators plain,solid-angle,guided,caustic] [--out DIR] [--max-depth N]");
+        eprintln!("usage: trace_convergence [--res N] [--spp N] [--sample I] [--scenes a,b] [--estimators plain,solid-angle,guided,caustic,caustic+adaptive] [--out DIR] [--max-depth N]");
         std::process::exit(2)
     };
     let mut i = 0;
@@ -60,7 +64,13 @@ fn parse_args() -> Args {
             "--out" => args.out = Some(PathBuf::from(value)),
             "--max-depth" => args.max_depth = value.parse().unwrap_or_else(|_| usage()),
             "--estimators" => {
-                args.estimators = value.split(',').map(|e| Integrator::parse(e).unwrap_or_else(|| usage())).collect();
+                args.estimators = value
+                    .split(',')
+                    .map(|e| {
+                        let (name, adaptive) = e.strip_suffix("+adaptive").map_or((e, false), |n| (n, true));
+                        (Integrator::parse(name).unwrap_or_else(|| usage()), adaptive)
+                    })
+                    .collect();
             }
             _ => usage(),
         }
@@ -125,12 +135,13 @@ fn masks(scene: &Scene, camera: &Camera, res: u32) -> (Vec<bool>, Vec<bool>, Vec
     (surfaces, transparent, through_glass)
 }
 
-fn pixel_variances(a: &PlanarImage, b: &PlanarImage) -> Vec<f64> {
+/// Per pixel E[(a - b)^2] / 2 over RGB of `tone(a)` and `tone(b)`.
+fn pixel_variances(a: &PlanarImage, b: &PlanarImage, tone: fn(f32) -> f32) -> Vec<f64> {
     let n = (a.width() * a.height()) as usize;
     (0..n)
         .map(|i| {
             let (x, y) = (i as u32 % a.width(), i as u32 / a.width());
-            (0..3).map(|c| (a.get(c, x, y) as f64 - b.get(c, x, y) as f64).powi(2) / 2.0).sum::<f64>() / 3.0
+            (0..3).map(|c| (tone(a.get(c, x, y)) as f64 - tone(b.get(c, x, y)) as f64).powi(2) / 2.0).sum::<f64>() / 3.0
         })
         .collect()
 }
@@ -166,36 +177,39 @@ fn main() {
         "{}x{}, {} spp, sample {} of seed 0, seeds 1 and 2; variance of a pixel's estimate (mean of RGB); efficiency = 1 / (variance x seconds), relative to plain\n",
         args.res, args.res, args.spp, args.sample
     );
-    println!("| scene | estimator | seconds | image mean | surface px | variance | efficiency | transparent px | variance | efficiency | lit through glass px | variance | efficiency |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| scene | estimator | seconds | image mean | surface px | variance | efficiency | transparent px | variance | efficiency | lit through glass px | variance | efficiency | all px, clamped | variance | efficiency |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for name in &args.scenes {
         let scene = builtin(name).unwrap_or_else(|| panic!("no built-in scene {name}"));
         let sample = scene.sample(0, args.sample);
         let instance = scene.instantiate(&sample.values).expect("sampled values are in range");
         let (surfaces, transparent, through_glass) = masks(&instance, &sample.camera, args.res);
-        let mut plain_efficiency = [None; 3];
-        for &integrator in &args.estimators {
+        let mut plain_efficiency = [None; 4];
+        for &(integrator, adaptive) in &args.estimators {
+            let label = format!("{}{}", integrator.name(), if adaptive { "+adaptive" } else { "" });
             let mut images = Vec::new();
             let mut seconds = 0.0;
             for seed in [1u64, 2] {
-                let settings = TraceSettings { integrator, max_depth: args.max_depth, ..TraceSettings::new(args.res, args.res, args.spp, seed) };
+                let settings = TraceSettings { integrator, adaptive, max_depth: args.max_depth, ..TraceSettings::new(args.res, args.res, args.spp, seed) };
                 let start = Instant::now();
                 let output = render(&instance, &sample.camera, &settings, None).expect("render");
                 seconds += start.elapsed().as_secs_f64() / 2.0;
                 if let Some(out) = &args.out {
-                    let path = out.join(format!("{name}_{}_{}spp_seed{seed}.png", integrator.name(), args.spp));
+                    let path = out.join(format!("{name}_{label}_{}spp_seed{seed}.png", args.spp));
                     output.image.write_png_rgb(&path, [0, 1, 2]).expect("write png");
                     output.image.write_exr(&path.with_extension("exr"), glassbake_core::image::ExrPrecision::F32).expect("write exr");
                 }
                 images.push(output.image);
             }
-            let variances = pixel_variances(&images[0], &images[1]);
+            let variances = pixel_variances(&images[0], &images[1], |v| v);
+            let clamped = pixel_variances(&images[0], &images[1], glassbake_core::color::tonemap_clamp);
             let mut cells = Vec::new();
-            for (k, mask) in [Some(&surfaces[..]), Some(&transparent[..]), Some(&through_glass[..])].into_iter().enumerate() {
+            let sets = [(&variances, Some(&surfaces[..])), (&variances, Some(&transparent[..])), (&variances, Some(&through_glass[..])), (&clamped, None)];
+            for (k, (variances, mask)) in sets.into_iter().enumerate() {
                 let count = mask.map_or(variances.len(), |m| m.iter().filter(|&&b| b).count());
-                let variance = masked_mean(&variances, mask);
+                let variance = masked_mean(variances, mask);
                 let efficiency = variance.map(|v| 1.0 / (v * seconds));
-                if integrator == Integrator::Plain {
+                if integrator == Integrator::Plain && !adaptive {
                     plain_efficiency[k] = efficiency;
                 }
                 let relative = match (efficiency, plain_efficiency[k]) {
@@ -207,8 +221,7 @@ fn main() {
                 cells.push(relative);
             }
             println!(
-                "| {name} | {} | {seconds:.1} | {:.4} | {} |",
-                integrator.name(),
+                "| {name} | {label} | {seconds:.1} | {:.4} | {} |",
                 image_mean(&images[0], &images[1]),
                 cells.join(" | ")
             );

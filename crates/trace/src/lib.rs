@@ -6,10 +6,12 @@
 //! lights (rectangles sampled by solid angle), a unidirectional path tracer with
 //! next-event estimation, MIS, Russian roulette and path guiding (an SD-tree learned over
 //! the first passes), a light tracer for the light that reaches surfaces through glass
-//! (the `caustic` estimator), and the tiling over threads that keeps images bit-identical
+//! (the `caustic` estimator), adaptive sampling (a pilot pass spreads the samples where
+//! the noise is), and the tiling over threads that keeps images bit-identical
 //! whatever the thread count. The dataset stage calls [`render`] once per sample; the CLI's `trace`
 //! command wraps it.
 
+pub mod adaptive;
 pub mod bsdf;
 pub mod geometry;
 pub mod guiding;

@@ -1,7 +1,8 @@
 //! Whole images: settings, validation, tiles over rayon, deterministic per-pixel sampling,
 //! the discarding of non-finite samples, the guided estimator's learning passes, the caustic
 //! estimator's light paths (in chunks of their own streams, splats summed in chunk order),
-//! and more samples on the pixels that show glass when asked (`TraceSettings::glass_spp`).
+//! more samples on the pixels that show glass when asked (`TraceSettings::glass_spp`), and
+//! adaptive sampling (`TraceSettings::adaptive`, see `adaptive`).
 //!
 //! The guided estimator (opt-in) spends the first quarter of the sample budget learning: passes of
 //! 1, 2, 4, ... samples per pixel, each rendered with the tree the previous one built; the
@@ -19,6 +20,7 @@ use glassbake_core::{Camera, Error, PlanarImage, Result};
 use glassbake_scene::Scene;
 use rayon::prelude::*;
 
+use crate::adaptive;
 use crate::bsdf::MaterialModel;
 use crate::geometry::Owner;
 use crate::guiding::{GuidingRecord, SdTree};
@@ -53,6 +55,11 @@ pub struct TraceSettings {
     pub threads: Option<usize>,
     pub material_model: MaterialModel,
     pub integrator: Integrator,
+    /// Spread each pixel's budget (`spp`, or `glass_spp`) by the noise a pilot pass measured
+    /// (see [`crate::adaptive`]): the image's total samples stay the same, every pixel stays
+    /// an unbiased mean. Budgets below [`crate::adaptive::MIN_ADAPTIVE_SPP`] are sampled
+    /// uniformly.
+    pub adaptive: bool,
 }
 
 /// The guided estimator learns over 1/LEARNING_SHARE of the samples (Müller et al. train
@@ -78,6 +85,7 @@ impl TraceSettings {
             threads: None,
             material_model: MaterialModel::Gltf,
             integrator: Integrator::default(),
+            adaptive: false,
         }
     }
 
@@ -98,6 +106,9 @@ impl TraceSettings {
                 return Err(Error::bad_input(SOURCE, "glass_spp", "the guided estimator renders every pixel at one spp (its learning passes)"));
             }
         }
+        if self.adaptive && self.integrator == Integrator::Guided {
+            return Err(Error::bad_input(SOURCE, "adaptive", "the guided estimator renders every pixel at one spp (its learning passes)"));
+        }
         if self.max_depth == 0 {
             return Err(Error::bad_input(SOURCE, "max_depth", "must be at least 1 (1 = emitters seen directly)"));
         }
@@ -114,8 +125,12 @@ pub struct TraceOutput {
     pub image: PlanarImage,
     /// Samples that came out NaN or infinite and were left out of their pixel's mean.
     pub discarded_samples: u64,
-    /// Samples traced in all (pixels x spp, glass pixels at `glass_spp`).
+    /// Samples traced in all (pixels x spp, glass pixels at `glass_spp`; adaptive sampling's
+    /// pilot included).
     pub samples: u64,
+    /// Samples of the adaptive pilot pass (part of `samples`, set aside: see
+    /// [`crate::adaptive`]); 0 when sampling uniformly.
+    pub pilot_samples: u64,
     pub warnings: Vec<String>,
     /// Wall time of the render, BVH build included.
     pub elapsed: Duration,
@@ -200,7 +215,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         if let Some(p) = progress {
             p(samples, samples);
         }
-        return Ok(TraceOutput { image, discarded_samples: 0, samples, warnings, elapsed: start.elapsed(), learning_spp: 0 });
+        return Ok(TraceOutput { image, discarded_samples: 0, samples, pilot_samples: 0, warnings, elapsed: start.elapsed(), learning_spp: 0 });
     }
 
     let caustic = settings.integrator == Integrator::Caustic;
@@ -285,7 +300,29 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
             tracing::debug!("guiding: learned over {learning_spp} spp, {leaves} guiding leaves, {cells} direction nodes");
         }
     }
-    accumulate(pass(&|x, y| pixel_spp[(y * width + x) as usize] - learning_spp, settings.seed, tree.as_ref(), false));
+    // Adaptive sampling: a pilot of its own streams, set aside once it has told where the
+    // noise is; the main pass then draws each pixel's count from the pixel's usual stream.
+    let mut pilot_samples = 0u64;
+    let mut main_spp = pixel_spp;
+    if settings.adaptive && main_spp.iter().any(|&budget| adaptive::pilot_spp(budget) > 0) {
+        let pilot_seed = glassbake_core::seed::purpose_seed(settings.seed, "adaptive pilot");
+        let results = pass(&|x, y| adaptive::pilot_spp(main_spp[(y * width + x) as usize]), pilot_seed, None, false);
+        let mut pilot = vec![adaptive::PilotStats::default(); total_pixels as usize];
+        for (tile, result) in tiles.iter().zip(results) {
+            let mut values = result.pixels.into_iter();
+            for y in tile.y0..tile.y1 {
+                for x in tile.x0..tile.x1 {
+                    let sums = values.next().expect("one value per tile pixel");
+                    pilot_samples += sums.finite + sums.discarded;
+                    pilot[(y * width + x) as usize] = adaptive::PilotStats { sum: sums.sum, sum_squares: sums.sum_squares, count: sums.finite };
+                }
+            }
+        }
+        let weights = adaptive::noise_weights(&pilot, &main_spp, width, height);
+        main_spp = adaptive::allocate(&main_spp, &weights);
+    }
+    accumulate(pass(&|x, y| main_spp[(y * width + x) as usize] - learning_spp, settings.seed, tree.as_ref(), false));
+    let samples = pilot_samples + main_spp.iter().map(|&s| s as u64).sum::<u64>();
 
     let mut discarded_samples = 0;
     let light_traced = match &light_tracer {
@@ -320,7 +357,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         tracing::warn!("{warning}");
         warnings.push(warning);
     }
-    Ok(TraceOutput { image, discarded_samples, samples, warnings, elapsed: start.elapsed(), learning_spp })
+    Ok(TraceOutput { image, discarded_samples, samples, pilot_samples, warnings, elapsed: start.elapsed(), learning_spp })
 }
 
 /// Chunks of light paths traced between two gatherings of their splats: bounds the splats
@@ -393,10 +430,12 @@ struct TileResult {
     records: Vec<GuidingRecord>,
 }
 
-/// A pixel's finite samples summed in f64, and how many samples were not finite.
+/// A pixel's finite samples summed in f64 (and their squares, which adaptive sampling's pilot
+/// reads), and how many samples were not finite.
 #[derive(Clone, Default)]
 struct PixelSums {
     sum: [f64; 3],
+    sum_squares: [f64; 3],
     finite: u64,
     discarded: u64,
 }
@@ -404,6 +443,9 @@ struct PixelSums {
 impl PixelSums {
     fn add(&mut self, other: &PixelSums) {
         for (s, o) in self.sum.iter_mut().zip(other.sum) {
+            *s += o;
+        }
+        for (s, o) in self.sum_squares.iter_mut().zip(other.sum_squares) {
             *s += o;
         }
         self.finite += other.finite;
@@ -440,8 +482,9 @@ fn render_pixel(
         let ray = camera.ray(x as f32 + jitter.x, y as f32 + jitter.y, width, height);
         let radiance = prepared.trace_path(&ray, &mut rng, path_settings, guide, scratch);
         if radiance.is_finite() {
-            for (s, c) in sums.sum.iter_mut().zip(radiance.to_array()) {
-                *s += c as f64;
+            for (c, value) in radiance.to_array().into_iter().enumerate() {
+                sums.sum[c] += value as f64;
+                sums.sum_squares[c] += (value as f64) * (value as f64);
             }
             sums.finite += 1;
         } else {

@@ -59,6 +59,13 @@ pub struct TraceArgs {
     /// same image; docs/trace.md has their measured efficiency.
     #[arg(long, value_parser = parse_integrator)]
     integrator: Option<Integrator>,
+    /// `adaptive` (the default on the CPU, and what new CPU datasets use): a pilot pass of
+    /// 1/16 of the samples measures where the noise is and the rest go there, each pixel
+    /// keeping at least a quarter of its share; or `uniform` (every pixel --spp; the only
+    /// choice with --device wgpu and --integrator guided). Same total of samples, same
+    /// converged image.
+    #[arg(long, value_parser = parse_sampling)]
+    sampling: Option<bool>,
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long, conflicts_with = "device")]
     threads: Option<usize>,
@@ -71,6 +78,15 @@ pub struct TraceArgs {
     /// Output EXR; the PNG preview goes beside it with the extension .png.
     #[arg(long)]
     out: PathBuf,
+}
+
+/// Whether `--sampling` asks for adaptive sampling.
+fn parse_sampling(name: &str) -> std::result::Result<bool, String> {
+    match name {
+        "adaptive" => Ok(true),
+        "uniform" => Ok(false),
+        other => Err(format!("unknown sampling {other:?}: expected adaptive or uniform")),
+    }
 }
 
 fn parse_integrator(name: &str) -> std::result::Result<Integrator, String> {
@@ -107,10 +123,13 @@ pub fn run(args: TraceArgs) -> Result<()> {
         TraceDevice::Cpu => Integrator::Caustic,
         TraceDevice::Wgpu => Integrator::Plain,
     });
+    // Adaptive by default where it can run: the CPU, an estimator without learning passes.
+    let adaptive = args.sampling.unwrap_or(args.device == TraceDevice::Cpu && integrator != Integrator::Guided);
     let settings = TraceSettings {
         max_depth: args.max_depth,
         threads: args.threads,
         integrator,
+        adaptive,
         glass_spp: args.glass_spp,
         ..TraceSettings::new(args.res, args.res, args.spp, image_seed)
     };
@@ -127,7 +146,8 @@ pub fn run(args: TraceArgs) -> Result<()> {
         TraceDevice::Cpu => None,
     };
     let on = gpu_tracer.as_ref().map_or_else(|| "CPU".to_string(), |t| t.adapter_name().to_string());
-    bar.set_message(format!("tracing {} {}x{} @ {} spp ({}, {on})", scene.name, args.res, args.res, args.spp, integrator.name()));
+    let sampling = if adaptive { "adaptive" } else { "uniform" };
+    bar.set_message(format!("tracing {} {}x{} @ {} spp ({}, {sampling}, {on})", scene.name, args.res, args.res, args.spp, integrator.name()));
     let progress = |done: u64, total: u64| {
         bar.set_length(total);
         bar.set_position(done);
