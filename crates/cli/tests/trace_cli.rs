@@ -115,15 +115,20 @@ fn trace_on_the_gpu_is_deterministic_and_refuses_guiding() {
     assert!(stdout.is_empty() && err.lines().count() == 1 && err.contains("CPU only"), "{err}");
     assert!(!guided.exists() && !guided.with_extension("png").exists());
 
-    let adaptive = dir.path().join("adaptive.exr");
-    let (code, stdout, err) = trace(&adaptive, &["--sampling", "adaptive", "--device", "wgpu"]);
-    assert_eq!(code, 2, "{err}");
-    assert!(stdout.is_empty() && err.lines().count() == 1 && err.contains("CPU only"), "{err}");
-    assert!(!adaptive.exists());
+    for cpu_only in [&["--sampling", "adaptive"], &["--sampler", "stratified"]] {
+        let path = dir.path().join("cpu-only.exr");
+        let mut args = cpu_only.to_vec();
+        args.extend_from_slice(&["--device", "wgpu"]);
+        let (code, stdout, err) = trace(&path, &args);
+        assert_eq!(code, 2, "{cpu_only:?}: {err}");
+        assert!(stdout.is_empty() && err.lines().count() == 1 && err.contains("CPU only"), "{cpu_only:?}: {err}");
+        assert!(!path.exists());
+    }
 }
 
 /// Without --sampling the CPU samples adaptively, except for the guided estimator, which
-/// cannot: it is sampled uniformly rather than refused.
+/// cannot: it is sampled uniformly rather than refused. Without --sampler the values are
+/// stratified.
 #[test]
 fn sampling_defaults_to_adaptive_where_it_can_run() {
     let dir = tempfile::tempdir().unwrap();
@@ -136,8 +141,9 @@ fn sampling_defaults_to_adaptive_where_it_can_run() {
         read_rgb(&path)
     };
     let default = traced("default.exr", &[]);
-    assert_eq!(default, traced("adaptive.exr", &["--sampling", "adaptive"]));
+    assert_eq!(default, traced("adaptive.exr", &["--sampling", "adaptive", "--sampler", "stratified"]));
     assert_ne!(default, traced("uniform.exr", &["--sampling", "uniform"]));
+    assert_ne!(default, traced("independent.exr", &["--sampler", "independent"]));
     let guided = traced("guided.exr", &["--integrator", "guided"]);
     assert_eq!(guided, traced("guided-uniform.exr", &["--integrator", "guided", "--sampling", "uniform"]));
 }

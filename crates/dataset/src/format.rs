@@ -78,10 +78,10 @@ pub enum GroundTruthEstimator {
     /// The path tracer plus light tracing of caustic paths (CPU only), every pixel at the
     /// same spp.
     Caustic,
-    /// The caustic estimator with adaptive sampling (`glassbake_trace::adaptive`; CPU only,
-    /// the default there).
-    #[serde(rename = "caustic-adaptive")]
-    CausticAdaptive,
+    /// The caustic estimator with adaptive sampling (`glassbake_trace::adaptive`) and
+    /// stratified sample values (`glassbake_trace::qmc`); CPU only, the default there.
+    #[serde(rename = "caustic-adaptive-stratified")]
+    CausticAdaptiveStratified,
 }
 
 impl GroundTruthEstimator {
@@ -89,8 +89,8 @@ impl GroundTruthEstimator {
         match name {
             "plain" => Ok(GroundTruthEstimator::Plain),
             "caustic" => Ok(GroundTruthEstimator::Caustic),
-            "caustic-adaptive" => Ok(GroundTruthEstimator::CausticAdaptive),
-            other => Err(Error::bad_input("--estimator", other, "expected plain, caustic or caustic-adaptive")),
+            "caustic-adaptive-stratified" => Ok(GroundTruthEstimator::CausticAdaptiveStratified),
+            other => Err(Error::bad_input("--estimator", other, "expected plain, caustic or caustic-adaptive-stratified")),
         }
     }
 
@@ -98,16 +98,16 @@ impl GroundTruthEstimator {
         match self {
             GroundTruthEstimator::Plain => "plain",
             GroundTruthEstimator::Caustic => "caustic",
-            GroundTruthEstimator::CausticAdaptive => "caustic-adaptive",
+            GroundTruthEstimator::CausticAdaptiveStratified => "caustic-adaptive-stratified",
         }
     }
 
     /// What a new dataset traced on `device` uses unless told otherwise: the caustic
-    /// estimator with adaptive sampling on the CPU, the plain one on the GPU (which has no
-    /// light tracer and samples uniformly).
+    /// estimator with adaptive, stratified sampling on the CPU, the plain one on the GPU (which
+    /// has no light tracer and samples uniformly, with independent random numbers).
     pub fn default_for(device: TraceDevice) -> GroundTruthEstimator {
         match device {
-            TraceDevice::Cpu => GroundTruthEstimator::CausticAdaptive,
+            TraceDevice::Cpu => GroundTruthEstimator::CausticAdaptiveStratified,
             TraceDevice::Wgpu => GroundTruthEstimator::Plain,
         }
     }
@@ -115,13 +115,18 @@ impl GroundTruthEstimator {
     pub fn integrator(self) -> Integrator {
         match self {
             GroundTruthEstimator::Plain => Integrator::Plain,
-            GroundTruthEstimator::Caustic | GroundTruthEstimator::CausticAdaptive => Integrator::Caustic,
+            GroundTruthEstimator::Caustic | GroundTruthEstimator::CausticAdaptiveStratified => Integrator::Caustic,
         }
     }
 
     /// Whether pixels are sampled adaptively (`glassbake_trace::TraceSettings::adaptive`).
     pub fn adaptive(self) -> bool {
-        self == GroundTruthEstimator::CausticAdaptive
+        self == GroundTruthEstimator::CausticAdaptiveStratified
+    }
+
+    /// Whether sample values are stratified (`glassbake_trace::TraceSettings::stratified`).
+    pub fn stratified(self) -> bool {
+        self == GroundTruthEstimator::CausticAdaptiveStratified
     }
 }
 

@@ -124,6 +124,7 @@ fn make_frame(
         settings.threads = threads;
         settings.integrator = spec.estimator.integrator();
         settings.adaptive = spec.estimator.adaptive();
+        settings.stratified = spec.estimator.stratified();
         match gpu_tracer {
             // The GPU tracer draws every pixel at one spp: the glass pixels' for all of them.
             Some(tracer) => {

@@ -28,9 +28,9 @@ fn spec(seed: u64) -> DatasetSpec {
         device: TraceDevice::Cpu,
         test_spp: Some(128),
         test_glass_spp: Some(192),
-        // The CPU default, so that resume and merge cover the light tracer and adaptive
-        // sampling too.
-        estimator: GroundTruthEstimator::CausticAdaptive,
+        // The CPU default, so that resume and merge cover the light tracer, adaptive sampling
+        // and stratified sample values too.
+        estimator: GroundTruthEstimator::CausticAdaptiveStratified,
     }
 }
 
@@ -90,6 +90,7 @@ fn test_frames_are_traced_at_the_test_spp_and_glass_spp_with_an_independent_trai
             glass_spp: Some(glass_spp),
             integrator: s.estimator.integrator(),
             adaptive: s.estimator.adaptive(),
+            stratified: s.estimator.stratified(),
             ..glassbake_trace::TraceSettings::new(8, 8, spp, seed)
         };
         glassbake_trace::render(&scene.instantiate(&sample.values).unwrap(), &sample.camera, &settings, None).unwrap().image

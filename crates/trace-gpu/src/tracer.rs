@@ -123,6 +123,9 @@ impl GpuTracer {
         if settings.adaptive {
             return Err(Error::bad_input("trace settings", "adaptive", "the GPU tracer samples every pixel uniformly; adaptive sampling runs on the CPU only"));
         }
+        if settings.stratified {
+            return Err(Error::bad_input("trace settings", "stratified", "the GPU tracer draws independent random numbers; stratified sampling runs on the CPU only"));
+        }
         if settings.glass_spp.is_some_and(|glass_spp| glass_spp > settings.spp) {
             return Err(Error::bad_input("trace settings", "glass_spp", "the GPU tracer renders every pixel at one spp: trace at the glass pixels' spp instead"));
         }

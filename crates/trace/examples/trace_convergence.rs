@@ -6,9 +6,10 @@
 //!
 //! cargo run --release -p glassbake-trace --example trace_convergence -- \
 //!     [--res 128] [--spp 256] [--sample 0] [--scenes cornellbox,desk] [--out DIR]
-//!     [--estimators plain,solid-angle,guided,caustic,caustic+adaptive] [--max-depth N]
+//!     [--estimators plain,solid-angle,guided,caustic,caustic+adaptive+stratified] [--max-depth N]
 //!
-//! `+adaptive` after an estimator's name turns on adaptive sampling (`TraceSettings::adaptive`).
+//! `+adaptive` after an estimator's name turns on adaptive sampling (`TraceSettings::adaptive`),
+//! `+stratified` stratified sample values (`TraceSettings::stratified`), in that order.
 //!
 //! Variance of a pixel's estimate is E[(a - b)^2] / 2 for two independent renders a, b of
 //! it, averaged over the pixel's RGB channels and then over the pixels of a mask.
@@ -34,8 +35,8 @@ struct Args {
     scenes: Vec<String>,
     out: Option<PathBuf>,
     max_depth: u32,
-    /// (estimator, adaptive sampling)
-    estimators: Vec<(Integrator, bool)>,
+    /// (estimator, adaptive sampling, stratified)
+    estimators: Vec<(Integrator, bool, bool)>,
 }
 
 fn parse_args() -> Args {
@@ -46,11 +47,11 @@ fn parse_args() -> Args {
         scenes: ["cornell-glass", "cornellbox", "cornellbox8", "desk", "bathroom"].map(String::from).to_vec(),
         out: None,
         max_depth: TraceSettings::DEFAULT_MAX_DEPTH,
-        estimators: vec![(Integrator::Plain, false), (Integrator::Caustic, false), (Integrator::Caustic, true)],
+        estimators: vec![(Integrator::Plain, false, false), (Integrator::Caustic, false, false), (Integrator::Caustic, true, true)],
     };
     let argv: Vec<String> = std::env::args().skip(1).collect();
     let usage = || -> ! {
-        eprintln!("usage: trace_convergence [--res N] [--spp N] [--sample I] [--scenes a,b] [--estimators plain,solid-angle,guided,caustic,caustic+adaptive] [--out DIR] [--max-depth N]");
+        eprintln!("usage: trace_convergence [--res N] [--spp N] [--sample I] [--scenes a,b] [--estimators plain,solid-angle,guided,caustic,caustic+adaptive+stratified] [--out DIR] [--max-depth N]");
         std::process::exit(2)
     };
     let mut i = 0;
@@ -67,8 +68,9 @@ fn parse_args() -> Args {
                 args.estimators = value
                     .split(',')
                     .map(|e| {
+                        let (e, stratified) = e.strip_suffix("+stratified").map_or((e, false), |n| (n, true));
                         let (name, adaptive) = e.strip_suffix("+adaptive").map_or((e, false), |n| (n, true));
-                        (Integrator::parse(name).unwrap_or_else(|| usage()), adaptive)
+                        (Integrator::parse(name).unwrap_or_else(|| usage()), adaptive, stratified)
                     })
                     .collect();
             }
@@ -185,12 +187,12 @@ fn main() {
         let instance = scene.instantiate(&sample.values).expect("sampled values are in range");
         let (surfaces, transparent, through_glass) = masks(&instance, &sample.camera, args.res);
         let mut plain_efficiency = [None; 4];
-        for &(integrator, adaptive) in &args.estimators {
-            let label = format!("{}{}", integrator.name(), if adaptive { "+adaptive" } else { "" });
+        for &(integrator, adaptive, stratified) in &args.estimators {
+            let label = format!("{}{}{}", integrator.name(), if adaptive { "+adaptive" } else { "" }, if stratified { "+stratified" } else { "" });
             let mut images = Vec::new();
             let mut seconds = 0.0;
             for seed in [1u64, 2] {
-                let settings = TraceSettings { integrator, adaptive, max_depth: args.max_depth, ..TraceSettings::new(args.res, args.res, args.spp, seed) };
+                let settings = TraceSettings { integrator, adaptive, stratified, max_depth: args.max_depth, ..TraceSettings::new(args.res, args.res, args.spp, seed) };
                 let start = Instant::now();
                 let output = render(&instance, &sample.camera, &settings, None).expect("render");
                 seconds += start.elapsed().as_secs_f64() / 2.0;
@@ -209,7 +211,7 @@ fn main() {
                 let count = mask.map_or(variances.len(), |m| m.iter().filter(|&&b| b).count());
                 let variance = masked_mean(variances, mask);
                 let efficiency = variance.map(|v| 1.0 / (v * seconds));
-                if integrator == Integrator::Plain && !adaptive {
+                if integrator == Integrator::Plain && !adaptive && !stratified {
                     plain_efficiency[k] = efficiency;
                 }
                 let relative = match (efficiency, plain_efficiency[k]) {

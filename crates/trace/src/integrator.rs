@@ -18,6 +18,7 @@ use crate::geometry::{Hit, Owner, SceneGeometry};
 use crate::guiding::{GuidingRecord, SdTree};
 use crate::light_tracing::PathClass;
 use crate::lights::LightSampler;
+use crate::qmc::{self, StratifiedSample};
 use crate::rng::Pcg32;
 use crate::sampling::{luminance, power_heuristic};
 
@@ -210,9 +211,19 @@ impl<'a> PreparedScene<'a> {
     }
 
     /// Radiance arriving at the camera along `ray`, one path sample.
-    pub fn trace_path(&self, ray: &Ray, rng: &mut Pcg32, settings: &PathSettings, guide: &mut Guide, scratch: &mut PathScratch) -> Vec3 {
+    /// With `stratified`, the first vertices' light and BSDF samples come from it (see
+    /// [`crate::qmc`]), the other random numbers from `rng`.
+    pub fn trace_path(
+        &self,
+        ray: &Ray,
+        rng: &mut Pcg32,
+        stratified: Option<&StratifiedSample>,
+        settings: &PathSettings,
+        guide: &mut Guide,
+        scratch: &mut PathScratch,
+    ) -> Vec3 {
         scratch.vertices.clear();
-        let radiance = self.trace_path_inner(ray, rng, settings, guide, scratch);
+        let radiance = self.trace_path_inner(ray, rng, stratified, settings, guide, scratch);
         if let Some(records) = guide.records.as_deref_mut() {
             for v in &scratch.vertices {
                 // Radiance that arrived along the sampled direction: what the path gathered
@@ -226,7 +237,20 @@ impl<'a> PreparedScene<'a> {
         radiance
     }
 
-    fn trace_path_inner(&self, ray: &Ray, rng: &mut Pcg32, settings: &PathSettings, guide: &Guide, scratch: &mut PathScratch) -> Vec3 {
+    fn trace_path_inner(
+        &self,
+        ray: &Ray,
+        rng: &mut Pcg32,
+        stratified: Option<&StratifiedSample>,
+        settings: &PathSettings,
+        guide: &Guide,
+        scratch: &mut PathScratch,
+    ) -> Vec3 {
+        // A 2D value of stratified dimension `dimension` if there is one, else from `rng`.
+        let draw_2d = |rng: &mut Pcg32, dimension: Option<u32>| match (stratified, dimension) {
+            (Some(sample), Some(d)) => sample.get_2d(d),
+            _ => rng.next_vec2(),
+        };
         let background = self.scene.background;
         let mut radiance = Vec3::ZERO;
         let mut throughput = Vec3::ONE;
@@ -247,7 +271,7 @@ impl<'a> PreparedScene<'a> {
         let mut class = PathClass::default();
         let split = settings.leave_caustics_to_light_tracing;
 
-        for _ in 0..MAX_VERTICES {
+        for vertex in 0..MAX_VERTICES {
             let Some(hit) = self.intersect_from(origin, direction, t_min, f32::INFINITY) else {
                 radiance += throughput * background;
                 break;
@@ -288,7 +312,7 @@ impl<'a> PreparedScene<'a> {
             // Next-event estimation.
             if bsdf.has_non_delta() && !(split && class.light_traced_by_shadow_ray(glass)) {
                 let u_select = rng.next_f32();
-                let u_light = rng.next_vec2();
+                let u_light = draw_2d(rng, qmc::light_dimension(vertex));
                 if let Some(light) = self.lights.sample(hit.position, u_select, u_light) {
                     let wi = light.wi;
                     let reflection = wi.dot(ng) * wo_side > 0.0;
@@ -325,7 +349,7 @@ impl<'a> PreparedScene<'a> {
             let u_guide = if guided.is_some() { rng.next_f32() } else { 1.0 };
             let u_lobe = rng.next_f32();
             let u_event = rng.next_f32();
-            let u = rng.next_vec2();
+            let u = draw_2d(rng, qmc::bsdf_dimension(vertex));
             let sample = match guided {
                 Some(directions) => {
                     // One sample of the mixture: the learned light or the BSDF, then the

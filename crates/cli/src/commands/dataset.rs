@@ -91,10 +91,11 @@ pub struct MakeArgs {
     /// device it was started with.
     #[arg(long, default_value = "cpu", value_parser = parse_trace_device)]
     pub device: TraceDevice,
-    /// The ground truth's estimator: `caustic-adaptive` (the default on the CPU: the path
+    /// The ground truth's estimator: `caustic-adaptive-stratified` (the default on the CPU: the path
     /// tracer plus light tracing of the light that reaches surfaces through glass, so no
-    /// caustic fireflies, with adaptive sampling: a pilot of 1/16 of the samples decides
-    /// where the rest go), `caustic` (the same, every pixel at --spp) or `plain` (the path
+    /// caustic fireflies, with adaptive sampling, where a pilot of 1/16 of the samples
+    /// decides where the rest go, and stratified sample values), `caustic` (the path tracer
+    /// and light tracer alone, every pixel at --spp) or `plain` (the path
     /// tracer alone; the only one with --device wgpu). Continuing a dataset keeps the
     /// estimator it was started with.
     #[arg(long, value_parser = parse_estimator)]
@@ -122,7 +123,7 @@ pub fn default_test_glass_spp(test_spp: u32) -> u32 {
 }
 
 fn parse_estimator(name: &str) -> std::result::Result<GroundTruthEstimator, String> {
-    GroundTruthEstimator::parse(name).map_err(|_| format!("unknown estimator {name:?}: expected plain, caustic or caustic-adaptive"))
+    GroundTruthEstimator::parse(name).map_err(|_| format!("unknown estimator {name:?}: expected plain, caustic or caustic-adaptive-stratified"))
 }
 
 /// clap's parser for `--device` of `dataset` and `trace`.

@@ -66,6 +66,12 @@ pub struct TraceArgs {
     /// converged image.
     #[arg(long, value_parser = parse_sampling)]
     sampling: Option<bool>,
+    /// `stratified` (the default on the CPU, and what new CPU datasets use): each sample's
+    /// position in its pixel and its first vertices' light and BSDF samples come from
+    /// scrambled Sobol points, so a pixel's samples cover them evenly; or `independent`
+    /// (independent random numbers; the only choice with --device wgpu). Same converged image.
+    #[arg(long, value_parser = parse_sampler)]
+    sampler: Option<bool>,
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long, conflicts_with = "device")]
     threads: Option<usize>,
@@ -86,6 +92,15 @@ fn parse_sampling(name: &str) -> std::result::Result<bool, String> {
         "adaptive" => Ok(true),
         "uniform" => Ok(false),
         other => Err(format!("unknown sampling {other:?}: expected adaptive or uniform")),
+    }
+}
+
+/// Whether `--sampler` asks for stratified sample values.
+fn parse_sampler(name: &str) -> std::result::Result<bool, String> {
+    match name {
+        "stratified" => Ok(true),
+        "independent" => Ok(false),
+        other => Err(format!("unknown sampler {other:?}: expected stratified or independent")),
     }
 }
 
@@ -125,11 +140,13 @@ pub fn run(args: TraceArgs) -> Result<()> {
     });
     // Adaptive by default where it can run: the CPU, an estimator without learning passes.
     let adaptive = args.sampling.unwrap_or(args.device == TraceDevice::Cpu && integrator != Integrator::Guided);
+    let stratified = args.sampler.unwrap_or(args.device == TraceDevice::Cpu);
     let settings = TraceSettings {
         max_depth: args.max_depth,
         threads: args.threads,
         integrator,
         adaptive,
+        stratified,
         glass_spp: args.glass_spp,
         ..TraceSettings::new(args.res, args.res, args.spp, image_seed)
     };
@@ -146,7 +163,12 @@ pub fn run(args: TraceArgs) -> Result<()> {
         TraceDevice::Cpu => None,
     };
     let on = gpu_tracer.as_ref().map_or_else(|| "CPU".to_string(), |t| t.adapter_name().to_string());
-    let sampling = if adaptive { "adaptive" } else { "uniform" };
+    let sampling = match (adaptive, stratified) {
+        (true, true) => "adaptive, stratified",
+        (true, false) => "adaptive",
+        (false, true) => "stratified",
+        (false, false) => "uniform, independent",
+    };
     bar.set_message(format!("tracing {} {}x{} @ {} spp ({}, {sampling}, {on})", scene.name, args.res, args.res, args.spp, integrator.name()));
     let progress = |done: u64, total: u64| {
         bar.set_length(total);
