@@ -1,8 +1,9 @@
 //! Whole images: settings, validation, tiles over rayon, deterministic per-pixel sampling,
 //! the discarding of non-finite samples, the guided estimator's learning passes, the caustic
 //! estimator's light paths (in chunks of their own streams, splats summed in chunk order),
-//! more samples on the pixels that show glass when asked (`TraceSettings::glass_spp`), and
-//! adaptive sampling (`TraceSettings::adaptive`, see `adaptive`).
+//! more samples on the pixels that show glass when asked (`TraceSettings::glass_spp`),
+//! adaptive sampling (`TraceSettings::adaptive`, see `adaptive`) and stratified sample values
+//! (`TraceSettings::stratified`, see `qmc`).
 //!
 //! The guided estimator (opt-in) spends the first quarter of the sample budget learning: passes of
 //! 1, 2, 4, ... samples per pixel, each rendered with the tree the previous one built; the
