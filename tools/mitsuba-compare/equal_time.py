@@ -4,7 +4,7 @@ choice) vs Mitsuba 3's path tracer on the same exported scene instance.
     pip install mitsuba numpy
     python3 tools/mitsuba-compare/equal_time.py --glassbake target/release/glassbake \
         [--scenes cornellbox,desk] [--sample 0] [--res 128] [--spp 256] [--ref-factor 16] \
-        [--integrator caustic] [--variant llvm_ad_rgb]
+        [--integrator caustic] [--sampling adaptive] [--sampler stratified] [--variant llvm_ad_rgb]
 
 Per scene: glassbake traces the instance at --spp (process wall time t, BVH build and EXR
 write included); Mitsuba renders it with as many spp as fit in t (calibrated on a first
@@ -16,8 +16,9 @@ that difference, not convergence. The reference's own noise is 1/ref-factor of a
 render's variance; the printed MSE is not corrected for it. Prints a Markdown table:
 seconds, spp, MSE over all pixels and over the pixels away from emitters (no reference value
 above 1 in a pixel's 3x3 neighbourhood: the light's edge pixels, whose box-filtered noise is
-the same for any estimator, dominate the all-pixel figure), and the ratios Mitsuba /
-glassbake. Both renderers' images stay in the printed directory.
+the same for any estimator, dominate the all-pixel figure) and over all pixels clamped to
+[0, 1] (what every image metric sees), and the ratios Mitsuba / glassbake. Both renderers'
+images stay in the printed directory.
 """
 import argparse
 import os
@@ -36,6 +37,8 @@ def main():
     p.add_argument("--spp", type=int, default=256)
     p.add_argument("--ref-factor", type=int, default=16)
     p.add_argument("--integrator", default="caustic")
+    p.add_argument("--sampling", default="adaptive", help="glassbake trace --sampling")
+    p.add_argument("--sampler", default="stratified", help="glassbake trace --sampler")
     p.add_argument("--variant", default="llvm_ad_rgb")
     p.add_argument("--max-depth", type=int, default=64)
     a = p.parse_args()
@@ -45,15 +48,17 @@ def main():
 
     mi.set_variant(a.variant)
     work = tempfile.mkdtemp(prefix="gb-mitsuba-equal-time-")
-    print(f"{a.res}x{a.res}, sample {a.sample}, glassbake --integrator {a.integrator} at {a.spp} spp, Mitsuba {a.variant} `path` at equal wall time;")
+    print(f"{a.res}x{a.res}, sample {a.sample}, glassbake --integrator {a.integrator} --sampling {a.sampling} --sampler {a.sampler} at {a.spp} spp, "
+          f"Mitsuba {a.variant} `path` at equal wall time;")
     print(f"references: each renderer at {a.ref_factor}x the spp, independent seeds; MSE over all pixels and RGB")
     print()
-    print("| scene | glassbake s | glassbake spp | Mitsuba s | Mitsuba spp | glassbake MSE | Mitsuba MSE | ratio | glassbake MSE away from emitters | Mitsuba | ratio |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| scene | glassbake s | glassbake spp | Mitsuba s | Mitsuba spp | glassbake MSE | Mitsuba MSE | ratio "
+          "| glassbake MSE away from emitters | Mitsuba | ratio | glassbake MSE clamped | Mitsuba | ratio |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 
     def trace(scene, spp, out, image_seed=None):
         cmd = [a.glassbake, "trace", scene, "--sample", str(a.sample), "--res", str(a.res), "--spp", str(spp),
-               "--max-depth", str(a.max_depth), "--integrator", a.integrator, "--out", out]
+               "--max-depth", str(a.max_depth), "--integrator", a.integrator, "--sampling", a.sampling, "--sampler", a.sampler, "--out", out]
         if image_seed is not None:
             cmd += ["--image-seed", str(image_seed)]
         t0 = time.time()
@@ -103,10 +108,14 @@ def main():
             e = ((image - reference) ** 2).mean(axis=2)
             return float(e.mean() if mask is None else e[mask].mean())
 
+        def clamped(image):
+            return np.clip(image, 0.0, 1.0)
+
         gb_all, mi_all = mse(gb, gb_ref), mse(mi_img, mi_ref)
         gb_away, mi_away = mse(gb, gb_ref, away), mse(mi_img, mi_ref, away)
+        gb_clamped, mi_clamped = mse(clamped(gb), clamped(gb_ref)), mse(clamped(mi_img), clamped(mi_ref))
         print(f"| {name} | {gb_time:.1f} | {a.spp} | {mi_time:.1f} | {mi_spp} | {gb_all:.3e} | {mi_all:.3e} | {mi_all / gb_all:.2f}x "
-              f"| {gb_away:.3e} | {mi_away:.3e} | {mi_away / gb_away:.2f}x |")
+              f"| {gb_away:.3e} | {mi_away:.3e} | {mi_away / gb_away:.2f}x | {gb_clamped:.3e} | {mi_clamped:.3e} | {mi_clamped / gb_clamped:.2f}x |")
         sys.stdout.flush()
     print()
     print(f"images in {work}")
