@@ -105,7 +105,7 @@ pub fn allocate(budgets: &[u32], weights: &[f64]) -> Vec<u32> {
             continue;
         }
         let floor = budget / FLOOR_SHARE;
-        let headroom = (budget * MAX_FACTOR - floor) as f64;
+        let headroom = (budget as u64 * MAX_FACTOR as u64 - floor as u64) as f64;
         let spare = (pixels.len() as u64 * (budget - pilot - floor) as u64) as f64;
         let extra = water_fill(&pixels.iter().map(|&i| weights[i].max(0.0)).collect::<Vec<_>>(), spare, headroom);
         // Cumulative rounding: integer counts whose running sum stays within half a sample
@@ -115,7 +115,7 @@ pub fn allocate(budgets: &[u32], weights: &[f64]) -> Vec<u32> {
         for (&index, share) in pixels.iter().zip(extra) {
             exact += share;
             let upto = exact.round() as u64;
-            counts[index] = floor + (upto - given) as u32;
+            counts[index] = (floor as u64 + upto - given).min(u32::MAX as u64) as u32;
             given = upto;
         }
     }
