@@ -134,7 +134,7 @@ fn sampling_defaults_to_adaptive_where_it_can_run() {
     let dir = tempfile::tempdir().unwrap();
     let traced = |name: &str, extra: &[&str]| {
         let path = dir.path().join(name);
-        let mut args = vec!["--sample", "1", "--spp", "32"];
+        let mut args = vec!["--sample", "1", "--spp", "256"];
         args.extend_from_slice(extra);
         let (code, _, err) = trace(&path, &args);
         assert_eq!(code, 0, "{extra:?}: {err}");

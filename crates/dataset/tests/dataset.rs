@@ -14,20 +14,20 @@ use glassbake_scene::builtin::builtin;
 
 /// A small dataset whose test frames are traced at 4x the training spp, 6x on glass pixels
 /// (so resume and merge cover the test frames' training-spp copies too), with enough samples
-/// (32) for adaptive sampling to run.
+/// on the test frames (256) for adaptive sampling to run.
 fn spec(seed: u64) -> DatasetSpec {
     DatasetSpec {
         scene: "cornell-glass".into(),
         resolution: 8,
-        spp: 32,
+        spp: 64,
         seed,
         train: 4,
         val: 2,
         test: 2,
         cache_buffers: true,
         device: TraceDevice::Cpu,
-        test_spp: Some(128),
-        test_glass_spp: Some(192),
+        test_spp: Some(256),
+        test_glass_spp: Some(384),
         // The CPU default, so that resume and merge cover the light tracer, adaptive sampling
         // and stratified sample values too.
         estimator: GroundTruthEstimator::CausticAdaptiveStratified,
@@ -83,7 +83,7 @@ fn test_frames_are_traced_at_the_test_spp_and_glass_spp_with_an_independent_trai
     generate(&scene, &s, &d, &GenerateOptions::default(), &no_progress).unwrap();
     let store = DatasetStore::open(&d).unwrap();
     let info = store.info();
-    assert_eq!((info.spp, info.test_spp, info.test_glass_spp), (32, 128, 192));
+    assert_eq!((info.spp, info.test_spp, info.test_glass_spp), (64, 256, 384));
     let trace_with_glass = |index: u64, spp: u32, glass_spp: u32, seed: u64| {
         let sample = &store.manifest.samples[index as usize];
         let settings = glassbake_trace::TraceSettings {
@@ -103,14 +103,14 @@ fn test_frames_are_traced_at_the_test_spp_and_glass_spp_with_an_independent_trai
         let copy_path = store.train_spp_gt_path(sample.index);
         if sample.split == Split::Test {
             let seed = glassbake_trace::sample_trace_seed(sample.seed);
-            assert_eq!(gt.plane_by_name("R"), trace_with_glass(sample.index, 128, 192, seed).plane_by_name("R"), "frame {}", sample.index);
-            glass_shown |= gt.plane_by_name("R") != trace(sample.index, 128, seed).plane_by_name("R");
+            assert_eq!(gt.plane_by_name("R"), trace_with_glass(sample.index, 256, 384, seed).plane_by_name("R"), "frame {}", sample.index);
+            glass_shown |= gt.plane_by_name("R") != trace(sample.index, 256, seed).plane_by_name("R");
             let copy = read(&copy_path);
             let seed = glassbake_core::seed::purpose_seed(sample.seed, "training-spp copy of a test frame");
-            assert_eq!(copy.plane_by_name("R"), trace(sample.index, 32, seed).plane_by_name("R"));
+            assert_eq!(copy.plane_by_name("R"), trace(sample.index, 64, seed).plane_by_name("R"));
             assert_ne!(copy.plane_by_name("R"), gt.plane_by_name("R"), "the copy is an independent trace");
         } else {
-            assert_eq!(gt.plane_by_name("R"), trace(sample.index, 32, glassbake_trace::sample_trace_seed(sample.seed)).plane_by_name("R"));
+            assert_eq!(gt.plane_by_name("R"), trace(sample.index, 64, glassbake_trace::sample_trace_seed(sample.seed)).plane_by_name("R"));
             assert!(!copy_path.exists(), "frame {} is not a test frame", sample.index);
         }
     }
@@ -137,10 +137,10 @@ fn progress_counts_traced_samples() {
     let record = |p: GenerateProgress| seen.lock().unwrap().push(p);
     generate(&scene, &spec(8), &dir.path().join("set"), &GenerateOptions::default(), &record).unwrap();
     let seen = seen.into_inner().unwrap();
-    // 6 train/val frames at 32 spp, 2 test frames at 128 spp (a quarter of the 64 more on
-    // glass pixels, as estimated) plus a 32-spp copy each.
+    // 6 train/val frames at 64 spp, 2 test frames at 256 spp (a quarter of the 128 more on
+    // glass pixels, as estimated) plus a 64-spp copy each.
     let last = *seen.last().unwrap();
-    assert_eq!((last.frames_done, last.frames_total, last.work_done, last.work_total), (8, 8, 6 * 32 + 2 * (128 + 16 + 32), 544));
+    assert_eq!((last.frames_done, last.frames_total, last.work_done, last.work_total), (8, 8, 6 * 64 + 2 * (256 + 32 + 64), 1088));
     assert_eq!(seen.len(), 9);
     assert!(seen.windows(2).all(|w| w[1].work_done > w[0].work_done));
 }
@@ -181,8 +181,8 @@ fn a_different_command_on_an_existing_dataset_is_refused() {
         (scene.clone(), DatasetSpec { seed: 4, ..tiny.clone() }, "--seed"),
         (scene.clone(), DatasetSpec { resolution: 16, ..tiny.clone() }, "--res"),
         (scene.clone(), DatasetSpec { spp: 4, ..tiny.clone() }, "--spp"),
-        (scene.clone(), DatasetSpec { test_spp: Some(256), test_glass_spp: Some(256), ..tiny.clone() }, "--test-spp"),
-        (scene.clone(), DatasetSpec { test_glass_spp: Some(256), ..tiny.clone() }, "--test-glass-spp"),
+        (scene.clone(), DatasetSpec { test_spp: Some(512), test_glass_spp: Some(512), ..tiny.clone() }, "--test-spp"),
+        (scene.clone(), DatasetSpec { test_glass_spp: Some(512), ..tiny.clone() }, "--test-glass-spp"),
         (scene.clone(), DatasetSpec { estimator: GroundTruthEstimator::Caustic, ..tiny.clone() }, "--estimator"),
         (scene.clone(), DatasetSpec { train: 2, ..tiny.clone() }, "--train"),
         (scene.clone(), DatasetSpec { estimator: GroundTruthEstimator::Plain, ..tiny.clone() }, "--estimator"),
@@ -199,7 +199,7 @@ fn a_different_command_on_an_existing_dataset_is_refused() {
     }
     // Glass pixels below the test spp are refused before anything is written.
     let below = dir.path().join("below");
-    let result = generate(&scene, &DatasetSpec { test_glass_spp: Some(64), ..spec(3) }, &below, &GenerateOptions::default(), &no_progress);
+    let result = generate(&scene, &DatasetSpec { test_glass_spp: Some(128), ..spec(3) }, &below, &GenerateOptions::default(), &no_progress);
     assert!(matches!(&result, Err(Error::BadInput { field, .. }) if field == "--test-glass-spp"), "{:?}", result.map(|s| s.generated));
     assert!(!below.exists());
     // The GPU tracer has no light tracer.

@@ -22,9 +22,10 @@ pub const PILOT_SHARE: u32 = 16;
 pub const FLOOR_SHARE: u32 = 4;
 /// No pixel gets more than this many times its budget.
 pub const MAX_FACTOR: u32 = 16;
-/// Below this budget a pilot would be too short to tell noise from noise: the pixels are
-/// sampled uniformly.
-pub const MIN_ADAPTIVE_SPP: u32 = 32;
+/// Below this budget the pilot (fewer than 16 samples a pixel, 144 a neighbourhood) is too
+/// short to tell where the noise is: on cornellbox at 96 spp adaptive sampling was no better
+/// than uniform, sometimes 1.3x worse (docs/benchmarks.md). Such pixels are sampled uniformly.
+pub const MIN_ADAPTIVE_SPP: u32 = 256;
 
 /// Samples of the pilot for a pixel whose budget is `budget` (0: the pixel is sampled
 /// uniformly).
@@ -175,15 +176,15 @@ mod tests {
 
     #[test]
     fn a_group_keeps_its_total_and_samples_follow_the_noise() {
-        let budgets = vec![64u32; 6];
+        let budgets = vec![256u32; 6];
         let weights = [0.0, 1.0, 2.0, 4.0, 1.0, 0.5];
         let counts = allocate(&budgets, &weights);
-        let pilot = pilot_spp(64);
-        assert_eq!(counts.iter().map(|&c| c as u64).sum::<u64>(), 6 * (64 - pilot) as u64);
-        let floor = 64 / FLOOR_SHARE;
+        let pilot = pilot_spp(256);
+        assert_eq!(counts.iter().map(|&c| c as u64).sum::<u64>(), 6 * (256 - pilot) as u64);
+        let floor = 256 / FLOOR_SHARE;
         assert_eq!(counts[0], floor, "a pixel without noise keeps the floor");
         // Above the floor, extra samples are proportional to the weight (up to rounding).
-        let spare = (6 * (64 - pilot - floor)) as f64;
+        let spare = (6 * (256 - pilot - floor)) as f64;
         for (count, w) in counts.iter().zip(weights) {
             let expected = floor as f64 + spare * w / 8.5;
             assert!((*count as f64 - expected).abs() <= 1.0, "{count} vs {expected}");
@@ -192,26 +193,27 @@ mod tests {
 
     #[test]
     fn the_cap_holds_and_what_it_leaves_goes_to_the_others() {
-        let budgets = vec![32u32; 100];
+        let budgets = vec![256u32; 100];
         let mut weights = vec![1.0; 100];
         weights[7] = 1e9;
         let counts = allocate(&budgets, &weights);
-        assert_eq!(counts[7], 32 * MAX_FACTOR);
-        assert_eq!(counts.iter().map(|&c| c as u64).sum::<u64>(), 100 * (32 - pilot_spp(32)) as u64);
+        assert_eq!(counts[7], 256 * MAX_FACTOR);
+        assert_eq!(counts.iter().map(|&c| c as u64).sum::<u64>(), 100 * (256 - pilot_spp(256)) as u64);
         let others: Vec<u32> = counts.iter().enumerate().filter(|(i, _)| *i != 7).map(|(_, &c)| c).collect();
         assert!(others.iter().max().unwrap() - others.iter().min().unwrap() <= 1, "{others:?}");
     }
 
     #[test]
     fn groups_keep_their_budgets_and_small_budgets_stay_uniform() {
-        let budgets = [16, 16, 256, 256, 64, 16];
+        let small = MIN_ADAPTIVE_SPP - 1;
+        let budgets = [small, small, 256, 256, 512, small];
         let weights = [5.0, 0.0, 0.0, 3.0, 1.0, 1.0];
         let counts = allocate(&budgets, &weights);
-        assert_eq!(&counts[..2], &[16, 16]);
-        assert_eq!(counts[5], 16);
+        assert_eq!(&counts[..2], &[small, small]);
+        assert_eq!(counts[5], small);
         assert_eq!(counts[2] + counts[3], 2 * (256 - pilot_spp(256)));
         assert_eq!(counts[2], 256 / FLOOR_SHARE);
-        assert_eq!(counts[4], 64 - pilot_spp(64), "a group of one gets its own budget back");
+        assert_eq!(counts[4], 512 - pilot_spp(512), "a group of one gets its own budget back");
     }
 
     #[test]

@@ -481,11 +481,11 @@ fn caustic_images_are_bit_identical_whatever_the_thread_count() {
 /// samples is the uniform render's.
 #[test]
 fn adaptive_stratified_images_are_bit_identical_whatever_the_thread_count() {
-    // 32 spp: a pilot of 2 per pixel, then 30 per pixel on average, 8 to 512 each.
-    let base = TraceSettings { integrator: Integrator::Caustic, adaptive: true, stratified: true, ..TraceSettings::new(40, 36, 32, 5) };
+    // 256 spp: a pilot of 16 per pixel, then 240 per pixel on average, 64 to 4,096 each.
+    let base = TraceSettings { integrator: Integrator::Caustic, adaptive: true, stratified: true, ..TraceSettings::new(24, 20, 256, 5) };
     let (renders, _) = renders_on_1_2_3_threads_and_plain("desk", &base);
-    assert_eq!(renders[0].pilot_samples, 40 * 36 * 2);
-    assert_eq!(renders[0].samples, 40 * 36 * 32);
+    assert_eq!(renders[0].pilot_samples, 24 * 20 * 16);
+    assert_eq!(renders[0].samples, 24 * 20 * 256);
     assert_eq!(bits(&renders[0].image), bits(&renders[1].image));
     assert_eq!(bits(&renders[0].image), bits(&renders[2].image));
     let uniform = render_sample("desk", &TraceSettings { adaptive: false, threads: Some(2), ..base.clone() });
@@ -530,12 +530,12 @@ fn render_sample(scene: &str, settings: &TraceSettings) -> glassbake_trace::Trac
 #[test]
 fn adaptive_sampling_lowers_the_variance_of_an_uneven_image() {
     let clamped_variance = |adaptive: bool| {
-        let [a, b] = [11u64, 12].map(|seed| render_sample("desk", &TraceSettings { integrator: Integrator::Caustic, adaptive, ..TraceSettings::new(48, 48, 128, seed) }).image);
+        let [a, b] = [11u64, 12].map(|seed| render_sample("desk", &TraceSettings { integrator: Integrator::Caustic, adaptive, ..TraceSettings::new(32, 32, 256, seed) }).image);
         let clamp = |v: f32| v.clamp(0.0, 1.0) as f64;
         a.data().iter().zip(b.data()).map(|(&x, &y)| (clamp(x) - clamp(y)).powi(2) / 2.0).sum::<f64>() / a.data().len() as f64
     };
     let (uniform, adaptive) = (clamped_variance(false), clamped_variance(true));
-    eprintln!("desk 48 px 128 spp: clamped variance uniform {uniform:.3e}, adaptive {adaptive:.3e} ({:.2}x)", uniform / adaptive);
+    eprintln!("desk 32 px 256 spp: clamped variance uniform {uniform:.3e}, adaptive {adaptive:.3e} ({:.2}x)", uniform / adaptive);
     assert!(adaptive < 0.75 * uniform, "adaptive {adaptive:.3e} vs uniform {uniform:.3e}");
 }
 
