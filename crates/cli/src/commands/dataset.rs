@@ -93,8 +93,8 @@ pub struct MakeArgs {
     pub device: TraceDevice,
     /// The ground truth's estimator: `caustic-adaptive-stratified` (the default on the CPU: the path
     /// tracer plus light tracing of the light that reaches surfaces through glass, so no
-    /// caustic fireflies, with adaptive sampling, where a pilot of 1/16 of the samples
-    /// decides where the rest go, and stratified sample values), `caustic` (the path tracer
+    /// caustic fireflies, with adaptive sampling from 256 spp, where a pilot of 1/16 of the
+    /// samples decides where the rest go, and stratified sample values), `caustic` (the path tracer
     /// and light tracer alone, every pixel at --spp) or `plain` (the path
     /// tracer alone; the only one with --device wgpu). Continuing a dataset keeps the
     /// estimator it was started with.

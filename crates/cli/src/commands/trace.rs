@@ -61,9 +61,9 @@ pub struct TraceArgs {
     integrator: Option<Integrator>,
     /// `adaptive` (the default on the CPU, and what new CPU datasets use): a pilot pass of
     /// 1/16 of the samples measures where the noise is and the rest go there, each pixel
-    /// keeping at least a quarter of its share; or `uniform` (every pixel --spp; the only
-    /// choice with --device wgpu and --integrator guided). Same total of samples, same
-    /// converged image.
+    /// keeping at least a quarter of its share (from 256 spp; below, pixels are sampled
+    /// uniformly); or `uniform` (every pixel --spp; the only choice with --device wgpu and
+    /// --integrator guided). Same total of samples, same converged image.
     #[arg(long, value_parser = parse_sampling)]
     sampling: Option<bool>,
     /// `stratified` (the default on the CPU, and what new CPU datasets use): each sample's
