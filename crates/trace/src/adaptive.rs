@@ -24,7 +24,8 @@ pub const FLOOR_SHARE: u32 = 4;
 pub const MAX_FACTOR: u32 = 16;
 /// Below this budget the pilot (fewer than 16 samples a pixel, 144 a neighbourhood) is too
 /// short to tell where the noise is: on cornellbox at 96 spp adaptive sampling was no better
-/// than uniform, on two of three frames 1.14-1.25x worse (docs/benchmarks.md). Such pixels are sampled uniformly.
+/// than uniform, on two of three frames 1.14-1.25x worse (docs/benchmarks.md). Such pixels
+/// are sampled uniformly.
 pub const MIN_ADAPTIVE_SPP: u32 = 256;
 
 /// Samples of the pilot for a pixel whose budget is `budget` (0: the pixel is sampled
