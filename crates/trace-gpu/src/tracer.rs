@@ -123,6 +123,9 @@ impl GpuTracer {
         if settings.adaptive {
             return Err(Error::bad_input("trace settings", "adaptive", "the GPU tracer samples every pixel uniformly; adaptive sampling runs on the CPU only"));
         }
+        if settings.path_filter != glassbake_trace::PathFilter::All {
+            return Err(Error::bad_input("trace settings", "path_filter", "the GPU tracer renders every path; path filters run on the CPU only"));
+        }
         if settings.stratified {
             return Err(Error::bad_input("trace settings", "stratified", "the GPU tracer draws independent random numbers; stratified sampling runs on the CPU only"));
         }

@@ -36,6 +36,50 @@ pub struct PathSettings {
     /// Leave out the paths that the light tracer takes (`light_tracing.rs`): the `caustic`
     /// estimator's path-tracing half.
     pub leave_caustics_to_light_tracing: bool,
+    /// Which paths' light is counted: an analysis tool, [`PathFilter::All`] for images.
+    pub path_filter: PathFilter,
+}
+
+/// Which of the paths an image counts. The two parts add up to the whole image, sample by
+/// sample (tested), so rendering each says where an estimator's noise comes from (the
+/// `trace_convergence` example's `--paths`). Not an estimator: an image of a part is not the
+/// scene's.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PathFilter {
+    #[default]
+    All,
+    /// Paths whose view from the camera bends at glass (a reflection, or a refraction through
+    /// solid or rough glass) before meeting anything opaque: what the camera sees in or
+    /// through bending glass. No connection to the camera can reach these, so the light
+    /// tracer cannot help with them; caustics seen this way are specular-diffuse-specular
+    /// paths, which no unbiased estimator here samples well.
+    BentView,
+    /// The rest: paths that reach their first opaque surface (or a light, or the background)
+    /// in a straight line, straight crossings of smooth thin panes included. Every light
+    /// tracer path is one.
+    StraightView,
+}
+
+impl PathFilter {
+    pub fn name(self) -> &'static str {
+        match self {
+            PathFilter::All => "all",
+            PathFilter::BentView => "bent-view",
+            PathFilter::StraightView => "straight-view",
+        }
+    }
+
+    pub fn parse(name: &str) -> Option<Self> {
+        [PathFilter::All, PathFilter::BentView, PathFilter::StraightView].into_iter().find(|f| f.name() == name)
+    }
+
+    fn counts(self, view_bent: bool) -> bool {
+        match self {
+            PathFilter::All => true,
+            PathFilter::BentView => view_bent,
+            PathFilter::StraightView => !view_bent,
+        }
+    }
 }
 
 /// Which light-transport estimator traces the paths. All four are unbiased and converge to
@@ -273,14 +317,16 @@ impl<'a> PreparedScene<'a> {
 
         for vertex in 0..MAX_VERTICES {
             let Some(hit) = self.intersect_from(origin, direction, t_min, f32::INFINITY) else {
-                radiance += throughput * background;
+                if settings.path_filter.counts(class.view_bent(None)) {
+                    radiance += throughput * background;
+                }
                 break;
             };
             let wo = -direction;
 
             if let Some(emitter) = hit.emitter {
                 let emitted = self.lights.emitters[emitter as usize].emitted(wo);
-                if emitted != Vec3::ZERO && !(split && class.light_traced()) {
+                if emitted != Vec3::ZERO && !(split && class.light_traced()) && settings.path_filter.counts(class.view_bent(None)) {
                     let weight = if specular {
                         1.0
                     } else {
@@ -337,7 +383,11 @@ impl<'a> PreparedScene<'a> {
                             let bsdf_pdf = guided_pdf(guided, pdf, wi) * crossing_probability;
                             let weight = power_heuristic(light.pdf, bsdf_pdf);
                             let cos = wi.dot(hit.shading_normal).abs();
-                            radiance += throughput * f * cos * transmittance * light.radiance * (weight / light.pdf);
+                            // Filtered here, after every random number is drawn, so that a
+                            // filtered image's paths are the full image's.
+                            if settings.path_filter.counts(class.view_bent(Some(glass))) {
+                                radiance += throughput * f * cos * transmittance * light.radiance * (weight / light.pdf);
+                            }
                         }
                     }
                 }

@@ -108,6 +108,18 @@ impl PathClass {
     pub fn light_traced_by_shadow_ray(&self, glass: bool) -> bool {
         glass && self.connectable && self.seen_opaque
     }
+
+    /// Whether the camera's view bent at glass (a reflection, a refraction through solid or
+    /// rough glass) before the path met anything opaque: such paths cannot be the light
+    /// tracer's. For next-event estimation at the current vertex pass `Some(glass)`: a shadow
+    /// ray leaving a glass vertex that decides the view bends there too.
+    pub fn view_bent(&self, shadow_ray_from_glass: Option<bool>) -> bool {
+        if self.prefix_decided {
+            !self.connectable
+        } else {
+            shadow_ray_from_glass == Some(true)
+        }
+    }
 }
 
 /// A light path's contribution to one pixel, before dividing by the number of light paths.
@@ -509,7 +521,13 @@ mod tests {
         }
         let prepared = PreparedScene::new(&scene);
         let camera = Camera::look_at(Vec3::new(0.0, 1.0, 5.0), Vec3::ZERO, 50.0);
-        let settings = PathSettings { max_depth: 8, rr_depth: 5, material_model: crate::MaterialModel::Gltf, leave_caustics_to_light_tracing: true };
+        let settings = PathSettings {
+            max_depth: 8,
+            rr_depth: 5,
+            material_model: crate::MaterialModel::Gltf,
+            leave_caustics_to_light_tracing: true,
+            path_filter: crate::PathFilter::All,
+        };
         let tracer = LightTracer::new(&prepared, &camera, 8, 8, settings);
         assert_eq!(tracer.glass.len(), 1);
         let sphere = tracer.glass[0];

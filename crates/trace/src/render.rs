@@ -25,7 +25,7 @@ use crate::adaptive;
 use crate::bsdf::MaterialModel;
 use crate::geometry::Owner;
 use crate::guiding::{GuidingRecord, SdTree};
-use crate::integrator::{Guide, Integrator, PathScratch, PathSettings, PreparedScene};
+use crate::integrator::{Guide, Integrator, PathFilter, PathScratch, PathSettings, PreparedScene};
 use crate::light_tracing::{LightTracer, Splat, LIGHT_PATHS_PER_CAMERA_PATH, PATHS_PER_CHUNK};
 use crate::qmc::{self, StratifiedPixel};
 use crate::rng::Pcg32;
@@ -66,6 +66,8 @@ pub struct TraceSettings {
     /// from scrambled Sobol points (see [`crate::qmc`]) rather than independent random
     /// numbers: same expectation, less variance.
     pub stratified: bool,
+    /// Count only some of the paths (an analysis tool; [`PathFilter::All`] otherwise).
+    pub path_filter: PathFilter,
 }
 
 /// The guided estimator learns over 1/LEARNING_SHARE of the samples (Müller et al. train
@@ -93,6 +95,7 @@ impl TraceSettings {
             integrator: Integrator::default(),
             adaptive: false,
             stratified: false,
+            path_filter: PathFilter::All,
         }
     }
 
@@ -112,6 +115,9 @@ impl TraceSettings {
             if self.integrator == Integrator::Guided {
                 return Err(Error::bad_input(SOURCE, "glass_spp", "the guided estimator renders every pixel at one spp (its learning passes)"));
             }
+        }
+        if self.path_filter != PathFilter::All && self.integrator == Integrator::Guided {
+            return Err(Error::bad_input(SOURCE, "path_filter", "the guided estimator learns from the light its paths count; filter another estimator"));
         }
         if self.adaptive && self.integrator == Integrator::Guided {
             return Err(Error::bad_input(SOURCE, "adaptive", "the guided estimator renders every pixel at one spp (its learning passes)"));
@@ -231,8 +237,10 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         rr_depth: settings.rr_depth,
         material_model: settings.material_model,
         leave_caustics_to_light_tracing: caustic,
+        path_filter: settings.path_filter,
     };
-    let light_tracer = caustic.then(|| LightTracer::new(&prepared, camera, width, height, path_settings));
+    // Light paths are all straight-view paths.
+    let light_tracer = (caustic && settings.path_filter != PathFilter::BentView).then(|| LightTracer::new(&prepared, camera, width, height, path_settings));
     let light_paths = match &light_tracer {
         Some(tracer) if tracer.has_work() => ((samples as f64 * LIGHT_PATHS_PER_CAMERA_PATH).ceil() as u64).max(1),
         _ => 0,
@@ -246,7 +254,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
     }
     let done = AtomicU64::new(0);
     // `spp_of(x, y)`: the pass's samples of pixel (x, y).
-    let pass = |spp_of: &(dyn Fn(u32, u32) -> u32 + Sync), seed: u64, tree: Option<&SdTree>, learn: bool| -> Vec<TileResult> {
+    let pass = |spp_of: &(dyn Fn(u32, u32) -> u32 + Sync), seed: u64, tree: Option<&SdTree>, learn: bool, paths: &PathSettings| -> Vec<TileResult> {
         tiles
             .par_iter()
             .map(|tile| {
@@ -262,7 +270,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
                             &prepared,
                             camera,
                             (settings.width, settings.height, spp, seed, settings.stratified),
-                            &path_settings,
+                            paths,
                             x,
                             y,
                             &mut guide,
@@ -303,7 +311,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         let mut index = 0u32;
         while learning_spp + pass_spp <= settings.spp / LEARNING_SHARE && total_pixels * pass_spp as u64 <= MAX_LEARNING_PATHS {
             let pass_seed = glassbake_core::seed::purpose_seed(settings.seed, &format!("guiding pass {index}"));
-            let mut results = pass(&|_, _| pass_spp, pass_seed, tree.as_ref(), true);
+            let mut results = pass(&|_, _| pass_spp, pass_seed, tree.as_ref(), true, &path_settings);
             let records: Vec<GuidingRecord> = results.iter_mut().flat_map(|r| std::mem::take(&mut r.records)).collect();
             accumulate(results);
             tree = SdTree::build(records);
@@ -322,7 +330,10 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
     let mut main_spp = pixel_spp;
     if settings.adaptive && main_spp.iter().any(|&budget| adaptive::pilot_spp(budget) > 0) {
         let pilot_seed = glassbake_core::seed::purpose_seed(settings.seed, "adaptive pilot");
-        let results = pass(&|x, y| adaptive::pilot_spp(main_spp[(y * width + x) as usize]), pilot_seed, None, false);
+        // The pilot sees every path whatever the filter, so that a filtered image's samples are
+        // spread as the full image's are.
+        let all_paths = PathSettings { path_filter: PathFilter::All, ..path_settings };
+        let results = pass(&|x, y| adaptive::pilot_spp(main_spp[(y * width + x) as usize]), pilot_seed, None, false, &all_paths);
         let mut pilot = vec![adaptive::PilotStats::default(); total_pixels as usize];
         for (tile, result) in tiles.iter().zip(results) {
             let mut values = result.pixels.into_iter();
@@ -337,7 +348,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         let weights = adaptive::noise_weights(&pilot, &main_spp, width, height);
         main_spp = adaptive::allocate(&main_spp, &weights);
     }
-    accumulate(pass(&|x, y| main_spp[(y * width + x) as usize] - learning_spp, settings.seed, tree.as_ref(), false));
+    accumulate(pass(&|x, y| main_spp[(y * width + x) as usize] - learning_spp, settings.seed, tree.as_ref(), false, &path_settings));
     let samples = pilot_samples + main_spp.iter().map(|&s| s as u64).sum::<u64>();
 
     let mut discarded_samples = 0;

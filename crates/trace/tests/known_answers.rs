@@ -9,7 +9,7 @@ use glam::{Affine3A, Vec2, Vec3};
 use glassbake_core::{Camera, Error};
 use glassbake_scene::shapes::{rect, uv_sphere};
 use glassbake_scene::{Material, Mesh, Object, RectLight, Scene};
-use glassbake_trace::{render, Integrator, MaterialModel, PreparedScene, TraceSettings};
+use glassbake_trace::{render, Integrator, MaterialModel, PathFilter, PreparedScene, TraceSettings};
 
 /// The exact value of a box-filtered pixel of a Lambertian `object` (albedo `albedo`, facing
 /// `normal`) lit only by the polygon `corners` of radiance `radiance`: the mean over a 4x4
@@ -492,6 +492,33 @@ fn adaptive_stratified_images_are_bit_identical_whatever_the_thread_count() {
     assert_ne!(bits(&renders[0].image), bits(&uniform.image), "adaptive sampling must change the image");
     let independent = render_sample("desk", &TraceSettings { stratified: false, threads: Some(2), ..base.clone() });
     assert_ne!(bits(&renders[0].image), bits(&independent.image), "stratified values must change the image");
+}
+
+/// The path filters split the image exactly: the bent-view and straight-view parts add up
+/// to the full image pixel by pixel (the same samples, each contribution counted in one part,
+/// the light tracer's splats in the straight part, adaptive sampling's allocation from the
+/// whole image), and on cornellbox, whose frosted cylinder and glass globe bend the view,
+/// both parts carry light.
+#[test]
+fn path_filters_split_the_image_exactly() {
+    let base = TraceSettings { integrator: Integrator::Caustic, adaptive: true, stratified: true, ..TraceSettings::new(24, 20, 256, 3) };
+    let [all, bent, straight] =
+        [PathFilter::All, PathFilter::BentView, PathFilter::StraightView].map(|path_filter| render_sample("cornellbox", &TraceSettings { path_filter, ..base.clone() }).image);
+    let (mut bent_sum, mut straight_sum) = (0.0f64, 0.0f64);
+    for c in 0..3 {
+        for y in 0..20 {
+            for x in 0..24 {
+                let (a, b, s) = (all.get(c, x, y), bent.get(c, x, y), straight.get(c, x, y));
+                assert!((a - (b + s)).abs() <= 1e-4 * a.abs().max(1.0), "pixel ({x}, {y}) channel {c}: {a} != {b} + {s}");
+                bent_sum += b as f64;
+                straight_sum += s as f64;
+            }
+        }
+    }
+    assert!(bent_sum > 0.0 && straight_sum > 0.0, "bent {bent_sum}, straight {straight_sum}");
+    assert!(bent_sum < straight_sum, "the view bends on a few glass objects only: bent {bent_sum}, straight {straight_sum}");
+    let guided = TraceSettings { integrator: Integrator::Guided, adaptive: false, path_filter: PathFilter::BentView, ..base.clone() };
+    assert!(guided.validate().is_err(), "the guided estimator learns from what its paths count: no filter");
 }
 
 /// Stratified values pay where the integrand is smooth: a plane under a rectangle light
