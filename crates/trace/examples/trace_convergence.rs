@@ -2,21 +2,27 @@
 //! per-pixel variance (from two renders with independent seeds), seconds, and efficiency =
 //! 1 / (variance x seconds), on surface pixels, on transparent pixels, on pixels lit through
 //! glass, and on all pixels as the metrics see them (clamped to [0, 1]).
-//! Prints a Markdown table; with --out DIR also writes each render as PNG and EXR.
+//! Prints a Markdown table; with --out DIR also writes each render as PNG and EXR, and the
+//! transparent-pixel mask and the first object each pixel sees (ids, with a legend) as PGMs.
 //!
 //! cargo run --release -p glassbake-trace --example trace_convergence -- \
-//!     [--res 128] [--spp 256] [--sample 0] [--scenes cornellbox,desk] [--out DIR]
-//!     [--estimators plain,solid-angle,guided,caustic,caustic+adaptive+stratified] [--max-depth N]
+//!     [--res 128] [--spp 256] [--glass-spp G] [--sample 0] [--scenes cornellbox,desk] [--out DIR]
+//!     [--estimators plain,solid-angle,guided,caustic,caustic+adaptive+stratified] [--max-depth N] [--rr-depth N]
+//!     [--paths all|bent-view|straight-view]
 //!
 //! `+adaptive` after an estimator's name turns on adaptive sampling (`TraceSettings::adaptive`),
 //! `+stratified` stratified sample values (`TraceSettings::stratified`), in that order.
+//! `--paths bent-view` renders only the paths whose view from the camera bends at glass,
+//! `straight-view` the rest (`PathFilter`; the two add up to the image): where the noise is.
 //!
 //! Variance of a pixel's estimate is E[(a - b)^2] / 2 for two independent renders a, b of
 //! it, averaged over the pixel's RGB channels and then over the pixels of a mask.
 //! "Transparent" pixels see a transmissive object first; "lit through glass" pixels see an
 //! opaque surface first whose straight line to the centre of some rectangle light crosses a
-//! transmissive object (the paths plain NEE cannot take). Seconds are wall time of one render
-//! with all threads, learning passes and BVH build included.
+//! transmissive object (the paths plain NEE cannot take). "Transparent, clamped" is the
+//! transparent set as T.MAE/T.PSNR see it. `--glass-spp` traces the pixels that show glass at
+//! G samples (`TraceSettings::glass_spp`), as a dataset's test split does. Seconds are wall
+//! time of one render with all threads, learning passes and BVH build included.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -26,15 +32,18 @@ use glassbake_core::{Camera, PlanarImage, Ray};
 use glassbake_scene::builtin::builtin;
 use glassbake_scene::Scene;
 use glassbake_trace::geometry::Owner;
-use glassbake_trace::{render, Integrator, PreparedScene, TraceSettings};
+use glassbake_trace::{render, Integrator, PathFilter, PreparedScene, TraceSettings};
 
 struct Args {
     res: u32,
     spp: u32,
+    glass_spp: Option<u32>,
     sample: u64,
     scenes: Vec<String>,
     out: Option<PathBuf>,
     max_depth: u32,
+    rr_depth: u32,
+    paths: PathFilter,
     /// (estimator, adaptive sampling, stratified)
     estimators: Vec<(Integrator, bool, bool)>,
 }
@@ -43,15 +52,18 @@ fn parse_args() -> Args {
     let mut args = Args {
         res: 128,
         spp: 256,
+        glass_spp: None,
         sample: 0,
         scenes: ["cornell-glass", "cornellbox", "cornellbox8", "desk", "bathroom"].map(String::from).to_vec(),
         out: None,
         max_depth: TraceSettings::DEFAULT_MAX_DEPTH,
+        rr_depth: TraceSettings::DEFAULT_RR_DEPTH,
+        paths: PathFilter::All,
         estimators: vec![(Integrator::Plain, false, false), (Integrator::Caustic, false, false), (Integrator::Caustic, true, true)],
     };
     let argv: Vec<String> = std::env::args().skip(1).collect();
     let usage = || -> ! {
-        eprintln!("usage: trace_convergence [--res N] [--spp N] [--sample I] [--scenes a,b] [--estimators plain,solid-angle,guided,caustic,caustic+adaptive+stratified] [--out DIR] [--max-depth N]");
+        eprintln!("usage: trace_convergence [--res N] [--spp N] [--glass-spp G] [--sample I] [--scenes a,b] [--estimators plain,solid-angle,guided,caustic,caustic+adaptive+stratified] [--out DIR] [--max-depth N] [--rr-depth N] [--paths all|bent-view|straight-view]");
         std::process::exit(2)
     };
     let mut i = 0;
@@ -60,10 +72,13 @@ fn parse_args() -> Args {
         match argv[i].as_str() {
             "--res" => args.res = value.parse().unwrap_or_else(|_| usage()),
             "--spp" => args.spp = value.parse().unwrap_or_else(|_| usage()),
+            "--glass-spp" => args.glass_spp = Some(value.parse().unwrap_or_else(|_| usage())),
             "--sample" => args.sample = value.parse().unwrap_or_else(|_| usage()),
             "--scenes" => args.scenes = value.split(',').map(String::from).collect(),
             "--out" => args.out = Some(PathBuf::from(value)),
             "--max-depth" => args.max_depth = value.parse().unwrap_or_else(|_| usage()),
+            "--rr-depth" => args.rr_depth = value.parse().unwrap_or_else(|_| usage()),
+            "--paths" => args.paths = PathFilter::parse(&value).unwrap_or_else(|| usage()),
             "--estimators" => {
                 args.estimators = value
                     .split(',')
@@ -179,20 +194,42 @@ fn main() {
         "{}x{}, {} spp, sample {} of seed 0, seeds 1 and 2; variance of a pixel's estimate (mean of RGB); efficiency = 1 / (variance x seconds), relative to plain\n",
         args.res, args.res, args.spp, args.sample
     );
-    println!("| scene | estimator | seconds | image mean | surface px | variance | efficiency | transparent px | variance | efficiency | lit through glass px | variance | efficiency | all px, clamped | variance | efficiency |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| scene | estimator | seconds | image mean | surface px | variance | efficiency | transparent px | variance | efficiency | lit through glass px | variance | efficiency | all px, clamped | variance | efficiency | transparent, clamped | variance | efficiency |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for name in &args.scenes {
         let scene = builtin(name).unwrap_or_else(|| panic!("no built-in scene {name}"));
         let sample = scene.sample(0, args.sample);
         let instance = scene.instantiate(&sample.values).expect("sampled values are in range");
         let (surfaces, transparent, through_glass) = masks(&instance, &sample.camera, args.res);
-        let mut plain_efficiency = [None; 4];
+        if let Some(out) = &args.out {
+            // The transparent-pixel mask as an 8-bit PGM, for comparing the renders elsewhere.
+            let mut pgm = format!("P5 {} {} 255\n", args.res, args.res).into_bytes();
+            pgm.extend(transparent.iter().map(|&t| if t { 255u8 } else { 0 }));
+            std::fs::write(out.join(format!("{name}_transparent_mask.pgm")), pgm).expect("write mask");
+            // Which object each pixel's centre sees first (1 + its index, 0: a light or nothing),
+            // with the names in a legend, to split the variance by object.
+            let prepared = PreparedScene::new(&instance);
+            let mut ids = format!("P5 {} {} 255\n", args.res, args.res).into_bytes();
+            for y in 0..args.res {
+                for x in 0..args.res {
+                    let hit = prepared.intersect(&sample.camera.ray(x as f32 + 0.5, y as f32 + 0.5, args.res, args.res));
+                    ids.push(match hit.map(|h| h.owner) {
+                        Some(Owner::Object { object, .. }) => (object + 1).min(255) as u8,
+                        _ => 0,
+                    });
+                }
+            }
+            std::fs::write(out.join(format!("{name}_first_object.pgm")), ids).expect("write object ids");
+            let legend: String = instance.objects.iter().enumerate().map(|(i, o)| format!("{} {}\n", i + 1, o.name)).collect();
+            std::fs::write(out.join(format!("{name}_first_object.txt")), legend).expect("write legend");
+        }
+        let mut plain_efficiency = [None; 5];
         for &(integrator, adaptive, stratified) in &args.estimators {
             let label = format!("{}{}{}", integrator.name(), if adaptive { "+adaptive" } else { "" }, if stratified { "+stratified" } else { "" });
             let mut images = Vec::new();
             let mut seconds = 0.0;
             for seed in [1u64, 2] {
-                let settings = TraceSettings { integrator, adaptive, stratified, max_depth: args.max_depth, ..TraceSettings::new(args.res, args.res, args.spp, seed) };
+                let settings = TraceSettings { integrator, adaptive, stratified, max_depth: args.max_depth, rr_depth: args.rr_depth, path_filter: args.paths, glass_spp: args.glass_spp, ..TraceSettings::new(args.res, args.res, args.spp, seed) };
                 let start = Instant::now();
                 let output = render(&instance, &sample.camera, &settings, None).expect("render");
                 seconds += start.elapsed().as_secs_f64() / 2.0;
@@ -206,7 +243,7 @@ fn main() {
             let variances = pixel_variances(&images[0], &images[1], |v| v);
             let clamped = pixel_variances(&images[0], &images[1], glassbake_core::color::tonemap_clamp);
             let mut cells = Vec::new();
-            let sets = [(&variances, Some(&surfaces[..])), (&variances, Some(&transparent[..])), (&variances, Some(&through_glass[..])), (&clamped, None)];
+            let sets = [(&variances, Some(&surfaces[..])), (&variances, Some(&transparent[..])), (&variances, Some(&through_glass[..])), (&clamped, None), (&clamped, Some(&transparent[..]))];
             for (k, (variances, mask)) in sets.into_iter().enumerate() {
                 let count = mask.map_or(variances.len(), |m| m.iter().filter(|&&b| b).count());
                 let variance = masked_mean(variances, mask);
