@@ -141,7 +141,17 @@ impl GpuTracer {
             if let Some(p) = progress {
                 p(samples, samples);
             }
-            return Ok(TraceOutput { image, discarded_samples: 0, samples, pilot_samples: 0, warnings: vec![warning], elapsed: start.elapsed(), learning_spp: 0 });
+            return Ok(TraceOutput {
+                image,
+                discarded_samples: 0,
+                samples,
+                pilot_samples: 0,
+                light_paths: 0,
+                light_pilot_paths: 0,
+                warnings: vec![warning],
+                elapsed: start.elapsed(),
+                learning_spp: 0,
+            });
         }
         let slots = (TARGET_THREADS / pixels).clamp(1, MAX_SLOTS);
         let limits = self.device.limits();
@@ -275,7 +285,7 @@ impl GpuTracer {
             tracing::warn!("{warning}");
             warnings.push(warning);
         }
-        Ok(TraceOutput { image, discarded_samples, samples, pilot_samples: 0, warnings, elapsed: start.elapsed(), learning_spp: 0 })
+        Ok(TraceOutput { image, discarded_samples, samples, pilot_samples: 0, light_paths: 0, light_pilot_paths: 0, warnings, elapsed: start.elapsed(), learning_spp: 0 })
     }
 
     pub(crate) fn wait(&self) -> Result<()> {

@@ -9,6 +9,8 @@
 //! estimate stays unbiased whatever was learned. While learning, every such vertex leaves a
 //! [`GuidingRecord`] of the radiance that the rest of its path brought back.
 
+use std::cell::Cell;
+
 use glam::{Vec2, Vec3};
 use glassbake_core::Ray;
 use glassbake_scene::Scene;
@@ -21,6 +23,31 @@ use crate::lights::LightSampler;
 use crate::qmc::{self, StratifiedSample};
 use crate::rng::Pcg32;
 use crate::sampling::{luminance, power_heuristic};
+
+thread_local! {
+    /// Rays this thread has cast (closest-hit and shadow queries): the cost with which the
+    /// light tracer's budget is weighed against the camera's (`light_tracing::balanced_light_paths`).
+    /// Counted rather than timed so that the budget, and so the image, is deterministic.
+    static RAYS_CAST: Cell<u64> = const { Cell::new(0) };
+}
+
+fn count_ray() {
+    RAYS_CAST.with(|count| count.set(count.get() + 1));
+}
+
+/// Rays cast by the calling thread so far; differences of two readings on one thread count
+/// the rays of the work in between.
+pub(crate) fn rays_cast() -> u64 {
+    RAYS_CAST.with(Cell::get)
+}
+
+/// What one camera path brought back: all of it, and the part its settings' [`PathFilter`]
+/// counts (the same unless a filter is set).
+#[derive(Clone, Copy, Debug)]
+pub struct PathRadiance {
+    pub all: Vec3,
+    pub counted: Vec3,
+}
 
 /// How a path is traced.
 #[derive(Clone, Copy, Debug)]
@@ -195,6 +222,7 @@ impl<'a> PreparedScene<'a> {
     }
 
     pub(crate) fn intersect_from(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
+        count_ray();
         let hit = self.geometry.closest_hit(origin, direction, t_min, t_max)?;
         Some(self.surface_hit(&hit))
     }
@@ -265,9 +293,9 @@ impl<'a> PreparedScene<'a> {
         settings: &PathSettings,
         guide: &mut Guide,
         scratch: &mut PathScratch,
-    ) -> Vec3 {
+    ) -> PathRadiance {
         scratch.vertices.clear();
-        let radiance = self.trace_path_inner(ray, rng, stratified, settings, guide, scratch);
+        let (radiance, counted) = self.trace_path_inner(ray, rng, stratified, settings, guide, scratch);
         if let Some(records) = guide.records.as_deref_mut() {
             for v in &scratch.vertices {
                 // Radiance that arrived along the sampled direction: what the path gathered
@@ -278,7 +306,7 @@ impl<'a> PreparedScene<'a> {
                 records.push(GuidingRecord { position: v.position, direction: v.direction, value: if value.is_finite() { value } else { 0.0 } });
             }
         }
-        radiance
+        PathRadiance { all: radiance, counted }
     }
 
     fn trace_path_inner(
@@ -289,7 +317,7 @@ impl<'a> PreparedScene<'a> {
         settings: &PathSettings,
         guide: &Guide,
         scratch: &mut PathScratch,
-    ) -> Vec3 {
+    ) -> (Vec3, Vec3) {
         // A 2D value of stratified dimension `dimension` if there is one, else from `rng`.
         let draw_2d = |rng: &mut Pcg32, dimension: Option<u32>| match (stratified, dimension) {
             (Some(sample), Some(d)) => sample.get_2d(d),
@@ -297,6 +325,9 @@ impl<'a> PreparedScene<'a> {
         };
         let background = self.scene.background;
         let mut radiance = Vec3::ZERO;
+        // The part of `radiance` that `settings.path_filter` counts.
+        let mut counted = Vec3::ZERO;
+        let filter = settings.path_filter;
         let mut throughput = Vec3::ONE;
         let mut origin = ray.origin;
         let mut direction = ray.direction;
@@ -317,8 +348,10 @@ impl<'a> PreparedScene<'a> {
 
         for vertex in 0..MAX_VERTICES {
             let Some(hit) = self.intersect_from(origin, direction, t_min, f32::INFINITY) else {
-                if settings.path_filter.counts(class.view_bent(None)) {
-                    radiance += throughput * background;
+                let light = throughput * background;
+                radiance += light;
+                if filter.counts(class.view_bent(None)) {
+                    counted += light;
                 }
                 break;
             };
@@ -326,13 +359,17 @@ impl<'a> PreparedScene<'a> {
 
             if let Some(emitter) = hit.emitter {
                 let emitted = self.lights.emitters[emitter as usize].emitted(wo);
-                if emitted != Vec3::ZERO && !(split && class.light_traced()) && settings.path_filter.counts(class.view_bent(None)) {
+                if emitted != Vec3::ZERO && !(split && class.light_traced()) {
                     let weight = if specular {
                         1.0
                     } else {
                         power_heuristic(mis_pdf, self.lights.pdf(emitter, mis_origin, hit.position))
                     };
-                    radiance += throughput * emitted * weight;
+                    let light = throughput * emitted * weight;
+                    radiance += light;
+                    if filter.counts(class.view_bent(None)) {
+                        counted += light;
+                    }
                 }
             }
             let Owner::Object { material, .. } = hit.owner else { break };
@@ -383,10 +420,10 @@ impl<'a> PreparedScene<'a> {
                             let bsdf_pdf = guided_pdf(guided, pdf, wi) * crossing_probability;
                             let weight = power_heuristic(light.pdf, bsdf_pdf);
                             let cos = wi.dot(hit.shading_normal).abs();
-                            // Filtered here, after every random number is drawn, so that a
-                            // filtered image's paths are the full image's.
-                            if settings.path_filter.counts(class.view_bent(Some(glass))) {
-                                radiance += throughput * f * cos * transmittance * light.radiance * (weight / light.pdf);
+                            let light = throughput * f * cos * transmittance * light.radiance * (weight / light.pdf);
+                            radiance += light;
+                            if filter.counts(class.view_bent(Some(glass))) {
+                                counted += light;
                             }
                         }
                     }
@@ -469,7 +506,7 @@ impl<'a> PreparedScene<'a> {
                 throughput /= survival;
             }
         }
-        radiance
+        (radiance, counted)
     }
 
     /// Light transport along a shadow segment: `None` if something opaque blocks it or it
@@ -485,6 +522,7 @@ impl<'a> PreparedScene<'a> {
         settings: &PathSettings,
         scratch: &mut Vec<Hit>,
     ) -> Option<(Vec3, f32)> {
+        count_ray();
         if t_max <= 0.0 || self.geometry.shadow_query(origin, direction, 0.0, t_max, scratch) {
             return None;
         }

@@ -29,5 +29,5 @@ pub mod spherical_rect;
 mod bsdf_tests;
 
 pub use bsdf::{Bsdf, MaterialModel, SurfaceMaterial};
-pub use integrator::{Integrator, PathFilter, PreparedScene, SurfaceHit};
+pub use integrator::{Integrator, PathFilter, PathRadiance, PreparedScene, SurfaceHit};
 pub use render::{glass_pixels, render, sample_trace_seed, unlit_warning, Progress, TraceOutput, TraceSettings};

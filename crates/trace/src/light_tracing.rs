@@ -45,12 +45,53 @@ use crate::geometry::{Hit, Owner};
 use crate::integrator::{offset_origin, PathSettings, PreparedScene, MAX_VERTICES};
 use crate::rng::Pcg32;
 
-/// Light paths traced per camera path. Measured on the built-in scenes at 96 px, 128 spp
-/// (`examples/trace_convergence`, docs/benchmarks.md): one light path per camera path
-/// costs 40-200% more time than the path tracer alone for a little less variance; one per
-/// four keeps nearly all of the gain (desk, the cornell boxes) for 5-30% more time; one per
-/// ten leaves the bathroom's light through its partition noisier than the plain estimator.
+/// Light paths traced per camera sample, before the image's own budget is known: the
+/// progress bar's first estimate. (A fixed one per four was the rule until the budget was
+/// balanced per image: at 128 px, 256 spp it was too many for the desk, whose light tracing
+/// adds little, and too few for cornell-glass and bathroom; docs/benchmarks.md.)
 pub const LIGHT_PATHS_PER_CAMERA_PATH: f64 = 0.25;
+
+/// The bounds of the balanced budget, in light paths per camera sample.
+pub const MIN_LIGHT_PATHS_PER_CAMERA_SAMPLE: f64 = 1.0 / 64.0;
+pub const MAX_LIGHT_PATHS_PER_CAMERA_SAMPLE: f64 = 1.0;
+
+/// Light paths traced, and set aside, to measure what one light path costs and how much
+/// variance it adds: 1/64 of the camera samples, at least 1,024 and at most 65,536.
+pub fn pilot_light_paths(camera_samples: u64) -> u64 {
+    (camera_samples / 64).clamp(1024, 65_536)
+}
+
+/// The number of light paths that makes the image cheapest for its noise. The image is the
+/// sum of two independent estimates, the camera samples' (variance `camera_variance`, summed
+/// over the pixels, at a cost of `camera_rays`) and the light paths' (`light_variance_per_path`
+/// / N, at `rays_per_light_path` x N), so the product of variance and cost,
+/// (A + B / N)(C + c N), is least at N = sqrt(B C / (A c)): the number of light paths at which
+/// one more light path lowers the variance by as much per ray as more camera samples would.
+/// Clamped to [`MIN_LIGHT_PATHS_PER_CAMERA_SAMPLE`, `MAX_LIGHT_PATHS_PER_CAMERA_SAMPLE`] per
+/// camera sample: the estimates come from pilots, and a light tracer that never runs cannot
+/// show it has become worth running.
+pub fn balanced_light_paths(camera_variance: f64, light_variance_per_path: f64, camera_rays: f64, rays_per_light_path: f64, camera_samples: u64) -> u64 {
+    let least = (camera_samples as f64 * MIN_LIGHT_PATHS_PER_CAMERA_SAMPLE).ceil().max(1.0);
+    let most = (camera_samples as f64 * MAX_LIGHT_PATHS_PER_CAMERA_SAMPLE).max(least);
+    let best = if camera_variance <= 0.0 || rays_per_light_path <= 0.0 {
+        most
+    } else {
+        (light_variance_per_path * camera_rays / (camera_variance * rays_per_light_path)).sqrt()
+    };
+    if best.is_nan() {
+        return least as u64;
+    }
+    best.clamp(least, most).round() as u64
+}
+
+/// What a pilot of light paths measured, per pixel: the sum of each path's contributions
+/// and of their squares (a path's splats on one pixel summed first), and the rays cast.
+pub struct LightPilot {
+    pub paths: u64,
+    pub sum: Vec<[f64; 3]>,
+    pub sum_squares: Vec<[f64; 3]>,
+    pub rays: u64,
+}
 
 /// Light paths traced per unit of work: one random stream each, and the grain at which
 /// splats are gathered (in path order, so the image does not depend on the thread count).
@@ -449,6 +490,30 @@ mod tests {
 
     /// Solid angle of the whole sphere.
     const SPHERE: f32 = 4.0 * std::f32::consts::PI;
+
+    /// The balanced budget minimizes (variance x cost) of the image: it is the closed form's
+    /// optimum, and no other count does better.
+    #[test]
+    fn balanced_light_paths_minimize_variance_times_cost() {
+        let product = |a: f64, b: f64, c: f64, per_path: f64, n: f64| (a + b / n) * (c + per_path * n);
+        // A = 2e-3 summed variance, B = 50 per light path, 4e6 camera rays, 6 rays a light path.
+        let (a, b, c, per_path, samples) = (2e-3, 50.0, 4.0e6, 6.0, 1_000_000u64);
+        let n = balanced_light_paths(a, b, c, per_path, samples) as f64;
+        let exact = (b * c / (a * per_path)).sqrt();
+        assert!((n - exact).abs() <= 1.0, "{n} vs {exact}");
+        assert!(n > samples as f64 * MIN_LIGHT_PATHS_PER_CAMERA_SAMPLE && n < samples as f64 * MAX_LIGHT_PATHS_PER_CAMERA_SAMPLE);
+        for other in [0.5 * n, 0.9 * n, 1.1 * n, 2.0 * n] {
+            assert!(product(a, b, c, per_path, n) < product(a, b, c, per_path, other), "{n} must beat {other}");
+        }
+        // At the optimum both halves' variance-cost shares balance: B C / N = A c N.
+        assert!(((b * c / n) / (a * per_path * n) - 1.0).abs() < 1e-3);
+        // Bounds: light paths that add no variance are still traced at the floor (a pilot
+        // cannot prove them useless forever); a silent camera leaves all to the light tracer.
+        assert_eq!(balanced_light_paths(a, 0.0, c, per_path, samples), 15_625, "1/64 of the camera samples");
+        assert_eq!(balanced_light_paths(0.0, b, c, per_path, samples), samples);
+        assert_eq!(balanced_light_paths(a, 1e12, c, per_path, samples), samples);
+        assert_eq!(balanced_light_paths(a, 0.0, c, per_path, 10), 1, "at least one light path");
+    }
 
     #[test]
     fn cone_sampling_stays_inside_and_counts_overlaps() {

@@ -25,8 +25,8 @@ use crate::adaptive;
 use crate::bsdf::MaterialModel;
 use crate::geometry::Owner;
 use crate::guiding::{GuidingRecord, SdTree};
-use crate::integrator::{Guide, Integrator, PathFilter, PathScratch, PathSettings, PreparedScene};
-use crate::light_tracing::{LightTracer, Splat, LIGHT_PATHS_PER_CAMERA_PATH, PATHS_PER_CHUNK};
+use crate::integrator::{rays_cast, Guide, Integrator, PathFilter, PathScratch, PathSettings, PreparedScene};
+use crate::light_tracing::{balanced_light_paths, pilot_light_paths, LightPilot, LightTracer, Splat, LIGHT_PATHS_PER_CAMERA_PATH, PATHS_PER_CHUNK};
 use crate::qmc::{self, StratifiedPixel};
 use crate::rng::Pcg32;
 
@@ -144,6 +144,10 @@ pub struct TraceOutput {
     /// Samples of the adaptive pilot pass (part of `samples`, set aside: see
     /// [`crate::adaptive`]); 0 when sampling uniformly.
     pub pilot_samples: u64,
+    /// Light paths the `caustic` estimator traced into the image (balanced per image,
+    /// `light_tracing::balanced_light_paths`), and those of its pilot, set aside.
+    pub light_paths: u64,
+    pub light_pilot_paths: u64,
     pub warnings: Vec<String>,
     /// Wall time of the render, BVH build included.
     pub elapsed: Duration,
@@ -228,7 +232,17 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         if let Some(p) = progress {
             p(samples, samples);
         }
-        return Ok(TraceOutput { image, discarded_samples: 0, samples, pilot_samples: 0, warnings, elapsed: start.elapsed(), learning_spp: 0 });
+        return Ok(TraceOutput {
+            image,
+            discarded_samples: 0,
+            samples,
+            pilot_samples: 0,
+            light_paths: 0,
+            light_pilot_paths: 0,
+            warnings,
+            elapsed: start.elapsed(),
+            learning_spp: 0,
+        });
     }
 
     let caustic = settings.integrator == Integrator::Caustic;
@@ -241,11 +255,12 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
     };
     // Light paths are all straight-view paths.
     let light_tracer = (caustic && settings.path_filter != PathFilter::BentView).then(|| LightTracer::new(&prepared, camera, width, height, path_settings));
-    let light_paths = match &light_tracer {
+    // A first estimate, for the progress bar: the budget is balanced after the camera pass.
+    let light_paths_estimate = match &light_tracer {
         Some(tracer) if tracer.has_work() => ((samples as f64 * LIGHT_PATHS_PER_CAMERA_PATH).ceil() as u64).max(1),
         _ => 0,
     };
-    let work = samples + light_paths;
+    let work = samples + light_paths_estimate;
     let mut tiles = Vec::new();
     for y0 in (0..height).step_by(TILE as usize) {
         for x0 in (0..width).step_by(TILE as usize) {
@@ -352,12 +367,26 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
     let samples = pilot_samples + main_spp.iter().map(|&s| s as u64).sum::<u64>();
 
     let mut discarded_samples = 0;
+    let mut light_paths = 0;
+    let mut light_pilot_paths = 0;
     let light_traced = match &light_tracer {
-        Some(tracer) if light_paths > 0 => {
+        Some(tracer) if light_paths_estimate > 0 => {
+            // How many light paths this image should have: a pilot of light paths, set aside
+            // (so that no light path's value decides how many there are), measures their
+            // variance and cost against the camera samples'. The budget depends on the camera
+            // samples, which are independent of the light paths: each half stays unbiased.
+            let camera_samples = main_spp.iter().map(|&s| s as u64).sum::<u64>();
+            light_pilot_paths = pilot_light_paths(camera_samples);
+            let pilot = trace_light_pilot(tracer, light_pilot_paths, glassbake_core::seed::purpose_seed(settings.seed, "light tracing pilot"));
+            light_paths = light_tracing_budget(&sums, &pilot, camera_samples);
+            let work = samples + light_pilot_paths + light_paths;
+            if let Some(p) = progress {
+                p(samples + light_pilot_paths, work);
+            }
             let seed = glassbake_core::seed::purpose_seed(settings.seed, "light tracing");
             let (splats, discarded) = trace_light_paths(tracer, light_paths, seed, &|paths| {
                 if let Some(p) = progress {
-                    p(samples + paths, work);
+                    p(samples + light_pilot_paths + paths, work);
                 }
             });
             discarded_samples += discarded;
@@ -384,7 +413,73 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         tracing::warn!("{warning}");
         warnings.push(warning);
     }
-    Ok(TraceOutput { image, discarded_samples, samples, pilot_samples, warnings, elapsed: start.elapsed(), learning_spp })
+    Ok(TraceOutput { image, discarded_samples, samples, pilot_samples, light_paths, light_pilot_paths, warnings, elapsed: start.elapsed(), learning_spp })
+}
+
+/// Trace `paths` light paths of the stream `seed` and sum, per pixel, each path's
+/// contribution and its square, and the rays they cast. Chunked and summed in chunk order as
+/// [`trace_light_paths`] is, so the result does not depend on the thread count.
+fn trace_light_pilot(tracer: &LightTracer, paths: u64, seed: u64) -> LightPilot {
+    let pixels = tracer.pixel_count();
+    let mut pilot = LightPilot { paths, sum: vec![[0.0; 3]; pixels], sum_squares: vec![[0.0; 3]; pixels], rays: 0 };
+    let chunks: Vec<(Vec<Splat>, u64)> = (0..paths.div_ceil(PATHS_PER_CHUNK))
+        .into_par_iter()
+        .map(|chunk| {
+            let mut rng = Pcg32::for_pixel(seed, chunk);
+            let (mut path_splats, mut merged, mut hits): (Vec<Splat>, Vec<Splat>, _) = (Vec::new(), Vec::new(), Vec::new());
+            let rays_before = rays_cast();
+            for _ in 0..PATHS_PER_CHUNK.min(paths - chunk * PATHS_PER_CHUNK) {
+                path_splats.clear();
+                tracer.trace(&mut rng, &mut path_splats, &mut hits);
+                // One value per pixel and path: a path that reaches a pixel twice counts once.
+                path_splats.sort_by_key(|s| s.pixel);
+                let path_start = merged.len();
+                for splat in &path_splats {
+                    let same_pixel = merged.len() > path_start && merged.last().is_some_and(|last| last.pixel == splat.pixel);
+                    match merged.last_mut() {
+                        Some(last) if same_pixel => last.value += splat.value,
+                        _ => merged.push(*splat),
+                    }
+                }
+            }
+            (merged, rays_cast() - rays_before)
+        })
+        .collect();
+    for (splats, rays) in chunks {
+        pilot.rays += rays;
+        for splat in splats {
+            let (sum, squares) = (&mut pilot.sum[splat.pixel as usize], &mut pilot.sum_squares[splat.pixel as usize]);
+            for (c, v) in splat.value.to_array().into_iter().enumerate() {
+                sum[c] += v as f64;
+                squares[c] += v as f64 * v as f64;
+            }
+        }
+    }
+    pilot
+}
+
+/// The balanced number of light paths for an image whose camera samples summed to `sums`
+/// (`light_tracing::balanced_light_paths`). Variances are summed over the pixels' channels
+/// that stay at or below 1: above, every metric clamps the value and its noise is invisible.
+fn light_tracing_budget(sums: &[PixelSums], pilot: &LightPilot, camera_samples: u64) -> u64 {
+    let m = pilot.paths.max(1) as f64;
+    let (mut camera_variance, mut light_variance, mut camera_rays) = (0.0f64, 0.0f64, 0u64);
+    for (sums, (light_sum, light_squares)) in sums.iter().zip(pilot.sum.iter().zip(&pilot.sum_squares)) {
+        camera_rays += sums.rays;
+        let n = sums.finite as f64;
+        for c in 0..3 {
+            let camera_mean = if n > 0.0 { sums.all_sum[c] / n } else { 0.0 };
+            let light_mean = light_sum[c] / m;
+            if camera_mean + light_mean > 1.0 {
+                continue;
+            }
+            if n >= 2.0 {
+                camera_variance += ((sums.all_sum_squares[c] - sums.all_sum[c] * camera_mean) / (n - 1.0)).max(0.0) / n;
+            }
+            light_variance += (light_squares[c] / m - light_mean * light_mean).max(0.0);
+        }
+    }
+    balanced_light_paths(camera_variance, light_variance, camera_rays as f64, pilot.rays as f64 / m, camera_samples)
 }
 
 /// Chunks of light paths traced between two gatherings of their splats: bounds the splats
@@ -465,6 +560,12 @@ struct PixelSums {
     sum_squares: [f64; 3],
     finite: u64,
     discarded: u64,
+    /// Rays cast for these samples.
+    rays: u64,
+    /// The same sums over all the paths' light, whatever `TraceSettings::path_filter` counts:
+    /// the light tracer's budget follows the whole image's noise.
+    all_sum: [f64; 3],
+    all_sum_squares: [f64; 3],
 }
 
 impl PixelSums {
@@ -477,6 +578,13 @@ impl PixelSums {
         }
         self.finite += other.finite;
         self.discarded += other.discarded;
+        self.rays += other.rays;
+        for (s, o) in self.all_sum.iter_mut().zip(other.all_sum) {
+            *s += o;
+        }
+        for (s, o) in self.all_sum_squares.iter_mut().zip(other.all_sum_squares) {
+            *s += o;
+        }
     }
 
     fn mean(&self) -> Vec3 {
@@ -504,6 +612,7 @@ fn render_pixel(
     let pixel_index = y as u64 * width as u64 + x as u64;
     let mut rng = Pcg32::for_pixel(seed, pixel_index);
     let mut sums = PixelSums::default();
+    let rays_before = rays_cast();
     let stratified = stratified.then(|| StratifiedPixel::new(seed, pixel_index));
     for index in 0..spp {
         let stratified_sample = stratified.as_ref().map(|pixel| pixel.sample(index));
@@ -512,16 +621,19 @@ fn render_pixel(
             None => rng.next_vec2(),
         };
         let ray = camera.ray(x as f32 + jitter.x, y as f32 + jitter.y, width, height);
-        let radiance = prepared.trace_path(&ray, &mut rng, stratified_sample.as_ref(), path_settings, guide, scratch);
-        if radiance.is_finite() {
-            for (c, value) in radiance.to_array().into_iter().enumerate() {
-                sums.sum[c] += value as f64;
-                sums.sum_squares[c] += (value as f64) * (value as f64);
+        let path = prepared.trace_path(&ray, &mut rng, stratified_sample.as_ref(), path_settings, guide, scratch);
+        if path.all.is_finite() {
+            for (c, (counted, all)) in path.counted.to_array().into_iter().zip(path.all.to_array()).enumerate() {
+                sums.sum[c] += counted as f64;
+                sums.sum_squares[c] += (counted as f64) * (counted as f64);
+                sums.all_sum[c] += all as f64;
+                sums.all_sum_squares[c] += (all as f64) * (all as f64);
             }
             sums.finite += 1;
         } else {
             sums.discarded += 1;
         }
     }
+    sums.rays = rays_cast() - rays_before;
     sums
 }

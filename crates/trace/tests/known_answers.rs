@@ -521,6 +521,24 @@ fn path_filters_split_the_image_exactly() {
     assert!(guided.validate().is_err(), "the guided estimator learns from what its paths count: no filter");
 }
 
+/// The light tracer's budget follows where it pays: on cornell-glass (a light seen in a
+/// pane, caustics over most of the floor) the balanced budget is several times the desk's
+/// (small glass objects whose caustics are a few pixels), and the image's samples and light
+/// paths are reported.
+#[test]
+fn the_light_tracing_budget_follows_where_it_pays() {
+    let settings = TraceSettings { integrator: Integrator::Caustic, stratified: true, ..TraceSettings::new(32, 32, 128, 7) };
+    let rate = |scene: &str| {
+        let output = render_sample(scene, &settings);
+        assert_eq!(output.samples, 32 * 32 * 128);
+        assert!(output.light_pilot_paths >= 1024, "{scene}: pilot of {} light paths", output.light_pilot_paths);
+        output.light_paths as f64 / output.samples as f64
+    };
+    let (glass, desk) = (rate("cornell-glass"), rate("desk"));
+    assert!(desk >= 1.0 / 64.0 && glass <= 1.0, "rates {glass}, {desk} outside the bounds");
+    assert!(glass > 3.0 * desk, "light paths per camera sample: cornell-glass {glass:.3}, desk {desk:.3}");
+}
+
 /// Stratified values pay where the integrand is smooth: a plane under a rectangle light
 /// (soft direct light, pixel footprints) has far less variance at equal spp than with
 /// independent random numbers. Variances from two independent renders each.

@@ -198,5 +198,13 @@ pub fn run(args: TraceArgs) -> Result<()> {
         output.samples_per_second(),
         output.discarded_samples
     );
+    if output.light_paths > 0 {
+        println!(
+            "light tracing: {} light paths ({:.3} per camera sample, balanced against the camera's noise; a pilot of {} set aside)",
+            output.light_paths,
+            output.light_paths as f64 / (output.samples - output.pilot_samples).max(1) as f64,
+            output.light_pilot_paths
+        );
+    }
     Ok(())
 }
