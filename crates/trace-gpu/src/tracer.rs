@@ -141,17 +141,7 @@ impl GpuTracer {
             if let Some(p) = progress {
                 p(samples, samples);
             }
-            return Ok(TraceOutput {
-                image,
-                discarded_samples: 0,
-                samples,
-                pilot_samples: 0,
-                light_paths: 0,
-                light_pilot_paths: 0,
-                warnings: vec![warning],
-                elapsed: start.elapsed(),
-                learning_spp: 0,
-            });
+            return Ok(TraceOutput::unlit(image, samples, vec![warning], start.elapsed()));
         }
         let slots = (TARGET_THREADS / pixels).clamp(1, MAX_SLOTS);
         let limits = self.device.limits();

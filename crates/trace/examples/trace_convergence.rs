@@ -152,6 +152,13 @@ fn masks(scene: &Scene, camera: &Camera, res: u32) -> (Vec<bool>, Vec<bool>, Vec
     (surfaces, transparent, through_glass)
 }
 
+/// A square 8-bit greyscale image (binary PGM), row-major.
+fn write_pgm(path: &std::path::Path, res: u32, values: impl Iterator<Item = u8>) {
+    let mut pgm = format!("P5 {res} {res} 255\n").into_bytes();
+    pgm.extend(values);
+    std::fs::write(path, pgm).expect("write PGM");
+}
+
 /// Per pixel E[(a - b)^2] / 2 over RGB of `tone(a)` and `tone(b)`.
 fn pixel_variances(a: &PlanarImage, b: &PlanarImage, tone: fn(f32) -> f32) -> Vec<f64> {
     let n = (a.width() * a.height()) as usize;
@@ -202,24 +209,19 @@ fn main() {
         let instance = scene.instantiate(&sample.values).expect("sampled values are in range");
         let (surfaces, transparent, through_glass) = masks(&instance, &sample.camera, args.res);
         if let Some(out) = &args.out {
-            // The transparent-pixel mask as an 8-bit PGM, for comparing the renders elsewhere.
-            let mut pgm = format!("P5 {} {} 255\n", args.res, args.res).into_bytes();
-            pgm.extend(transparent.iter().map(|&t| if t { 255u8 } else { 0 }));
-            std::fs::write(out.join(format!("{name}_transparent_mask.pgm")), pgm).expect("write mask");
+            // The transparent-pixel mask, for comparing the renders elsewhere.
+            write_pgm(&out.join(format!("{name}_transparent_mask.pgm")), args.res, transparent.iter().map(|&t| if t { 255 } else { 0 }));
             // Which object each pixel's centre sees first (1 + its index, 0: a light or nothing),
             // with the names in a legend, to split the variance by object.
             let prepared = PreparedScene::new(&instance);
-            let mut ids = format!("P5 {} {} 255\n", args.res, args.res).into_bytes();
-            for y in 0..args.res {
-                for x in 0..args.res {
-                    let hit = prepared.intersect(&sample.camera.ray(x as f32 + 0.5, y as f32 + 0.5, args.res, args.res));
-                    ids.push(match hit.map(|h| h.owner) {
-                        Some(Owner::Object { object, .. }) => (object + 1).min(255) as u8,
-                        _ => 0,
-                    });
+            let ids = (0..args.res * args.res).map(|i| {
+                let (x, y) = (i % args.res, i / args.res);
+                match prepared.intersect(&sample.camera.ray(x as f32 + 0.5, y as f32 + 0.5, args.res, args.res)).map(|h| h.owner) {
+                    Some(Owner::Object { object, .. }) => (object + 1).min(255) as u8,
+                    _ => 0,
                 }
-            }
-            std::fs::write(out.join(format!("{name}_first_object.pgm")), ids).expect("write object ids");
+            });
+            write_pgm(&out.join(format!("{name}_first_object.pgm")), args.res, ids);
             let legend: String = instance.objects.iter().enumerate().map(|(i, o)| format!("{} {}\n", i + 1, o.name)).collect();
             std::fs::write(out.join(format!("{name}_first_object.txt")), legend).expect("write legend");
         }

@@ -157,6 +157,11 @@ pub struct TraceOutput {
 }
 
 impl TraceOutput {
+    /// The output of a scene without light: `image` stays black, its `samples` count as traced.
+    pub fn unlit(image: PlanarImage, samples: u64, warnings: Vec<String>, elapsed: Duration) -> Self {
+        TraceOutput { image, discarded_samples: 0, samples, pilot_samples: 0, light_paths: 0, light_pilot_paths: 0, warnings, elapsed, learning_spp: 0 }
+    }
+
     pub fn samples_per_second(&self) -> f64 {
         self.samples as f64 / self.elapsed.as_secs_f64().max(1e-9)
     }
@@ -232,17 +237,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         if let Some(p) = progress {
             p(samples, samples);
         }
-        return Ok(TraceOutput {
-            image,
-            discarded_samples: 0,
-            samples,
-            pilot_samples: 0,
-            light_paths: 0,
-            light_pilot_paths: 0,
-            warnings,
-            elapsed: start.elapsed(),
-            learning_spp: 0,
-        });
+        return Ok(TraceOutput::unlit(image, samples, warnings, start.elapsed()));
     }
 
     let caustic = settings.integrator == Integrator::Caustic;
@@ -269,7 +264,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
     }
     let done = AtomicU64::new(0);
     // `spp_of(x, y)`: the pass's samples of pixel (x, y).
-    let pass = |spp_of: &(dyn Fn(u32, u32) -> u32 + Sync), seed: u64, tree: Option<&SdTree>, learn: bool, paths: &PathSettings| -> Vec<TileResult> {
+    let pass = |spp_of: &(dyn Fn(u32, u32) -> u32 + Sync), seed: u64, tree: Option<&SdTree>, learn: bool| -> Vec<TileResult> {
         tiles
             .par_iter()
             .map(|tile| {
@@ -285,7 +280,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
                             &prepared,
                             camera,
                             (settings.width, settings.height, spp, seed, settings.stratified),
-                            paths,
+                            &path_settings,
                             x,
                             y,
                             &mut guide,
@@ -326,7 +321,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         let mut index = 0u32;
         while learning_spp + pass_spp <= settings.spp / LEARNING_SHARE && total_pixels * pass_spp as u64 <= MAX_LEARNING_PATHS {
             let pass_seed = glassbake_core::seed::purpose_seed(settings.seed, &format!("guiding pass {index}"));
-            let mut results = pass(&|_, _| pass_spp, pass_seed, tree.as_ref(), true, &path_settings);
+            let mut results = pass(&|_, _| pass_spp, pass_seed, tree.as_ref(), true);
             let records: Vec<GuidingRecord> = results.iter_mut().flat_map(|r| std::mem::take(&mut r.records)).collect();
             accumulate(results);
             tree = SdTree::build(records);
@@ -345,10 +340,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
     let mut main_spp = pixel_spp;
     if settings.adaptive && main_spp.iter().any(|&budget| adaptive::pilot_spp(budget) > 0) {
         let pilot_seed = glassbake_core::seed::purpose_seed(settings.seed, "adaptive pilot");
-        // The pilot sees every path whatever the filter, so that a filtered image's samples are
-        // spread as the full image's are.
-        let all_paths = PathSettings { path_filter: PathFilter::All, ..path_settings };
-        let results = pass(&|x, y| adaptive::pilot_spp(main_spp[(y * width + x) as usize]), pilot_seed, None, false, &all_paths);
+        let results = pass(&|x, y| adaptive::pilot_spp(main_spp[(y * width + x) as usize]), pilot_seed, None, false);
         let mut pilot = vec![adaptive::PilotStats::default(); total_pixels as usize];
         for (tile, result) in tiles.iter().zip(results) {
             let mut values = result.pixels.into_iter();
@@ -356,14 +348,16 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
                 for x in tile.x0..tile.x1 {
                     let sums = values.next().expect("one value per tile pixel");
                     pilot_samples += sums.finite + sums.discarded;
-                    pilot[(y * width + x) as usize] = adaptive::PilotStats { sum: sums.sum, sum_squares: sums.sum_squares, count: sums.finite };
+                    // The whole image's light whatever the filter, so that a filtered image's
+                    // samples are spread as the full image's are.
+                    pilot[(y * width + x) as usize] = adaptive::PilotStats { sum: sums.all_sum, sum_squares: sums.all_sum_squares, count: sums.finite };
                 }
             }
         }
         let weights = adaptive::noise_weights(&pilot, &main_spp, width, height);
         main_spp = adaptive::allocate(&main_spp, &weights);
     }
-    accumulate(pass(&|x, y| main_spp[(y * width + x) as usize] - learning_spp, settings.seed, tree.as_ref(), false, &path_settings));
+    accumulate(pass(&|x, y| main_spp[(y * width + x) as usize] - learning_spp, settings.seed, tree.as_ref(), false));
     let samples = pilot_samples + main_spp.iter().map(|&s| s as u64).sum::<u64>();
 
     let mut discarded_samples = 0;
