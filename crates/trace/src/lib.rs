@@ -14,6 +14,7 @@
 pub mod adaptive;
 pub mod bsdf;
 pub mod geometry;
+pub mod glass_cones;
 pub mod guiding;
 pub mod integrator;
 pub mod light_tracing;

@@ -35,12 +35,11 @@
 //! / (|n_s.w_next||n_g.w_light|) (Veach 1997, sec. 5.3), and refraction carries no 1/eta^2
 //! (light tracing transports flux, not radiance).
 
-use std::f32::consts::TAU;
-
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use glassbake_core::Camera;
 
 use crate::bsdf::Bsdf;
+use crate::glass_cones::GlassBounds;
 use crate::geometry::{Hit, Owner};
 use crate::integrator::{offset_origin, PathSettings, PreparedScene, MAX_VERTICES};
 use crate::rng::Pcg32;
@@ -226,84 +225,17 @@ impl CameraProjection {
     }
 }
 
-/// Most cones a light path chooses among (they live on the stack); a scene with more glass
-/// objects gets one sphere around all of them.
-const MAX_CONES: usize = 64;
-
-/// A sphere around one glass object.
-#[derive(Clone, Copy, Debug)]
-struct BoundingSphere {
-    center: Vec3,
-    radius: f32,
-}
-
-/// A cone of directions from a point towards a bounding sphere.
-#[derive(Clone, Copy, Debug)]
-struct Cone {
-    axis: Vec3,
-    /// Cosine of the half angle; -1 for a point inside the sphere (every direction).
-    cos_max: f32,
-    solid_angle: f32,
-}
-
-impl Cone {
-    fn towards(from: Vec3, sphere: &BoundingSphere) -> Cone {
-        let to_center = sphere.center - from;
-        let distance = to_center.length();
-        // Slightly enlarged so that a point on the object's surface is always inside.
-        let radius = sphere.radius * 1.001 + 1e-5;
-        if distance <= radius {
-            return Cone { axis: Vec3::Z, cos_max: -1.0, solid_angle: 2.0 * TAU };
-        }
-        let sin_max = radius / distance;
-        let cos_max = (1.0 - sin_max * sin_max).max(0.0).sqrt();
-        Cone { axis: to_center / distance, cos_max, solid_angle: TAU * (1.0 - cos_max) }
-    }
-
-    fn contains(&self, direction: Vec3) -> bool {
-        self.cos_max <= -1.0 || direction.dot(self.axis) >= self.cos_max
-    }
-
-    /// A direction uniformly within the cone.
-    fn sample(&self, u: Vec2) -> Vec3 {
-        let cos = 1.0 - u.x * (1.0 - self.cos_max);
-        let sin = (1.0 - cos * cos).max(0.0).sqrt();
-        let phi = TAU * u.y;
-        let frame = crate::sampling::Frame::from_normal(self.axis);
-        frame.to_world(Vec3::new(sin * phi.cos(), sin * phi.sin(), cos)).normalize()
-    }
-}
-
 /// Traces light paths into splats on the image of one camera.
 pub struct LightTracer<'a> {
     prepared: &'a PreparedScene<'a>,
     camera: CameraProjection,
-    glass: Vec<BoundingSphere>,
+    glass: GlassBounds,
     settings: PathSettings,
 }
 
 impl<'a> LightTracer<'a> {
     pub fn new(prepared: &'a PreparedScene<'a>, camera: &Camera, width: u32, height: u32, settings: PathSettings) -> Self {
-        let scene = prepared.scene;
-        let mut glass: Vec<BoundingSphere> = (0..scene.objects.len())
-            .filter(|&i| prepared.object_is_glass(i, settings.material_model))
-            .filter_map(|i| {
-                let mesh = scene.world_mesh(i);
-                let (min, max) = mesh.positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
-                if mesh.positions.is_empty() {
-                    return None;
-                }
-                let center = 0.5 * (min + max);
-                let radius = mesh.positions.iter().map(|&p| (p - center).length()).fold(0.0f32, f32::max);
-                Some(BoundingSphere { center, radius })
-            })
-            .collect();
-        if glass.len() > MAX_CONES {
-            // One sphere around them all: coarser, but every piece of glass stays reachable.
-            let center = glass.iter().map(|s| s.center).sum::<Vec3>() / glass.len() as f32;
-            let radius = glass.iter().map(|s| (s.center - center).length() + s.radius).fold(0.0f32, f32::max);
-            glass = vec![BoundingSphere { center, radius }];
-        }
+        let glass = GlassBounds::new(prepared, settings.material_model);
         LightTracer { prepared, camera: CameraProjection::new(camera, width, height), glass, settings }
     }
 
@@ -317,34 +249,6 @@ impl<'a> LightTracer<'a> {
         !self.glass.is_empty() && !self.prepared.lights.is_empty()
     }
 
-    /// A direction from `from` towards the glass, and its solid-angle density: a cone picked
-    /// in proportion to its solid angle, then uniformly within it. Every cone containing the
-    /// direction adds to the density, so it is (cones containing it) / (sum of solid angles).
-    fn sample_towards_glass(&self, from: Vec3, u_pick: f32, u: Vec2) -> Option<(Vec3, f32)> {
-        let mut cones = [Cone { axis: Vec3::Z, cos_max: 1.0, solid_angle: 0.0 }; MAX_CONES];
-        let cones = &mut cones[..self.glass.len().min(MAX_CONES)];
-        let mut total = 0.0;
-        for (cone, sphere) in cones.iter_mut().zip(&self.glass) {
-            *cone = Cone::towards(from, sphere);
-            total += cone.solid_angle;
-        }
-        if total <= 0.0 {
-            return None;
-        }
-        let mut target = u_pick * total;
-        let mut picked = cones.len() - 1;
-        for (i, cone) in cones.iter().enumerate() {
-            if target < cone.solid_angle {
-                picked = i;
-                break;
-            }
-            target -= cone.solid_angle;
-        }
-        let direction = cones[picked].sample(u);
-        let covering = cones.iter().filter(|c| c.contains(direction)).count().max(1);
-        Some((direction, covering as f32 / total))
-    }
-
     /// One light path from the stream `rng`, its camera connections appended to `splats`.
     /// Returns how many of them were not finite (left out).
     pub fn trace(&self, rng: &mut Pcg32, splats: &mut Vec<Splat>, hits: &mut Vec<Hit>) -> u64 {
@@ -354,7 +258,7 @@ impl<'a> LightTracer<'a> {
         let point = emitter.point_at(rng.next_vec2());
         let u_pick = rng.next_f32();
         let u_direction = rng.next_vec2();
-        let Some((mut direction, density)) = self.sample_towards_glass(point, u_pick, u_direction) else { return 0 };
+        let Some((mut direction, density)) = self.glass.cones_from(point).sample(u_pick, u_direction) else { return 0 };
         let radiance = emitter.emitted(direction);
         let cos_light = emitter.normal.dot(direction).abs();
         if radiance == Vec3::ZERO || cos_light <= 0.0 || emitter.area <= 0.0 || pmf <= 0.0 {
@@ -488,9 +392,6 @@ impl<'a> LightTracer<'a> {
 mod tests {
     use super::*;
 
-    /// Solid angle of the whole sphere.
-    const SPHERE: f32 = 4.0 * std::f32::consts::PI;
-
     /// The balanced budget minimizes (variance x cost) of the image: it is the closed form's
     /// optimum, and no other count does better.
     #[test]
@@ -513,35 +414,6 @@ mod tests {
         assert_eq!(balanced_light_paths(0.0, b, c, per_path, samples), samples);
         assert_eq!(balanced_light_paths(a, 1e12, c, per_path, samples), samples);
         assert_eq!(balanced_light_paths(a, 0.0, c, per_path, 10), 1, "at least one light path");
-    }
-
-    #[test]
-    fn cone_sampling_stays_inside_and_counts_overlaps() {
-        let spheres = [BoundingSphere { center: Vec3::new(0.0, 0.0, -2.0), radius: 0.5 }, BoundingSphere { center: Vec3::new(0.2, 0.0, -2.5), radius: 0.6 }];
-        let from = Vec3::ZERO;
-        let cones: Vec<Cone> = spheres.iter().map(|s| Cone::towards(from, s)).collect();
-        let mut rng = Pcg32::new(3, 4);
-        for cone in &cones {
-            for _ in 0..1000 {
-                assert!(cone.contains(cone.sample(rng.next_vec2())));
-            }
-        }
-        // The union's measure, by Monte Carlo over the sphere, against the sampler's density:
-        // integrating density over the union must give 1.
-        let total: f32 = cones.iter().map(|c| c.solid_angle).sum();
-        let n = 400_000;
-        let mut integral = 0.0f64;
-        for _ in 0..n {
-            let d = crate::sampling::uniform_sphere(rng.next_vec2());
-            let covering = cones.iter().filter(|c| c.contains(d)).count();
-            integral += covering as f64 / total as f64;
-        }
-        integral *= SPHERE as f64 / n as f64;
-        assert!((integral - 1.0).abs() < 0.03, "density integrates to {integral}");
-        // Inside a sphere the cone is every direction.
-        let inside = Cone::towards(Vec3::new(0.0, 0.0, -2.1), &spheres[0]);
-        assert!(inside.contains(Vec3::Z) && inside.contains(Vec3::NEG_Z));
-        assert!((inside.solid_angle - SPHERE).abs() < 1e-5);
     }
 
     #[test]
@@ -579,9 +451,9 @@ mod tests {
         use glassbake_scene::{Material, Object, Scene};
         let mut scene = Scene::empty("many panes");
         scene.materials.push(Material::glass("pane", Vec3::ONE, 0.0, 1.5, true));
-        for i in 0..(MAX_CONES + 6) {
+        for i in 0..(crate::glass_cones::MAX_CONES + 6) {
             let centre = Vec3::new(i as f32 * 0.3 - 10.0, 1.0 + (i % 5) as f32, -((i % 7) as f32));
-            scene.meshes.push(std::sync::Arc::new(glassbake_scene::shapes::rect(centre, Vec3::X * 0.2, Vec3::Y * 0.2, Vec2::ONE)));
+            scene.meshes.push(std::sync::Arc::new(glassbake_scene::shapes::rect(centre, Vec3::X * 0.2, Vec3::Y * 0.2, glam::Vec2::ONE)));
             scene.objects.push(Object { name: format!("pane {i}"), mesh: i, material: 0, transform: glam::Affine3A::IDENTITY, transparent: true });
         }
         let prepared = PreparedScene::new(&scene);
@@ -594,8 +466,8 @@ mod tests {
             path_filter: crate::PathFilter::All,
         };
         let tracer = LightTracer::new(&prepared, &camera, 8, 8, settings);
-        assert_eq!(tracer.glass.len(), 1);
-        let sphere = tracer.glass[0];
+        assert_eq!(tracer.glass.spheres.len(), 1);
+        let sphere = tracer.glass.spheres[0];
         for i in 0..scene.objects.len() {
             for p in scene.world_mesh(i).positions {
                 assert!((p - sphere.center).length() <= sphere.radius * 1.0001, "pane {i} sticks out of the sphere");
