@@ -8,15 +8,15 @@
 //! cargo run --release -p glassbake-trace --example trace_convergence -- \
 //!     [--res 128] [--spp 256] [--glass-spp G] [--sample 0] [--scenes cornellbox,desk] [--out DIR]
 //!     [--estimators plain,solid-angle,guided,caustic,caustic+adaptive+stratified] [--max-depth N] [--rr-depth N]
-//!     [--paths all|bent-view|straight-view]
+//!     [--paths all|bent-view|straight-view] [--seeds 2]
 //!
 //! `+adaptive` after an estimator's name turns on adaptive sampling (`TraceSettings::adaptive`),
 //! `+stratified` stratified sample values (`TraceSettings::stratified`), in that order.
 //! `--paths bent-view` renders only the paths whose view from the camera bends at glass,
 //! `straight-view` the rest (`PathFilter`; the two add up to the image): where the noise is.
 //!
-//! Variance of a pixel's estimate is E[(a - b)^2] / 2 for two independent renders a, b of
-//! it, averaged over the pixel's RGB channels and then over the pixels of a mask.
+//! Variance of a pixel's estimate is the sample variance of its value over `--seeds`
+//! independent renders (2: E[(a - b)^2] / 2), averaged over the pixel's RGB channels and then over the pixels of a mask.
 //! "Transparent" pixels see a transmissive object first; "lit through glass" pixels see an
 //! opaque surface first whose straight line to the centre of some rectangle light crosses a
 //! transmissive object (the paths plain NEE cannot take). "Transparent, clamped" is the
@@ -44,6 +44,8 @@ struct Args {
     max_depth: u32,
     rr_depth: u32,
     paths: PathFilter,
+    /// Independent renders per estimator (seeds 1 to N), at least 2.
+    seeds: u64,
     /// (estimator, adaptive sampling, stratified)
     estimators: Vec<(Integrator, bool, bool)>,
 }
@@ -59,11 +61,12 @@ fn parse_args() -> Args {
         max_depth: TraceSettings::DEFAULT_MAX_DEPTH,
         rr_depth: TraceSettings::DEFAULT_RR_DEPTH,
         paths: PathFilter::All,
+        seeds: 2,
         estimators: vec![(Integrator::Plain, false, false), (Integrator::Caustic, false, false), (Integrator::Caustic, true, true)],
     };
     let argv: Vec<String> = std::env::args().skip(1).collect();
     let usage = || -> ! {
-        eprintln!("usage: trace_convergence [--res N] [--spp N] [--glass-spp G] [--sample I] [--scenes a,b] [--estimators plain,solid-angle,guided,caustic,caustic+adaptive+stratified] [--out DIR] [--max-depth N] [--rr-depth N] [--paths all|bent-view|straight-view]");
+        eprintln!("usage: trace_convergence [--res N] [--spp N] [--glass-spp G] [--sample I] [--scenes a,b] [--estimators plain,solid-angle,guided,caustic,caustic+adaptive+stratified] [--out DIR] [--max-depth N] [--rr-depth N] [--paths all|bent-view|straight-view] [--seeds N]");
         std::process::exit(2)
     };
     let mut i = 0;
@@ -78,6 +81,7 @@ fn parse_args() -> Args {
             "--out" => args.out = Some(PathBuf::from(value)),
             "--max-depth" => args.max_depth = value.parse().unwrap_or_else(|_| usage()),
             "--rr-depth" => args.rr_depth = value.parse().unwrap_or_else(|_| usage()),
+            "--seeds" => args.seeds = value.parse().ok().filter(|&n| n >= 2).unwrap_or_else(|| usage()),
             "--paths" => args.paths = PathFilter::parse(&value).unwrap_or_else(|| usage()),
             "--estimators" => {
                 args.estimators = value
@@ -160,12 +164,22 @@ fn write_pgm(path: &std::path::Path, res: u32, values: impl Iterator<Item = u8>)
 }
 
 /// Per pixel E[(a - b)^2] / 2 over RGB of `tone(a)` and `tone(b)`.
-fn pixel_variances(a: &PlanarImage, b: &PlanarImage, tone: fn(f32) -> f32) -> Vec<f64> {
-    let n = (a.width() * a.height()) as usize;
-    (0..n)
+/// Each pixel's sample variance over independent renders (n - 1 degrees of freedom), the
+/// mean of its RGB channels.
+fn pixel_variances(images: &[PlanarImage], tone: fn(f32) -> f32) -> Vec<f64> {
+    let (width, height) = (images[0].width(), images[0].height());
+    let n = images.len() as f64;
+    (0..width * height)
         .map(|i| {
-            let (x, y) = (i as u32 % a.width(), i as u32 / a.width());
-            (0..3).map(|c| (tone(a.get(c, x, y)) as f64 - tone(b.get(c, x, y)) as f64).powi(2) / 2.0).sum::<f64>() / 3.0
+            let (x, y) = (i % width, i / width);
+            (0..3)
+                .map(|c| {
+                    let values = images.iter().map(|image| tone(image.get(c, x, y)) as f64);
+                    let mean = values.clone().sum::<f64>() / n;
+                    values.map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)
+                })
+                .sum::<f64>()
+                / 3.0
         })
         .collect()
 }
@@ -179,17 +193,19 @@ fn masked_mean(values: &[f64], mask: Option<&[bool]>) -> Option<f64> {
     (count > 0).then(|| sum / count as f64)
 }
 
-fn image_mean(a: &PlanarImage, b: &PlanarImage) -> f64 {
-    let n = (a.width() * a.height()) as f64 * 3.0;
+fn image_mean(images: &[PlanarImage]) -> f64 {
+    let (width, height) = (images[0].width(), images[0].height());
     let mut sum = 0.0;
-    for c in 0..3 {
-        for y in 0..a.height() {
-            for x in 0..a.width() {
-                sum += (a.get(c, x, y) + b.get(c, x, y)) as f64 * 0.5;
+    for image in images {
+        for c in 0..3 {
+            for y in 0..height {
+                for x in 0..width {
+                    sum += image.get(c, x, y) as f64;
+                }
             }
         }
     }
-    sum / n
+    sum / (width as f64 * height as f64 * 3.0 * images.len() as f64)
 }
 
 fn main() {
@@ -198,8 +214,8 @@ fn main() {
         std::fs::create_dir_all(out).expect("create --out");
     }
     println!(
-        "{}x{}, {} spp, sample {} of seed 0, seeds 1 and 2; variance of a pixel's estimate (mean of RGB); efficiency = 1 / (variance x seconds), relative to plain\n",
-        args.res, args.res, args.spp, args.sample
+        "{}x{}, {} spp, sample {} of seed 0, seeds 1 to {}; variance of a pixel's estimate (mean of RGB); efficiency = 1 / (variance x seconds), relative to plain\n",
+        args.res, args.res, args.spp, args.sample, args.seeds
     );
     println!("| scene | estimator | seconds | image mean | surface px | variance | efficiency | transparent px | variance | efficiency | lit through glass px | variance | efficiency | all px, clamped | variance | efficiency | transparent, clamped | variance | efficiency |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
@@ -230,11 +246,11 @@ fn main() {
             let label = format!("{}{}{}", integrator.name(), if adaptive { "+adaptive" } else { "" }, if stratified { "+stratified" } else { "" });
             let mut images = Vec::new();
             let mut seconds = 0.0;
-            for seed in [1u64, 2] {
+            for seed in 1..=args.seeds {
                 let settings = TraceSettings { integrator, adaptive, stratified, max_depth: args.max_depth, rr_depth: args.rr_depth, path_filter: args.paths, glass_spp: args.glass_spp, ..TraceSettings::new(args.res, args.res, args.spp, seed) };
                 let start = Instant::now();
                 let output = render(&instance, &sample.camera, &settings, None).expect("render");
-                seconds += start.elapsed().as_secs_f64() / 2.0;
+                seconds += start.elapsed().as_secs_f64() / args.seeds as f64;
                 if output.light_paths > 0 {
                     let camera_samples = output.samples - output.pilot_samples;
                     eprintln!("{name} {label} seed {seed}: {:.4} light paths per camera sample", output.light_paths as f64 / camera_samples as f64);
@@ -246,8 +262,8 @@ fn main() {
                 }
                 images.push(output.image);
             }
-            let variances = pixel_variances(&images[0], &images[1], |v| v);
-            let clamped = pixel_variances(&images[0], &images[1], glassbake_core::color::tonemap_clamp);
+            let variances = pixel_variances(&images, |v| v);
+            let clamped = pixel_variances(&images, glassbake_core::color::tonemap_clamp);
             let mut cells = Vec::new();
             let sets = [(&variances, Some(&surfaces[..])), (&variances, Some(&transparent[..])), (&variances, Some(&through_glass[..])), (&clamped, None), (&clamped, Some(&transparent[..]))];
             for (k, (variances, mask)) in sets.into_iter().enumerate() {
@@ -267,7 +283,7 @@ fn main() {
             }
             println!(
                 "| {name} | {label} | {seconds:.1} | {:.4} | {} |",
-                image_mean(&images[0], &images[1]),
+                image_mean(&images),
                 cells.join(" | ")
             );
         }
