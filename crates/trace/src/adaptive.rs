@@ -9,6 +9,10 @@
 //! independent of it, so every pixel stays an unbiased mean, at the cost of the pilot's
 //! 1/[`PILOT_SHARE`] of the budget.
 //!
+//! Pixels that show a glass object also share the noise measured over the whole object
+//! ([`pool_by_object`]): a neighbourhood's pilot is too short to catch the rare bright paths
+//! seen in glass.
+//!
 //! What counts as noise is what the metrics see: they clamp radiance to [0, 1], so a channel
 //! whose pilot mean is clearly above 1 (the inside of a light) has no visible noise and
 //! keeps only the floor.
@@ -22,6 +26,10 @@ pub const PILOT_SHARE: u32 = 16;
 pub const FLOOR_SHARE: u32 = 4;
 /// No pixel gets more than this many times its budget.
 pub const MAX_FACTOR: u32 = 16;
+/// Share of a glass pixel's noise estimate taken from its whole object ([`pool_by_object`]).
+/// Chosen by measurement (docs/benchmarks.md, 2026-11-24): at 128 px, 256 spp, 0.4, 0.6 and
+/// 0.85 did about equally well; pooling opaque objects too made the Cornell boxes worse.
+pub const OBJECT_SHARE: f64 = 0.6;
 /// Below this budget the pilot (fewer than 16 samples a pixel, 144 a neighbourhood) is too
 /// short to tell where the noise is: on cornellbox at 96 spp adaptive sampling was no better
 /// than uniform, on two of three frames 1.14-1.25x worse (docs/benchmarks.md). Such pixels
@@ -86,6 +94,37 @@ pub fn noise_weights(pilot: &[PilotStats], budgets: &[u32], width: u32, height: 
                 }
             }
             (visible_variance / 3.0).sqrt()
+        })
+        .collect()
+}
+
+/// Blend each glass pixel's noise with its glass object's: sigma_i^2 becomes
+/// (1 - [`OBJECT_SHARE`]) sigma_i^2 + [`OBJECT_SHARE`] x the mean of sigma^2 over the pixels
+/// of the same object. `objects[i]` is the transparent object pixel i shows first (`None`
+/// for anything else, whose weight stays). Why: most of the noise left on glass is rare
+/// bright paths (caustics seen in or through it, reflections of glass in glass) that a
+/// pilot of 16 samples a pixel, 144 a neighbourhood, catches only here and there, while
+/// every pixel of the object is open to them; the object's hundreds of pixels measure their
+/// rate where a neighbourhood cannot.
+pub fn pool_by_object(weights: &[f64], objects: &[Option<u32>]) -> Vec<f64> {
+    assert_eq!(weights.len(), objects.len(), "one object entry per pixel");
+    let mut per_object: BTreeMap<u32, (f64, u64)> = BTreeMap::new();
+    for (&weight, object) in weights.iter().zip(objects) {
+        if let Some(object) = object {
+            let entry = per_object.entry(*object).or_default();
+            entry.0 += weight * weight;
+            entry.1 += 1;
+        }
+    }
+    weights
+        .iter()
+        .zip(objects)
+        .map(|(&weight, object)| match object {
+            Some(object) => {
+                let (sum, count) = per_object[object];
+                ((1.0 - OBJECT_SHARE) * weight * weight + OBJECT_SHARE * sum / count as f64).sqrt()
+            }
+            None => weight,
         })
         .collect()
 }
@@ -215,6 +254,22 @@ mod tests {
         assert_eq!(counts[2] + counts[3], 2 * (256 - pilot_spp(256)));
         assert_eq!(counts[2], 256 / FLOOR_SHARE);
         assert_eq!(counts[4], 512 - pilot_spp(512), "a group of one gets its own budget back");
+    }
+
+    #[test]
+    fn glass_pixels_share_their_objects_noise() {
+        // Object 0 covers pixels 0 and 3 (one noisy, one quiet), object 1 pixel 4 alone;
+        // pixels 1 and 2 show no glass.
+        let weights = [2.0, 1.0, 0.5, 0.0, 3.0];
+        let objects = [Some(0), None, None, Some(0), Some(1)];
+        let pooled = pool_by_object(&weights, &objects);
+        let object_variance = (4.0 + 0.0) / 2.0;
+        let blend = |w: f64| ((1.0 - OBJECT_SHARE) * w * w + OBJECT_SHARE * object_variance).sqrt();
+        assert!((pooled[0] - blend(2.0)).abs() < 1e-12, "{}", pooled[0]);
+        assert!((pooled[3] - blend(0.0)).abs() < 1e-12, "{}", pooled[3]);
+        assert!(pooled[3] > 1.0, "a quiet pixel of a noisy object gets the object's noise");
+        assert_eq!(&pooled[1..3], &weights[1..3], "pixels without glass keep their own");
+        assert!((pooled[4] - 3.0).abs() < 1e-12, "an object of one pixel is that pixel");
     }
 
     #[test]

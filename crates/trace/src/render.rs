@@ -355,6 +355,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
             }
         }
         let weights = adaptive::noise_weights(&pilot, &main_spp, width, height);
+        let weights = adaptive::pool_by_object(&weights, &transparent_object_per_pixel(&prepared, camera, width, height));
         main_spp = adaptive::allocate(&main_spp, &weights);
     }
     accumulate(pass(&|x, y| main_spp[(y * width + x) as usize] - learning_spp, settings.seed, tree.as_ref(), false));
@@ -536,6 +537,22 @@ pub fn glass_pixels(prepared: &PreparedScene, camera: &Camera, width: u32, heigh
                 let ray = camera.ray(x as f32 + offset(probe % GLASS_PROBES), y as f32 + offset(probe / GLASS_PROBES), width, height);
                 matches!(prepared.intersect(&ray).map(|hit| hit.owner), Some(Owner::Object { object, .. }) if scene.objects[object as usize].transparent)
             })
+        })
+        .collect()
+}
+
+/// The transparent object (one that gets a transparency buffer) that a ray through each
+/// pixel's centre meets first, if any; row-major.
+fn transparent_object_per_pixel(prepared: &PreparedScene, camera: &Camera, width: u32, height: u32) -> Vec<Option<u32>> {
+    let scene = prepared.scene;
+    (0..width * height)
+        .into_par_iter()
+        .map(|index| {
+            let ray = camera.ray((index % width) as f32 + 0.5, (index / width) as f32 + 0.5, width, height);
+            match prepared.intersect(&ray).map(|hit| hit.owner) {
+                Some(Owner::Object { object, .. }) if scene.objects[object as usize].transparent => Some(object),
+                _ => None,
+            }
         })
         .collect()
 }
