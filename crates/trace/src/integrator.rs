@@ -123,8 +123,9 @@ pub enum Integrator {
     /// Rectangle lights sampled by solid angle and path guiding learned over the first
     /// quarter of the samples.
     Guided,
-    /// The plain path tracer without the caustic paths, plus a light tracer for those
-    /// (`light_tracing.rs`): light that reached opaque surfaces through glass.
+    /// The path tracer without the caustic paths, rectangle lights sampled by solid angle
+    /// near them, plus a light tracer for the caustic paths (`light_tracing.rs`): light that
+    /// reached opaque surfaces through glass.
     Caustic,
 }
 
@@ -211,7 +212,7 @@ impl<'a> PreparedScene<'a> {
     }
 
     pub fn for_integrator(scene: &'a Scene, integrator: Integrator) -> Self {
-        let lights = LightSampler::new(scene, matches!(integrator, Integrator::SolidAngle | Integrator::Guided));
+        let lights = LightSampler::new(scene, matches!(integrator, Integrator::SolidAngle | Integrator::Guided | Integrator::Caustic));
         let geometry = SceneGeometry::build(scene, &|owner, index| lights.emitter_of(owner, index));
         PreparedScene { scene, geometry, lights }
     }

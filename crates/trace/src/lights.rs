@@ -15,8 +15,11 @@ use crate::spherical_rect::SphericalRect;
 
 /// Rectangles are sampled by solid angle from points closer to their centre than this
 /// many times the sum of their edge lengths: there the area density's distance^2 / cos term
-/// varies strongly over the light (at the limit by well under a factor of two).
-const SOLID_ANGLE_RANGE: f32 = 1.5;
+/// varies most over the light. Farther away the four `acos` per shadow ray cost more than
+/// they save: with the `caustic` estimator at 128 px, 256 spp, 1.5 and 0.75 lowered the
+/// desk's variance alike (-18%) but 1.5 cost it +20% time and 0.75 nothing measurable
+/// (docs/benchmarks.md, 2026-11-24).
+const SOLID_ANGLE_RANGE: f32 = 0.75;
 
 /// Where an emitter's points lie.
 #[derive(Clone, Copy, Debug)]
