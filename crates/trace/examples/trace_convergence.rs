@@ -16,7 +16,8 @@
 //! `straight-view` the rest (`PathFilter`; the two add up to the image): where the noise is.
 //!
 //! Variance of a pixel's estimate is the sample variance of its value over `--seeds`
-//! independent renders (2: E[(a - b)^2] / 2), averaged over the pixel's RGB channels and then over the pixels of a mask.
+//! independent renders (for 2: E[(a - b)^2] / 2), averaged over the pixel's RGB channels and
+//! then over the pixels of a mask.
 //! "Transparent" pixels see a transmissive object first; "lit through glass" pixels see an
 //! opaque surface first whose straight line to the centre of some rectangle light crosses a
 //! transmissive object (the paths plain NEE cannot take). "Transparent, clamped" is the
@@ -163,7 +164,6 @@ fn write_pgm(path: &std::path::Path, res: u32, values: impl Iterator<Item = u8>)
     std::fs::write(path, pgm).expect("write PGM");
 }
 
-/// Per pixel E[(a - b)^2] / 2 over RGB of `tone(a)` and `tone(b)`.
 /// Each pixel's sample variance over independent renders (n - 1 degrees of freedom), the
 /// mean of its RGB channels.
 fn pixel_variances(images: &[PlanarImage], tone: fn(f32) -> f32) -> Vec<f64> {

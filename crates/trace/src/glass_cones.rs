@@ -106,8 +106,8 @@ impl GlassBounds {
 }
 
 /// The cones towards the glass from one point: a distribution of directions, uniform over
-/// their union where they do not overlap. (Computed on demand: a vertex evaluates them a
-/// few times at most, and a copy of them all would cost more than the arithmetic.)
+/// their union where they do not overlap. The cones are recomputed from the spheres on each
+/// use rather than stored: there are few, and up to [`MAX_CONES`] copies would cost more.
 #[derive(Clone, Copy, Debug)]
 pub struct GlassCones<'a> {
     bounds: &'a GlassBounds,
@@ -169,7 +169,6 @@ mod tests {
         let cones = bounds.cones_from(Vec3::ZERO);
         let mut rng = Pcg32::new(3, 4);
         for cone in cones.cones() {
-            let cone = &cone;
             for _ in 0..1000 {
                 assert!(cone.contains(cone.sample(rng.next_vec2())));
             }

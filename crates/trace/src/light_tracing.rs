@@ -39,8 +39,8 @@ use glam::Vec3;
 use glassbake_core::Camera;
 
 use crate::bsdf::Bsdf;
-use crate::glass_cones::GlassBounds;
 use crate::geometry::{Hit, Owner};
+use crate::glass_cones::GlassBounds;
 use crate::integrator::{offset_origin, PathSettings, PreparedScene, MAX_VERTICES};
 use crate::rng::Pcg32;
 
