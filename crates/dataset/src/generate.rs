@@ -125,6 +125,7 @@ fn make_frame(
         settings.integrator = spec.estimator.integrator();
         settings.adaptive = spec.estimator.adaptive();
         settings.stratified = spec.estimator.stratified();
+        settings.merge_caustics = spec.estimator.merge_caustics();
         match gpu_tracer {
             // The GPU tracer draws every pixel at one spp: the glass pixels' for all of them.
             Some(tracer) => {

@@ -11,7 +11,10 @@
 //!     [--paths all|bent-view|straight-view] [--seeds 2]
 //!
 //! `+adaptive` after an estimator's name turns on adaptive sampling (`TraceSettings::adaptive`),
-//! `+stratified` stratified sample values (`TraceSettings::stratified`), in that order.
+//! `+stratified` stratified sample values (`TraceSettings::stratified`), `+merge` photon
+//! merging of caustics seen through glass (`TraceSettings::merge_caustics`, biased: its row is
+//! followed by its squared bias against the last unbiased estimator listed before it, and its
+//! efficiency by error = variance + squared bias).
 //! `--paths bent-view` renders only the paths whose view from the camera bends at glass,
 //! `straight-view` the rest (`PathFilter`; the two add up to the image): where the noise is.
 //!
@@ -47,8 +50,42 @@ struct Args {
     paths: PathFilter,
     /// Independent renders per estimator (seeds 1 to N), at least 2.
     seeds: u64,
-    /// (estimator, adaptive sampling, stratified)
-    estimators: Vec<(Integrator, bool, bool)>,
+    estimators: Vec<Estimator>,
+}
+
+/// An integrator and the sampling options it runs with.
+#[derive(Clone, Copy)]
+struct Estimator {
+    integrator: Integrator,
+    adaptive: bool,
+    stratified: bool,
+    /// Photon merging of caustics seen through glass (`TraceSettings::merge_caustics`).
+    merge: bool,
+}
+
+impl Estimator {
+    fn parse(text: &str) -> Option<Self> {
+        let mut parts = text.split('+');
+        let mut estimator = Estimator { integrator: Integrator::parse(parts.next()?)?, adaptive: false, stratified: false, merge: false };
+        for option in parts {
+            match option {
+                "adaptive" => estimator.adaptive = true,
+                "stratified" => estimator.stratified = true,
+                "merge" => estimator.merge = true,
+                _ => return None,
+            }
+        }
+        Some(estimator)
+    }
+
+    fn label(&self) -> String {
+        let options = [(self.merge, "+merge"), (self.adaptive, "+adaptive"), (self.stratified, "+stratified")];
+        options.iter().filter(|(on, _)| *on).fold(self.integrator.name().to_string(), |label, (_, option)| label + option)
+    }
+
+    fn is_plain(&self) -> bool {
+        self.integrator == Integrator::Plain && !self.adaptive && !self.stratified && !self.merge
+    }
 }
 
 fn parse_args() -> Args {
@@ -63,7 +100,7 @@ fn parse_args() -> Args {
         rr_depth: TraceSettings::DEFAULT_RR_DEPTH,
         paths: PathFilter::All,
         seeds: 2,
-        estimators: vec![(Integrator::Plain, false, false), (Integrator::Caustic, false, false), (Integrator::Caustic, true, true)],
+        estimators: ["plain", "caustic", "caustic+adaptive+stratified"].into_iter().map(|e| Estimator::parse(e).expect("a known estimator")).collect(),
     };
     let argv: Vec<String> = std::env::args().skip(1).collect();
     let usage = || -> ! {
@@ -85,14 +122,7 @@ fn parse_args() -> Args {
             "--seeds" => args.seeds = value.parse().ok().filter(|&n| n >= 2).unwrap_or_else(|| usage()),
             "--paths" => args.paths = PathFilter::parse(&value).unwrap_or_else(|| usage()),
             "--estimators" => {
-                args.estimators = value
-                    .split(',')
-                    .map(|e| {
-                        let (e, stratified) = e.strip_suffix("+stratified").map_or((e, false), |n| (n, true));
-                        let (name, adaptive) = e.strip_suffix("+adaptive").map_or((e, false), |n| (n, true));
-                        (Integrator::parse(name).unwrap_or_else(|| usage()), adaptive, stratified)
-                    })
-                    .collect();
+                args.estimators = value.split(',').map(|e| Estimator::parse(e).unwrap_or_else(|| usage())).collect();
             }
             _ => usage(),
         }
@@ -184,6 +214,31 @@ fn pixel_variances(images: &[PlanarImage], tone: fn(f32) -> f32) -> Vec<f64> {
         .collect()
 }
 
+/// Per pixel, the squared bias of estimator A's clamped value against an unbiased B's, from
+/// renders paired by seed (which share random streams, so their errors correlate): with d_k
+/// the difference of the k-th pair, E[mean(d)^2] = bias^2 + var(d) / N, so mean(d)^2 less the
+/// sample variance of d over N is an unbiased estimate of bias^2 (averaged over RGB; noisy
+/// per pixel, negative values kept so that averages over pixels stay unbiased).
+fn squared_bias(images: &[PlanarImage], reference: &[PlanarImage]) -> Vec<f64> {
+    let (width, height) = (images[0].width(), images[0].height());
+    let n = images.len().min(reference.len()) as f64;
+    let tone = |v: f32| glassbake_core::color::tonemap_clamp(v) as f64;
+    (0..width * height)
+        .map(|i| {
+            let (x, y) = (i % width, i / width);
+            (0..3)
+                .map(|c| {
+                    let d: Vec<f64> = images.iter().zip(reference).map(|(a, b)| tone(a.get(c, x, y)) - tone(b.get(c, x, y))).collect();
+                    let mean = d.iter().sum::<f64>() / n;
+                    let variance = d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+                    mean * mean - variance / n
+                })
+                .sum::<f64>()
+                / 3.0
+        })
+        .collect()
+}
+
 fn masked_mean(values: &[f64], mask: Option<&[bool]>) -> Option<f64> {
     let (sum, count) = values
         .iter()
@@ -242,12 +297,16 @@ fn main() {
             std::fs::write(out.join(format!("{name}_first_object.txt")), legend).expect("write legend");
         }
         let mut plain_efficiency = [None; 5];
-        for &(integrator, adaptive, stratified) in &args.estimators {
-            let label = format!("{}{}{}", integrator.name(), if adaptive { "+adaptive" } else { "" }, if stratified { "+stratified" } else { "" });
+        // The last unbiased estimator's renders: what a biased one's squared bias is measured
+        // against.
+        let mut unbiased: Option<(String, Vec<PlanarImage>)> = None;
+        for estimator in &args.estimators {
+            let Estimator { integrator, adaptive, stratified, merge } = *estimator;
+            let label = estimator.label();
             let mut images = Vec::new();
             let mut seconds = 0.0;
             for seed in 1..=args.seeds {
-                let settings = TraceSettings { integrator, adaptive, stratified, max_depth: args.max_depth, rr_depth: args.rr_depth, path_filter: args.paths, glass_spp: args.glass_spp, ..TraceSettings::new(args.res, args.res, args.spp, seed) };
+                let settings = TraceSettings { integrator, adaptive, stratified, merge_caustics: merge, max_depth: args.max_depth, rr_depth: args.rr_depth, path_filter: args.paths, glass_spp: args.glass_spp, ..TraceSettings::new(args.res, args.res, args.spp, seed) };
                 let start = Instant::now();
                 let output = render(&instance, &sample.camera, &settings, None).expect("render");
                 seconds += start.elapsed().as_secs_f64() / args.seeds as f64;
@@ -270,7 +329,7 @@ fn main() {
                 let count = mask.map_or(variances.len(), |m| m.iter().filter(|&&b| b).count());
                 let variance = masked_mean(variances, mask);
                 let efficiency = variance.map(|v| 1.0 / (v * seconds));
-                if integrator == Integrator::Plain && !adaptive && !stratified {
+                if estimator.is_plain() {
                     plain_efficiency[k] = efficiency;
                 }
                 let relative = match (efficiency, plain_efficiency[k]) {
@@ -286,6 +345,31 @@ fn main() {
                 image_mean(&images),
                 cells.join(" | ")
             );
+            if merge {
+                match &unbiased {
+                    Some((reference, reference_images)) => {
+                        let bias2 = squared_bias(&images, reference_images);
+                        // Mean over a pixel set, with its standard error (pixels taken as independent).
+                        let summary = |mask: Option<&[bool]>| {
+                            let values: Vec<f64> = bias2.iter().enumerate().filter(|(i, _)| mask.is_none_or(|m| m[*i])).map(|(_, v)| *v).collect();
+                            let n = values.len().max(1) as f64;
+                            let mean = values.iter().sum::<f64>() / n;
+                            let spread = (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0) / n).sqrt();
+                            (mean, spread)
+                        };
+                        let ((all, all_error), (glass, glass_error)) = (summary(None), summary(Some(&transparent[..])));
+                        let variance = masked_mean(&clamped, None).unwrap_or(0.0);
+                        // A negative estimate is a bias below what the renders can detect: counted as 0.
+                        let relative = plain_efficiency[3].map_or("n/a".into(), |p| format!("{:.2}x", 1.0 / ((variance + all.max(0.0)) * seconds) / p));
+                        println!(
+                            "|   | {label}: squared bias vs {reference} (clamped), all {all:.2e} +- {all_error:.1e}, transparent {glass:.2e} +- {glass_error:.1e}; error (variance + squared bias) efficiency over plain, all {relative} |"
+                        );
+                    }
+                    None => eprintln!("{name} {label}: no unbiased estimator before it to measure its bias against"),
+                }
+            } else {
+                unbiased = Some((label.clone(), images));
+            }
         }
     }
 }

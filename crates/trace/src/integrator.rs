@@ -16,6 +16,7 @@ use glassbake_core::Ray;
 use glassbake_scene::Scene;
 
 use crate::bsdf::{Bsdf, BsdfSample, MaterialModel, SurfaceMaterial};
+use crate::caustic_merging::{MergeQuery, PhotonMap};
 use crate::geometry::{Hit, Owner, SceneGeometry};
 use crate::guiding::{GuidingRecord, SdTree};
 use crate::light_tracing::PathClass;
@@ -154,13 +155,16 @@ impl Integrator {
 /// the BSDF); Müller et al. use one half.
 const GUIDED_FRACTION: f32 = 0.25;
 
-/// What a path learns from and records into.
+/// What a path reads besides the scene (learned guiding, caustic photons) and records into.
 #[derive(Default)]
 pub struct Guide<'a> {
     /// The distribution learned so far; `None` samples BSDFs only.
     pub tree: Option<&'a SdTree>,
     /// Where to leave records while learning.
     pub records: Option<&'a mut Vec<GuidingRecord>>,
+    /// Photons of caustics seen through glass (`caustic_merging.rs`): with them, the
+    /// `caustic` estimator's path tracer leaves those paths to the photons' density estimate.
+    pub photons: Option<&'a PhotonMap>,
 }
 
 /// Reusable per-thread storage for [`PreparedScene::trace_path`].
@@ -168,6 +172,7 @@ pub struct Guide<'a> {
 pub struct PathScratch {
     pub(crate) hits: Vec<Hit>,
     vertices: Vec<PendingRecord>,
+    photons_found: Vec<u32>,
 }
 
 /// A guided vertex waiting for its path to end to learn the radiance that came back.
@@ -346,6 +351,7 @@ impl<'a> PreparedScene<'a> {
         // Which of the light tracer's paths this one may become.
         let mut class = PathClass::default();
         let split = settings.leave_caustics_to_light_tracing;
+        let merging = split && guide.photons.is_some();
 
         for vertex in 0..MAX_VERTICES {
             let Some(hit) = self.intersect_from(origin, direction, t_min, f32::INFINITY) else {
@@ -360,7 +366,7 @@ impl<'a> PreparedScene<'a> {
 
             if let Some(emitter) = hit.emitter {
                 let emitted = self.lights.emitters[emitter as usize].emitted(wo);
-                if emitted != Vec3::ZERO && !(split && class.light_traced()) {
+                if emitted != Vec3::ZERO && !(split && class.light_traced()) && !(merging && class.merged()) {
                     let weight = if specular {
                         1.0
                     } else {
@@ -380,6 +386,15 @@ impl<'a> PreparedScene<'a> {
                 break;
             }
             let glass = bsdf.is_glass();
+            if let Some(photons) = guide.photons.filter(|_| merging && class.first_opaque_of_bent_view(glass)) {
+                let u_subset = rng.next_f32();
+                let query = MergeQuery { position: hit.position, normal: hit.geometric_normal, wo, max_segments: settings.max_depth - depth };
+                let light = throughput * photons.radiance(&query, &bsdf, u_subset, &mut scratch.photons_found);
+                radiance += light;
+                if filter.counts(true) {
+                    counted += light;
+                }
+            }
             class.enter_vertex(glass);
             // Segments a shadow ray from here may still cross panes with: a path of
             // `depth + 1 + crossings` segments must fit, as the BSDF-sampled one must.
@@ -394,7 +409,7 @@ impl<'a> PreparedScene<'a> {
             };
 
             // Next-event estimation.
-            if bsdf.has_non_delta() && !(split && class.light_traced_by_shadow_ray(glass)) {
+            if bsdf.has_non_delta() && !(split && class.light_traced_by_shadow_ray(glass)) && !(merging && class.merged_by_shadow_ray(glass)) {
                 let u_select = rng.next_f32();
                 let u_light = draw_2d(rng, qmc::light_dimension(vertex));
                 if let Some(light) = self.lights.sample(hit.position, u_select, u_light) {

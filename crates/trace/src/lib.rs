@@ -13,6 +13,7 @@
 
 pub mod adaptive;
 pub mod bsdf;
+pub mod caustic_merging;
 pub mod geometry;
 pub mod glass_cones;
 pub mod guiding;

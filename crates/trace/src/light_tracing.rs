@@ -41,7 +41,8 @@ use glassbake_core::Camera;
 use crate::bsdf::Bsdf;
 use crate::geometry::{Hit, Owner};
 use crate::glass_cones::GlassBounds;
-use crate::integrator::{offset_origin, PathSettings, PreparedScene, MAX_VERTICES};
+use crate::caustic_merging::Photon;
+use crate::integrator::{offset_origin, PathSettings, PreparedScene, SurfaceHit, MAX_VERTICES};
 use crate::rng::Pcg32;
 
 /// Light paths traced per camera sample, before the image's own budget is known: the
@@ -149,6 +150,24 @@ impl PathClass {
         glass && self.connectable && self.seen_opaque
     }
 
+    /// Whether a vertex about to be entered (`glass`: see [`PathClass::enter_vertex`]) is the
+    /// first opaque one of a path whose view bent at glass: where photon merging
+    /// (`caustic_merging.rs`) estimates the light that reached it through bending glass.
+    pub fn first_opaque_of_bent_view(&self, glass: bool) -> bool {
+        !glass && self.prefix_decided && !self.connectable && !self.seen_opaque
+    }
+
+    /// [`PathClass::light_traced`]'s mirror for paths whose view bent: whether the path,
+    /// ended by the emitter it just hit, is one that photon merging takes.
+    pub fn merged(&self) -> bool {
+        self.prefix_decided && !self.connectable && self.seen_opaque && self.bent_since_opaque
+    }
+
+    /// [`PathClass::light_traced_by_shadow_ray`]'s mirror for paths whose view bent.
+    pub fn merged_by_shadow_ray(&self, glass: bool) -> bool {
+        glass && self.prefix_decided && !self.connectable && self.seen_opaque
+    }
+
     /// Whether the camera's view bent at glass (a reflection, a refraction through solid or
     /// rough glass) before the path met anything opaque: such paths cannot be the light
     /// tracer's. For next-event estimation at the current vertex pass `Some(glass)`: a shadow
@@ -160,6 +179,19 @@ impl PathClass {
             shadow_ray_from_glass == Some(true)
         }
     }
+}
+
+/// An opaque vertex of a light path, as the light tracer reaches it.
+#[derive(Clone, Copy)]
+struct LightVertex<'a> {
+    hit: &'a SurfaceHit,
+    bsdf: &'a Bsdf,
+    /// Towards the light, along the path.
+    w_light: Vec3,
+    /// Flux carried to the vertex.
+    beta: Vec3,
+    /// Segments from the light to the vertex.
+    segments: u32,
 }
 
 /// A light path's contribution to one pixel, before dividing by the number of light paths.
@@ -244,6 +276,17 @@ impl<'a> LightTracer<'a> {
         self.camera.width as usize * self.camera.height as usize
     }
 
+    /// Width of one pixel at the camera's mean distance to the glass objects' bounding
+    /// spheres (their nearest points), or `None` without glass.
+    pub fn pixel_footprint_at_glass(&self) -> Option<f32> {
+        let spheres = &self.glass.spheres;
+        if spheres.is_empty() {
+            return None;
+        }
+        let distance = spheres.iter().map(|s| ((s.center - self.camera.position).length() - s.radius).max(0.0)).sum::<f32>() / spheres.len() as f32;
+        Some(distance * 2.0 * self.camera.tan_half_x / self.camera.width as f32)
+    }
+
     /// Whether any light path can be the light tracer's: the scene has glass and a light.
     pub fn has_work(&self) -> bool {
         !self.glass.is_empty() && !self.prepared.lights.is_empty()
@@ -252,6 +295,27 @@ impl<'a> LightTracer<'a> {
     /// One light path from the stream `rng`, its camera connections appended to `splats`.
     /// Returns how many of them were not finite (left out).
     pub fn trace(&self, rng: &mut Pcg32, splats: &mut Vec<Splat>, hits: &mut Vec<Hit>) -> u64 {
+        self.walk(rng, hits, &mut |vertex, hits| self.connect_to_camera(vertex, splats, hits))
+    }
+
+    /// One light path from the stream `rng`, its vertices left as photons in `photons` for
+    /// [`crate::caustic_merging`] instead of being connected to the camera.
+    pub fn trace_photons(&self, rng: &mut Pcg32, photons: &mut Vec<Photon>, hits: &mut Vec<Hit>) {
+        self.walk(rng, hits, &mut |vertex, _| {
+            let LightVertex { hit, w_light, beta, segments, .. } = *vertex;
+            let correction = w_light.dot(hit.shading_normal).abs() / w_light.dot(hit.geometric_normal).abs();
+            let flux = beta * correction;
+            if flux.is_finite() && flux != Vec3::ZERO {
+                photons.push(Photon { position: hit.position, normal: hit.geometric_normal, w_light, flux, segments });
+            }
+            0
+        });
+    }
+
+    /// One light path from the stream `rng`, `visit` called at each of its opaque vertices
+    /// that the light tracer takes (those after the first glass event that bends light).
+    /// Returns the sum of what `visit` returned.
+    fn walk(&self, rng: &mut Pcg32, hits: &mut Vec<Hit>, visit: &mut dyn FnMut(&LightVertex, &mut Vec<Hit>) -> u64) -> u64 {
         let lights = &self.prepared.lights;
         let Some((index, pmf)) = lights.pick(rng.next_f32()) else { return 0 };
         let emitter = &lights.emitters[index];
@@ -296,7 +360,7 @@ impl<'a> LightTracer<'a> {
                     }
                     caustic = true;
                 }
-                discarded += self.connect_to_camera(&hit, &bsdf, w_light, beta, segments, splats, hits);
+                discarded += visit(&LightVertex { hit: &hit, bsdf: &bsdf, w_light, beta, segments }, hits);
             }
             // One more segment must leave room for the connection to the camera.
             if segments + 2 > self.settings.max_depth {
@@ -344,11 +408,10 @@ impl<'a> LightTracer<'a> {
         discarded
     }
 
-    /// Connect an opaque vertex reached with flux `beta` along `w_light` after `segments`
-    /// segments to the camera, through smooth thin panes only. Returns 1 if the splat was
-    /// not finite (and so left out).
-    #[allow(clippy::too_many_arguments)]
-    fn connect_to_camera(&self, hit: &crate::integrator::SurfaceHit, bsdf: &Bsdf, w_light: Vec3, beta: Vec3, segments: u32, splats: &mut Vec<Splat>, hits: &mut Vec<Hit>) -> u64 {
+    /// Connect an opaque vertex of a light path to the camera, through smooth thin panes
+    /// only. Returns 1 if the splat was not finite (and so left out).
+    fn connect_to_camera(&self, vertex: &LightVertex, splats: &mut Vec<Splat>, hits: &mut Vec<Hit>) -> u64 {
+        let LightVertex { hit, bsdf, w_light, beta, segments } = *vertex;
         let Some((pixel, importance)) = self.camera.pixel_and_importance(hit.position) else { return 0 };
         let ng = hit.geometric_normal;
         let ns = hit.shading_normal;

@@ -23,6 +23,7 @@ use rayon::prelude::*;
 
 use crate::adaptive;
 use crate::bsdf::MaterialModel;
+use crate::caustic_merging::{merge_radius, Photon, PhotonMap, MAX_PHOTON_PATHS, PHOTON_PATHS_PER_CAMERA_SAMPLE};
 use crate::geometry::Owner;
 use crate::guiding::{GuidingRecord, SdTree};
 use crate::integrator::{rays_cast, Guide, Integrator, PathFilter, PathScratch, PathSettings, PreparedScene};
@@ -68,6 +69,10 @@ pub struct TraceSettings {
     pub stratified: bool,
     /// Count only some of the paths (an analysis tool; [`PathFilter::All`] otherwise).
     pub path_filter: PathFilter,
+    /// `caustic` only: estimate the caustics seen in or through bending glass by photon
+    /// merging (see [`crate::caustic_merging`]) instead of path tracing them. Biased (the
+    /// kernel's blur, shrinking as the budget grows), much less noisy.
+    pub merge_caustics: bool,
 }
 
 /// The guided estimator learns over 1/LEARNING_SHARE of the samples (Müller et al. train
@@ -96,6 +101,7 @@ impl TraceSettings {
             adaptive: false,
             stratified: false,
             path_filter: PathFilter::All,
+            merge_caustics: false,
         }
     }
 
@@ -121,6 +127,9 @@ impl TraceSettings {
         }
         if self.adaptive && self.integrator == Integrator::Guided {
             return Err(Error::bad_input(SOURCE, "adaptive", "the guided estimator renders every pixel at one spp (its learning passes)"));
+        }
+        if self.merge_caustics && self.integrator != Integrator::Caustic {
+            return Err(Error::bad_input(SOURCE, "merge_caustics", format!("photon merging is part of the caustic estimator, not of {}", self.integrator.name())));
         }
         if self.max_depth == 0 {
             return Err(Error::bad_input(SOURCE, "max_depth", "must be at least 1 (1 = emitters seen directly)"));
@@ -148,6 +157,10 @@ pub struct TraceOutput {
     /// `light_tracing::balanced_light_paths`), and those of its pilot, set aside.
     pub light_paths: u64,
     pub light_pilot_paths: u64,
+    /// Light paths traced for photon merging (`TraceSettings::merge_caustics`), and the
+    /// merging radius; 0 without.
+    pub photon_paths: u64,
+    pub merge_radius: f32,
     pub warnings: Vec<String>,
     /// Wall time of the render, BVH build included.
     pub elapsed: Duration,
@@ -159,7 +172,19 @@ pub struct TraceOutput {
 impl TraceOutput {
     /// The output of a scene without light: `image` stays black, its `samples` count as traced.
     pub fn unlit(image: PlanarImage, samples: u64, warnings: Vec<String>, elapsed: Duration) -> Self {
-        TraceOutput { image, discarded_samples: 0, samples, pilot_samples: 0, light_paths: 0, light_pilot_paths: 0, warnings, elapsed, learning_spp: 0 }
+        TraceOutput {
+            image,
+            discarded_samples: 0,
+            samples,
+            pilot_samples: 0,
+            light_paths: 0,
+            light_pilot_paths: 0,
+            photon_paths: 0,
+            merge_radius: 0.0,
+            warnings,
+            elapsed,
+            learning_spp: 0,
+        }
     }
 
     pub fn samples_per_second(&self) -> f64 {
@@ -255,7 +280,25 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         Some(tracer) if tracer.has_work() => ((samples as f64 * LIGHT_PATHS_PER_CAMERA_PATH).ceil() as u64).max(1),
         _ => 0,
     };
-    let work = samples + light_paths_estimate;
+    // Photons first: every camera pass, the adaptive pilot's too, reads them.
+    let photon_tracer = LightTracer::new(&prepared, camera, width, height, path_settings);
+    let photon_paths = if settings.merge_caustics && photon_tracer.has_work() {
+        ((samples as f64 * PHOTON_PATHS_PER_CAMERA_SAMPLE).ceil() as u64).clamp(1, MAX_PHOTON_PATHS)
+    } else {
+        0
+    };
+    let work = samples + light_paths_estimate + photon_paths;
+    let photons = (photon_paths > 0).then(|| {
+        let seed = glassbake_core::seed::purpose_seed(settings.seed, "caustic photons");
+        let photons = trace_photons(&photon_tracer, photon_paths, seed, &|paths| {
+            if let Some(p) = progress {
+                p(paths, work);
+            }
+        });
+        let radius = merge_radius(photon_tracer.pixel_footprint_at_glass().unwrap_or(0.0), photon_paths);
+        tracing::debug!("caustic merging: {} photons of {photon_paths} light paths, radius {radius}", photons.len());
+        (photon_paths, PhotonMap::new(photons, photon_paths, radius))
+    });
     let mut tiles = Vec::new();
     for y0 in (0..height).step_by(TILE as usize) {
         for x0 in (0..width).step_by(TILE as usize) {
@@ -274,7 +317,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
                 let mut tile_samples = 0u64;
                 for y in tile.y0..tile.y1 {
                     for x in tile.x0..tile.x1 {
-                        let mut guide = Guide { tree, records: learn.then_some(&mut result.records) };
+                        let mut guide = Guide { tree, records: learn.then_some(&mut result.records), photons: photons.as_ref().map(|(_, map)| map) };
                         let spp = spp_of(x, y);
                         let sums = render_pixel(
                             &prepared,
@@ -290,7 +333,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
                         tile_samples += spp as u64;
                     }
                 }
-                let finished = done.fetch_add(tile_samples, Ordering::Relaxed) + tile_samples;
+                let finished = photon_paths + done.fetch_add(tile_samples, Ordering::Relaxed) + tile_samples;
                 if let Some(p) = progress {
                     p(finished, work);
                 }
@@ -374,14 +417,15 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
             light_pilot_paths = pilot_light_paths(camera_samples);
             let pilot = trace_light_pilot(tracer, light_pilot_paths, glassbake_core::seed::purpose_seed(settings.seed, "light tracing pilot"));
             light_paths = light_tracing_budget(&sums, &pilot, camera_samples);
-            let work = samples + light_pilot_paths + light_paths;
+            let done = photon_paths + samples + light_pilot_paths;
+            let work = done + light_paths;
             if let Some(p) = progress {
-                p(samples + light_pilot_paths, work);
+                p(done, work);
             }
             let seed = glassbake_core::seed::purpose_seed(settings.seed, "light tracing");
             let (splats, discarded) = trace_light_paths(tracer, light_paths, seed, &|paths| {
                 if let Some(p) = progress {
-                    p(samples + light_pilot_paths + paths, work);
+                    p(done + paths, work);
                 }
             });
             discarded_samples += discarded;
@@ -408,7 +452,20 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         tracing::warn!("{warning}");
         warnings.push(warning);
     }
-    Ok(TraceOutput { image, discarded_samples, samples, pilot_samples, light_paths, light_pilot_paths, warnings, elapsed: start.elapsed(), learning_spp })
+    let (photon_paths, merge_radius) = photons.as_ref().map_or((0, 0.0), |(paths, map)| (*paths, map.radius()));
+    Ok(TraceOutput {
+        image,
+        discarded_samples,
+        samples,
+        pilot_samples,
+        light_paths,
+        light_pilot_paths,
+        photon_paths,
+        merge_radius,
+        warnings,
+        elapsed: start.elapsed(),
+        learning_spp,
+    })
 }
 
 /// Trace `paths` light paths of the stream `seed` and sum, per pixel, each path's
@@ -475,6 +532,27 @@ fn light_tracing_budget(sums: &[PixelSums], pilot: &LightPilot, camera_samples: 
         }
     }
     balanced_light_paths(camera_variance, light_variance, camera_rays as f64, pilot.rays as f64 / m, camera_samples)
+}
+
+/// The photons of `paths` light paths of the stream `seed`, in the order traced: chunk `k`
+/// of [`PATHS_PER_CHUNK`] paths draws from its own stream and chunks are concatenated in
+/// order, so the photons do not depend on the thread count.
+fn trace_photons(tracer: &LightTracer, paths: u64, seed: u64, progress: &(dyn Fn(u64) + Sync)) -> Vec<Photon> {
+    let done = AtomicU64::new(0);
+    let chunks: Vec<Vec<Photon>> = (0..paths.div_ceil(PATHS_PER_CHUNK))
+        .into_par_iter()
+        .map(|chunk| {
+            let mut rng = Pcg32::for_pixel(seed, chunk);
+            let (mut photons, mut hits) = (Vec::new(), Vec::new());
+            let count = PATHS_PER_CHUNK.min(paths - chunk * PATHS_PER_CHUNK);
+            for _ in 0..count {
+                tracer.trace_photons(&mut rng, &mut photons, &mut hits);
+            }
+            progress(done.fetch_add(count, Ordering::Relaxed) + count);
+            photons
+        })
+        .collect();
+    chunks.concat()
 }
 
 /// Chunks of light paths traced between two gatherings of their splats: bounds the splats

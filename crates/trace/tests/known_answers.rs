@@ -494,6 +494,67 @@ fn adaptive_stratified_images_are_bit_identical_whatever_the_thread_count() {
     assert_ne!(bits(&renders[0].image), bits(&independent.image), "stratified values must change the image");
 }
 
+/// Photon merging traces its photons in chunks of their own streams and keeps them in the
+/// order traced, so merged images do not depend on the thread count either.
+#[test]
+fn merged_images_are_bit_identical_whatever_the_thread_count() {
+    let scene = glassbake_scene::builtin::builtin("cornellbox").unwrap();
+    let sample = scene.sample(0, 0);
+    let instance = scene.instantiate(&sample.values).unwrap();
+    let base = TraceSettings { integrator: Integrator::Caustic, adaptive: true, stratified: true, merge_caustics: true, ..TraceSettings::new(24, 20, 128, 5) };
+    let renders: Vec<_> = [1, 2, 3].map(|threads| render(&instance, &sample.camera, &TraceSettings { threads: Some(threads), ..base.clone() }, None).unwrap()).into();
+    // 0.1 light paths per camera sample (the pilot's samples included).
+    assert_eq!(renders[0].photon_paths, (24 * 20 * 128u64).div_ceil(10));
+    assert!(renders[0].merge_radius > 0.0);
+    assert_eq!(bits(&renders[0].image), bits(&renders[1].image));
+    assert_eq!(bits(&renders[0].image), bits(&renders[2].image));
+    let unmerged = render(&instance, &sample.camera, &TraceSettings { merge_caustics: false, threads: Some(2), ..base.clone() }, None).unwrap();
+    assert_eq!(unmerged.photon_paths, 0);
+    assert_ne!(bits(&renders[0].image), bits(&unmerged.image), "merging must change the image");
+    let plain = TraceSettings { integrator: Integrator::Plain, ..base.clone() };
+    assert!(plain.validate().is_err(), "merging is part of the caustic estimator");
+}
+
+/// What merging is for: on cornellbox the light seen in or through bending glass (the
+/// bent-view part of the image, where the caustics through the frosted cylinder and the globe
+/// are seen through them) is far less noisy merged than path traced, and its mean stays the
+/// unbiased estimator's (a z-test on the part's mean, each estimator from two renders of
+/// seeds of its own; the kernel's blur moves light between pixels but keeps it).
+#[test]
+fn merging_quiets_caustics_seen_through_glass_and_keeps_their_light() {
+    let scene = glassbake_scene::builtin::builtin("cornellbox").unwrap();
+    let sample = scene.sample(0, 0);
+    let instance = scene.instantiate(&sample.values).unwrap();
+    // (mean of two renders, variance of that mean, mean per-pixel variance of one render)
+    let estimate = |merge_caustics: bool, seed_base: u64| {
+        let [a, b] = [seed_base, seed_base + 1].map(|seed| {
+            let settings = TraceSettings {
+                integrator: Integrator::Caustic,
+                adaptive: true,
+                stratified: true,
+                merge_caustics,
+                path_filter: PathFilter::BentView,
+                ..TraceSettings::new(32, 32, 256, seed)
+            };
+            render(&instance, &sample.camera, &settings, None).unwrap().image
+        });
+        let n = a.data().len() as f64;
+        let mean = a.data().iter().chain(b.data()).map(|&v| v as f64).sum::<f64>() / (2.0 * n);
+        let pixel_variance_sum: f64 = a.data().iter().zip(b.data()).map(|(&x, &y)| (x as f64 - y as f64).powi(2) / 2.0).sum();
+        (mean, pixel_variance_sum / (n * n) / 2.0, pixel_variance_sum / n)
+    };
+    let (traced, traced_error, traced_variance) = estimate(false, 80);
+    let (merged, merged_error, merged_variance) = estimate(true, 90);
+    let z = (merged - traced).abs() / (traced_error + merged_error).sqrt();
+    eprintln!(
+        "cornellbox bent view, 32 px 256 spp: mean traced {traced:.5}, merged {merged:.5} (z {z:.2}); pixel variance traced {traced_variance:.3e}, merged {merged_variance:.3e} ({:.1}x)",
+        traced_variance / merged_variance
+    );
+    assert!(traced > 0.0, "the bent view carries light");
+    assert!(z < 4.0, "merged mean {merged} vs traced {traced}: z = {z:.2}");
+    assert!(merged_variance < 0.7 * traced_variance, "merged {merged_variance:.3e} vs traced {traced_variance:.3e}");
+}
+
 /// The path filters split the image exactly: the bent-view and straight-view parts add up
 /// to the full image pixel by pixel (the same samples, each contribution counted in one part,
 /// the light tracer's splats in the straight part, adaptive sampling's allocation from the

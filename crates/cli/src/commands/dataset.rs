@@ -95,7 +95,9 @@ pub struct MakeArgs {
     /// tracer plus light tracing of the light that reaches surfaces through glass, so no
     /// caustic fireflies, with adaptive sampling from 256 spp, where a pilot of 1/16 of the
     /// samples decides where the rest go, and stratified sample values), `caustic` (the path tracer
-    /// and light tracer alone, every pixel at --spp) or `plain` (the path
+    /// and light tracer alone, every pixel at --spp), `caustic-merged` (the default's
+    /// sampling plus photon merging of the caustics seen through glass: biased, a blur of
+    /// about a pixel, much less noise on glass; docs/trace.md) or `plain` (the path
     /// tracer alone; the only one with --device wgpu). Continuing a dataset keeps the
     /// estimator it was started with.
     #[arg(long, value_parser = parse_estimator)]
@@ -123,7 +125,7 @@ pub fn default_test_glass_spp(test_spp: u32) -> u32 {
 }
 
 fn parse_estimator(name: &str) -> std::result::Result<GroundTruthEstimator, String> {
-    GroundTruthEstimator::parse(name).map_err(|_| format!("unknown estimator {name:?}: expected plain, caustic or caustic-adaptive-stratified"))
+    GroundTruthEstimator::parse(name).map_err(|_| format!("unknown estimator {name:?}: expected plain, caustic, caustic-adaptive-stratified or caustic-merged"))
 }
 
 /// clap's parser for `--device` of `dataset` and `trace`.

@@ -72,6 +72,12 @@ pub struct TraceArgs {
     /// (independent random numbers; the only choice with --device wgpu). Same converged image.
     #[arg(long, value_parser = parse_sampler)]
     sampler: Option<bool>,
+    /// With `--integrator caustic` (CPU): estimate the caustics seen in or through bending
+    /// glass (light through the frosted cylinder onto a floor seen through it) by photon
+    /// merging instead of path tracing them. Biased (a blur of about a pixel, shrinking as
+    /// --spp grows), far less noise on glass; docs/trace.md.
+    #[arg(long)]
+    merge_caustics: bool,
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long, conflicts_with = "device")]
     threads: Option<usize>,
@@ -148,6 +154,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
         adaptive,
         stratified,
         glass_spp: args.glass_spp,
+        merge_caustics: args.merge_caustics,
         ..TraceSettings::new(args.res, args.res, args.spp, image_seed)
     };
 
@@ -169,6 +176,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
         (false, true) => "stratified",
         (false, false) => "uniform, independent",
     };
+    let sampling = if args.merge_caustics { format!("{sampling}, caustics merged") } else { sampling.to_string() };
     bar.set_message(format!("tracing {} {}x{} @ {} spp ({}, {sampling}, {on})", scene.name, args.res, args.res, args.spp, integrator.name()));
     let progress = |done: u64, total: u64| {
         bar.set_length(total);
