@@ -18,9 +18,8 @@
 //! light paths as N^(-1/6) (r^2 ~ N^(-1/3), i.e. alpha = 2/3 of Knaus and Zwicker 2011), so
 //! bias and variance both vanish as the budget grows: consistent, not unbiased.
 
-use std::collections::HashMap;
-
 use glam::{IVec3, Vec3};
+use rustc_hash::FxHashMap;
 
 use crate::bsdf::Bsdf;
 
@@ -78,8 +77,10 @@ const SAME_SURFACE_COS: f32 = 0.9;
 /// cells around its centre's (fewer photons to test than 8 cells of side 2r).
 pub struct PhotonMap {
     photons: Vec<Photon>,
+    /// The photons' positions, apart: what the search reads for every photon near a query.
+    positions: Vec<Vec3>,
     /// Cell -> range of `photons` (sorted by cell, then by the order they were traced).
-    cells: HashMap<IVec3, (u32, u32)>,
+    cells: FxHashMap<IVec3, (u32, u32)>,
     radius: f32,
     cell_size: f32,
     /// 1 / (pi r^2 N): the density estimate's factor for N light paths.
@@ -97,7 +98,7 @@ impl PhotonMap {
             let c = cell_of(photon.position);
             (c.x, c.y, c.z)
         });
-        let mut cells = HashMap::new();
+        let mut cells = FxHashMap::default();
         let mut start = 0usize;
         while start < photons.len() {
             let cell = cell_of(photons[start].position);
@@ -109,7 +110,8 @@ impl PhotonMap {
             start = end;
         }
         let scale = 1.0 / (std::f32::consts::PI * radius * radius * paths.max(1) as f32);
-        PhotonMap { photons, cells, radius, cell_size, scale }
+        let positions = photons.iter().map(|p| p.position).collect();
+        PhotonMap { photons, positions, cells, radius, cell_size, scale }
     }
 
     pub fn len(&self) -> usize {
@@ -138,10 +140,12 @@ impl PhotonMap {
             for dy in -1..=1 {
                 for dx in -1..=1 {
                     let Some(&(start, end)) = self.cells.get(&(centre + IVec3::new(dx, dy, dz))) else { continue };
-                    for index in start..end {
-                        let photon = &self.photons[index as usize];
-                        if photon.segments <= max_segments && (photon.position - position).length_squared() < r2 && photon.normal.dot(normal) >= SAME_SURFACE_COS {
-                            found.push(index);
+                    for (index, p) in (start..end).zip(&self.positions[start as usize..end as usize]) {
+                        if (*p - position).length_squared() < r2 {
+                            let photon = &self.photons[index as usize];
+                            if photon.segments <= max_segments && photon.normal.dot(normal) >= SAME_SURFACE_COS {
+                                found.push(index);
+                            }
                         }
                     }
                 }
@@ -160,7 +164,7 @@ impl PhotonMap {
 
 /// Most photons whose BSDF value one density estimate evaluates (the BSDF evaluations are
 /// most of merging's cost where caustics are bright).
-pub const MAX_PHOTONS_EVALUATED: usize = 16;
+pub const MAX_PHOTONS_EVALUATED: usize = 8;
 
 #[cfg(test)]
 mod tests {
