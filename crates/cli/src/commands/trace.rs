@@ -214,5 +214,11 @@ pub fn run(args: TraceArgs) -> Result<()> {
             output.light_pilot_paths
         );
     }
+    if output.photon_paths > 0 {
+        println!(
+            "caustics seen through glass merged from the photons of {} light paths, radius {:.3e} (biased: a blur of about a pixel)",
+            output.photon_paths, output.merge_radius
+        );
+    }
     Ok(())
 }
