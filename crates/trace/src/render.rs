@@ -474,29 +474,25 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
 fn trace_light_pilot(tracer: &LightTracer, paths: u64, seed: u64) -> LightPilot {
     let pixels = tracer.pixel_count();
     let mut pilot = LightPilot { paths, sum: vec![[0.0; 3]; pixels], sum_squares: vec![[0.0; 3]; pixels], rays: 0 };
-    let chunks: Vec<(Vec<Splat>, u64)> = (0..paths.div_ceil(PATHS_PER_CHUNK))
-        .into_par_iter()
-        .map(|chunk| {
-            let mut rng = Pcg32::for_pixel(seed, chunk);
-            let (mut path_splats, mut merged, mut hits): (Vec<Splat>, Vec<Splat>, _) = (Vec::new(), Vec::new(), Vec::new());
-            let rays_before = rays_cast();
-            for _ in 0..PATHS_PER_CHUNK.min(paths - chunk * PATHS_PER_CHUNK) {
-                path_splats.clear();
-                tracer.trace(&mut rng, &mut path_splats, &mut hits);
-                // One value per pixel and path: a path that reaches a pixel twice counts once.
-                path_splats.sort_by_key(|s| s.pixel);
-                let path_start = merged.len();
-                for splat in &path_splats {
-                    let same_pixel = merged.len() > path_start && merged.last().is_some_and(|last| last.pixel == splat.pixel);
-                    match merged.last_mut() {
-                        Some(last) if same_pixel => last.value += splat.value,
-                        _ => merged.push(*splat),
-                    }
+    let chunks = light_chunks(0..paths.div_ceil(PATHS_PER_CHUNK), paths, seed, |rng, count| {
+        let (mut path_splats, mut merged, mut hits): (Vec<Splat>, Vec<Splat>, _) = (Vec::new(), Vec::new(), Vec::new());
+        let rays_before = rays_cast();
+        for _ in 0..count {
+            path_splats.clear();
+            tracer.trace(rng, &mut path_splats, &mut hits);
+            // One value per pixel and path: a path that reaches a pixel twice counts once.
+            path_splats.sort_by_key(|s| s.pixel);
+            let path_start = merged.len();
+            for splat in &path_splats {
+                let same_pixel = merged.len() > path_start && merged.last().is_some_and(|last| last.pixel == splat.pixel);
+                match merged.last_mut() {
+                    Some(last) if same_pixel => last.value += splat.value,
+                    _ => merged.push(*splat),
                 }
             }
-            (merged, rays_cast() - rays_before)
-        })
-        .collect();
+        }
+        (merged, rays_cast() - rays_before)
+    });
     for (splats, rays) in chunks {
         pilot.rays += rays;
         for splat in splats {
@@ -539,20 +535,28 @@ fn light_tracing_budget(sums: &[PixelSums], pilot: &LightPilot, camera_samples: 
 /// order, so the photons do not depend on the thread count.
 fn trace_photons(tracer: &LightTracer, paths: u64, seed: u64, progress: &(dyn Fn(u64) + Sync)) -> Vec<Photon> {
     let done = AtomicU64::new(0);
-    let chunks: Vec<Vec<Photon>> = (0..paths.div_ceil(PATHS_PER_CHUNK))
+    let chunks = light_chunks(0..paths.div_ceil(PATHS_PER_CHUNK), paths, seed, |rng, count| {
+        let (mut photons, mut hits) = (Vec::new(), Vec::new());
+        for _ in 0..count {
+            tracer.trace_photons(rng, &mut photons, &mut hits);
+        }
+        progress(done.fetch_add(count, Ordering::Relaxed) + count);
+        photons
+    });
+    chunks.concat()
+}
+
+/// `trace_chunk(stream, paths)` for each chunk of `chunks` (of [`PATHS_PER_CHUNK`] light
+/// paths, the last of `paths` short), in parallel, results in chunk order: chunk `k` draws
+/// from its own stream `(seed, k)`, so the results do not depend on the thread count.
+fn light_chunks<T: Send>(chunks: std::ops::Range<u64>, paths: u64, seed: u64, trace_chunk: impl Fn(&mut Pcg32, u64) -> T + Sync) -> Vec<T> {
+    chunks
         .into_par_iter()
         .map(|chunk| {
             let mut rng = Pcg32::for_pixel(seed, chunk);
-            let (mut photons, mut hits) = (Vec::new(), Vec::new());
-            let count = PATHS_PER_CHUNK.min(paths - chunk * PATHS_PER_CHUNK);
-            for _ in 0..count {
-                tracer.trace_photons(&mut rng, &mut photons, &mut hits);
-            }
-            progress(done.fetch_add(count, Ordering::Relaxed) + count);
-            photons
+            trace_chunk(&mut rng, PATHS_PER_CHUNK.min(paths - chunk * PATHS_PER_CHUNK))
         })
-        .collect();
-    chunks.concat()
+        .collect()
 }
 
 /// Chunks of light paths traced between two gatherings of their splats: bounds the splats
@@ -568,21 +572,15 @@ fn trace_light_paths(tracer: &LightTracer, paths: u64, seed: u64, progress: &(dy
     let chunks = paths.div_ceil(PATHS_PER_CHUNK);
     let done = AtomicU64::new(0);
     for batch_start in (0..chunks).step_by(CHUNKS_PER_BATCH as usize) {
-        let batch: Vec<(Vec<Splat>, u64)> = (batch_start..(batch_start + CHUNKS_PER_BATCH).min(chunks))
-            .into_par_iter()
-            .map(|chunk| {
-                let mut rng = Pcg32::for_pixel(seed, chunk);
-                let mut splats = Vec::new();
-                let mut hits = Vec::new();
-                let count = PATHS_PER_CHUNK.min(paths - chunk * PATHS_PER_CHUNK);
-                let mut discarded = 0;
-                for _ in 0..count {
-                    discarded += tracer.trace(&mut rng, &mut splats, &mut hits);
-                }
-                progress(done.fetch_add(count, Ordering::Relaxed) + count);
-                (splats, discarded)
-            })
-            .collect();
+        let batch = light_chunks(batch_start..(batch_start + CHUNKS_PER_BATCH).min(chunks), paths, seed, |rng, count| {
+            let (mut splats, mut hits) = (Vec::new(), Vec::new());
+            let mut discarded = 0;
+            for _ in 0..count {
+                discarded += tracer.trace(rng, &mut splats, &mut hits);
+            }
+            progress(done.fetch_add(count, Ordering::Relaxed) + count);
+            (splats, discarded)
+        });
         for (splats, chunk_discarded) in batch {
             discarded += chunk_discarded;
             for splat in splats {
@@ -605,7 +603,6 @@ const GLASS_PROBES: u32 = 3;
 /// coverage of the transparency buffers marks the same pixels (up to the sub-pixel grid),
 /// and it is what the evaluation's transparent-pixel metrics read.
 pub fn glass_pixels(prepared: &PreparedScene, camera: &Camera, width: u32, height: u32) -> Vec<bool> {
-    let scene = prepared.scene;
     (0..width * height)
         .into_par_iter()
         .map(|index| {
@@ -613,7 +610,7 @@ pub fn glass_pixels(prepared: &PreparedScene, camera: &Camera, width: u32, heigh
             (0..GLASS_PROBES * GLASS_PROBES).any(|probe| {
                 let offset = |i: u32| (i as f32 + 0.5) / GLASS_PROBES as f32;
                 let ray = camera.ray(x as f32 + offset(probe % GLASS_PROBES), y as f32 + offset(probe / GLASS_PROBES), width, height);
-                matches!(prepared.intersect(&ray).map(|hit| hit.owner), Some(Owner::Object { object, .. }) if scene.objects[object as usize].transparent)
+                first_transparent_object(prepared, &ray).is_some()
             })
         })
         .collect()
@@ -622,17 +619,22 @@ pub fn glass_pixels(prepared: &PreparedScene, camera: &Camera, width: u32, heigh
 /// The transparent object (one that gets a transparency buffer) that a ray through each
 /// pixel's centre meets first, if any; row-major.
 fn transparent_object_per_pixel(prepared: &PreparedScene, camera: &Camera, width: u32, height: u32) -> Vec<Option<u32>> {
-    let scene = prepared.scene;
     (0..width * height)
         .into_par_iter()
         .map(|index| {
             let ray = camera.ray((index % width) as f32 + 0.5, (index / width) as f32 + 0.5, width, height);
-            match prepared.intersect(&ray).map(|hit| hit.owner) {
-                Some(Owner::Object { object, .. }) if scene.objects[object as usize].transparent => Some(object),
-                _ => None,
-            }
+            first_transparent_object(prepared, &ray)
         })
         .collect()
+}
+
+/// The object `ray` meets first, if it is a transparent one (one that gets a transparency
+/// buffer, `Object::transparent`).
+fn first_transparent_object(prepared: &PreparedScene, ray: &glassbake_core::Ray) -> Option<u32> {
+    match prepared.intersect(ray)?.owner {
+        Owner::Object { object, .. } if prepared.scene.objects[object as usize].transparent => Some(object),
+        _ => None,
+    }
 }
 
 /// One tile's pixels of one pass, and its guiding records when learning.
