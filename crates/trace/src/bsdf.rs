@@ -35,6 +35,11 @@ const DIELECTRIC_F0: f32 = 0.04;
 /// narrow) microfacet lobe, which NEE and MIS handle, instead of becoming a delta.
 const MIN_OPAQUE_ALPHA: f32 = 1e-3;
 
+/// Narrowest specular lobe (GGX alpha; roughness 0.3) of a surface that photon merging
+/// gathers all scattered light at: below, a chrome fitting's lobe (roughness 0.12) turned
+/// single photons into fireflies in the bathroom.
+pub const MIN_MERGING_ALPHA: f32 = 0.09;
+
 /// How materials are interpreted.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum MaterialModel {
@@ -192,6 +197,22 @@ impl Bsdf {
     pub fn suits_guiding(&self) -> bool {
         let delta_glass = self.glass_weight > 0.0 && self.dielectric.is_delta();
         self.base_weight >= 0.5 && !delta_glass
+    }
+
+    /// GGX alpha of a rough dielectric lobe (rough glass, solid or thin), if there is one.
+    pub fn rough_glass_alpha(&self) -> Option<f32> {
+        match self.dielectric {
+            Dielectric::Rough { ggx, .. } | Dielectric::ThinRough { ggx, .. } if self.glass_weight > 0.0 => Some(ggx.alpha),
+            _ => None,
+        }
+    }
+
+    /// Whether a density estimate of photons suits this surface: it is mostly the diffuse
+    /// base, and the base's specular lobe is not narrow (alpha >= [`MIN_MERGING_ALPHA`]).
+    /// On a narrow lobe the few photons that arrive along it carry f values far above the
+    /// rest, and each becomes a firefly.
+    pub fn suits_merging(&self) -> bool {
+        self.lambertian || (self.base_weight >= 0.5 && self.ggx.alpha >= MIN_MERGING_ALPHA)
     }
 
     /// Probabilities of picking the diffuse, specular (base), conductor and dielectric lobes

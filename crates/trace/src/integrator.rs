@@ -151,6 +151,12 @@ impl Integrator {
     }
 }
 
+/// How wide, in photon radii, a blurred view's footprint must be for a path to take all
+/// scattered light at its first opaque vertex from the global photons: narrower, the
+/// photons' noise is not averaged away (the frosted cylinder, alpha 0.02, close to what it
+/// shows) and merging only the caustics does better.
+const GATHER_FOOTPRINT_IN_RADII: f32 = 4.0;
+
 /// Share of a guided vertex's samples drawn from the learned distribution (the rest from
 /// the BSDF); Müller et al. use one half.
 const GUIDED_FRACTION: f32 = 0.25;
@@ -165,6 +171,10 @@ pub struct Guide<'a> {
     /// Photons of caustics seen through glass (`caustic_merging.rs`): with them, the
     /// `caustic` estimator's path tracer leaves those paths to the photons' density estimate.
     pub photons: Option<&'a PhotonMap>,
+    /// Photons of all light that scattered (`caustic_merging.rs`): with them, a path whose
+    /// view is blurred by rough glass takes everything but direct light at its first opaque
+    /// vertex from their density estimate and ends there.
+    pub global_photons: Option<&'a PhotonMap>,
 }
 
 /// Reusable per-thread storage for [`PreparedScene::trace_path`].
@@ -352,6 +362,12 @@ impl<'a> PreparedScene<'a> {
         let mut class = PathClass::default();
         let split = settings.leave_caustics_to_light_tracing;
         let merging = split && guide.photons.is_some();
+        // The path has taken all light that scattered after its first opaque vertex from the
+        // global photons: what is left to find is light straight from an emitter (through
+        // panes at most).
+        let mut gathered = false;
+        // (GGX alpha, distance since): see where it is updated.
+        let mut blur = (0.0f32, 0.0f32);
 
         for vertex in 0..MAX_VERTICES {
             let Some(hit) = self.intersect_from(origin, direction, t_min, f32::INFINITY) else {
@@ -386,7 +402,21 @@ impl<'a> PreparedScene<'a> {
                 break;
             }
             let glass = bsdf.is_glass();
-            if let Some(photons) = guide.photons.filter(|_| merging && class.first_opaque_of_bent_view(glass)) {
+            if gathered && !glass {
+                break;
+            }
+            // Photon merging at the first opaque vertex of a bent view: where the view is
+            // blurred, of all the light there that scattered since the light (the path then only
+            // looks for direct light, by next-event estimation and MIS-weighted BSDF sampling),
+            // otherwise of the caustics.
+            let merge_here = merging && class.first_opaque_of_bent_view(glass);
+            blur.1 += hit.distance;
+            // The view's footprint here, about the lobe's angular width (2 alpha for a
+            // refraction through a GGX lobe) times the distance: gather where it spans several
+            // photon radii, so that the pixel averages the photons' noise over many disks.
+            let gather = |photons: &&PhotonMap| 2.0 * blur.0 * blur.1 >= GATHER_FOOTPRINT_IN_RADII * photons.radius();
+            let global = guide.global_photons.filter(|photons| merge_here && bsdf.suits_merging() && gather(photons));
+            if let Some(photons) = global.or(guide.photons.filter(|_| merge_here)) {
                 let u_subset = rng.next_f32();
                 let query = MergeQuery { position: hit.position, normal: hit.geometric_normal, wo, max_segments: settings.max_depth - depth };
                 let light = throughput * photons.radiance(&query, &bsdf, u_subset, &mut scratch.photons_found);
@@ -409,7 +439,7 @@ impl<'a> PreparedScene<'a> {
             };
 
             // Next-event estimation.
-            if bsdf.has_non_delta() && !(split && class.light_traced_by_shadow_ray(glass)) && !(merging && class.merged_by_shadow_ray(glass)) {
+            if !gathered && bsdf.has_non_delta() && !(split && class.light_traced_by_shadow_ray(glass)) && !(merging && class.merged_by_shadow_ray(glass)) {
                 let u_select = rng.next_f32();
                 let u_light = draw_2d(rng, qmc::light_dimension(vertex));
                 if let Some(light) = self.lights.sample(hit.position, u_select, u_light) {
@@ -485,8 +515,19 @@ impl<'a> PreparedScene<'a> {
                 // and ending them would darken smooth glass by a fraction of a percent.)
                 break;
             }
+            if gathered && !sample.pass_through {
+                break;
+            }
+            gathered |= global.is_some();
             throughput *= sample.weight;
             class.leave_vertex(glass, sample.pass_through);
+            // The blur of the view: the widest rough glass lobe passed before anything opaque,
+            // and the distance travelled since.
+            if merging && !class.seen_opaque() {
+                if let Some(alpha) = bsdf.rough_glass_alpha().filter(|_| !sample.delta) {
+                    blur = (blur.0.max(alpha), 0.0);
+                }
+            }
             if guide.records.is_some() && bsdf.suits_guiding() {
                 scratch.vertices.push(PendingRecord {
                     position: hit.position,

@@ -44,6 +44,7 @@ use crate::glass_cones::GlassBounds;
 use crate::caustic_merging::Photon;
 use crate::integrator::{offset_origin, PathSettings, PreparedScene, SurfaceHit, MAX_VERTICES};
 use crate::rng::Pcg32;
+use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf, Frame};
 
 /// Light paths traced per camera sample, before the image's own budget is known: the
 /// progress bar's first estimate. (A fixed one per four was the rule until the budget was
@@ -150,6 +151,11 @@ impl PathClass {
         glass && self.connectable && self.seen_opaque
     }
 
+    /// Whether an opaque vertex has been met since the camera.
+    pub fn seen_opaque(&self) -> bool {
+        self.seen_opaque
+    }
+
     /// Whether a vertex about to be entered (`glass`: see [`PathClass::enter_vertex`]) is the
     /// first opaque one of a path whose view bent at glass: where photon merging
     /// (`caustic_merging.rs`) estimates the light that reached it through bending glass.
@@ -179,6 +185,19 @@ impl PathClass {
             shadow_ray_from_glass == Some(true)
         }
     }
+}
+
+/// Which light paths a walk from the lights traces, and where it stops to connect or leave a
+/// photon.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightWalk {
+    /// The light tracer's: leave the light towards the glass, keep the opaque vertices after
+    /// the first glass event that bends light (the caustic paths).
+    Caustic,
+    /// All light: leave the light in a cosine-distributed direction, keep every opaque vertex
+    /// after the first scattering event (light that came straight from the light is next-event
+    /// estimation's).
+    Global,
 }
 
 /// An opaque vertex of a light path, as the light tracer reaches it.
@@ -295,13 +314,14 @@ impl<'a> LightTracer<'a> {
     /// One light path from the stream `rng`, its camera connections appended to `splats`.
     /// Returns how many of them were not finite (left out).
     pub fn trace(&self, rng: &mut Pcg32, splats: &mut Vec<Splat>, hits: &mut Vec<Hit>) -> u64 {
-        self.walk(rng, hits, &mut |vertex, hits| self.connect_to_camera(vertex, splats, hits))
+        self.walk(rng, hits, LightWalk::Caustic, &mut |vertex, hits| self.connect_to_camera(vertex, splats, hits))
     }
 
-    /// One light path from the stream `rng`, its vertices left as photons in `photons` for
-    /// [`crate::caustic_merging`] instead of being connected to the camera.
-    pub fn trace_photons(&self, rng: &mut Pcg32, photons: &mut Vec<Photon>, hits: &mut Vec<Hit>) {
-        self.walk(rng, hits, &mut |vertex, _| {
+    /// One light path from the stream `rng`, traced as `walk` says, its vertices left as
+    /// photons in `photons` for [`crate::caustic_merging`] instead of being connected to the
+    /// camera.
+    pub fn trace_photons(&self, rng: &mut Pcg32, walk: LightWalk, photons: &mut Vec<Photon>, hits: &mut Vec<Hit>) {
+        self.walk(rng, hits, walk, &mut |vertex, _| {
             let LightVertex { hit, w_light, beta, segments, .. } = *vertex;
             let correction = w_light.dot(hit.shading_normal).abs() / w_light.dot(hit.geometric_normal).abs();
             let flux = beta * correction;
@@ -313,16 +333,31 @@ impl<'a> LightTracer<'a> {
     }
 
     /// One light path from the stream `rng`, `visit` called at each of its opaque vertices
-    /// that the light tracer takes (those after the first glass event that bends light).
-    /// Returns the sum of what `visit` returned.
-    fn walk(&self, rng: &mut Pcg32, hits: &mut Vec<Hit>, visit: &mut dyn FnMut(&LightVertex, &mut Vec<Hit>) -> u64) -> u64 {
+    /// that `walk` keeps (for the light tracer: those after the first glass event that bends
+    /// light). Returns the sum of what `visit` returned.
+    fn walk(&self, rng: &mut Pcg32, hits: &mut Vec<Hit>, walk: LightWalk, visit: &mut dyn FnMut(&LightVertex, &mut Vec<Hit>) -> u64) -> u64 {
         let lights = &self.prepared.lights;
         let Some((index, pmf)) = lights.pick(rng.next_f32()) else { return 0 };
         let emitter = &lights.emitters[index];
         let point = emitter.point_at(rng.next_vec2());
-        let u_pick = rng.next_f32();
-        let u_direction = rng.next_vec2();
-        let Some((mut direction, density)) = self.glass.cones_from(point).sample(u_pick, u_direction) else { return 0 };
+        let (mut direction, density) = match walk {
+            LightWalk::Caustic => {
+                let u_pick = rng.next_f32();
+                let u_direction = rng.next_vec2();
+                let Some(sampled) = self.glass.cones_from(point).sample(u_pick, u_direction) else { return 0 };
+                sampled
+            }
+            LightWalk::Global => {
+                let u_side = rng.next_f32();
+                let local = cosine_hemisphere(rng.next_vec2());
+                let (normal, side_probability) = match emitter.two_sided {
+                    true if u_side < 0.5 => (-emitter.normal, 0.5),
+                    true => (emitter.normal, 0.5),
+                    false => (emitter.normal, 1.0),
+                };
+                (Frame::from_normal(normal).to_world(local), side_probability * cosine_hemisphere_pdf(local.z))
+            }
+        };
         let radiance = emitter.emitted(direction);
         let cos_light = emitter.normal.dot(direction).abs();
         if radiance == Vec3::ZERO || cos_light <= 0.0 || emitter.area <= 0.0 || pmf <= 0.0 {
@@ -338,6 +373,8 @@ impl<'a> LightTracer<'a> {
         let mut bent = false;
         // Whether the first opaque vertex (after bending glass) has been met.
         let mut caustic = false;
+        // Whether the path has scattered (anything but a straight pane crossing) since the light.
+        let mut scattered = false;
 
         let mut discarded = 0;
 
@@ -351,7 +388,13 @@ impl<'a> LightTracer<'a> {
             let w_light = -direction;
             let ng = hit.geometric_normal;
             let ns = hit.shading_normal;
-            if !glass {
+            if !glass && walk == LightWalk::Global {
+                // Light that came straight from the light (through panes at most) is the
+                // camera path's next-event estimation's.
+                if scattered {
+                    discarded += visit(&LightVertex { hit: &hit, bsdf: &bsdf, w_light, beta, segments }, hits);
+                }
+            } else if !glass {
                 if !caustic {
                     // The path must reach its first opaque vertex through glass that bent it
                     // (so its first segment ended on glass).
@@ -387,6 +430,7 @@ impl<'a> LightTracer<'a> {
             if glass && !sample.pass_through {
                 bent = true;
             }
+            scattered |= !sample.pass_through;
             if !beta.is_finite() || beta == Vec3::ZERO {
                 break;
             }

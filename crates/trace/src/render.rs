@@ -27,7 +27,7 @@ use crate::caustic_merging::{merge_radius, Photon, PhotonMap, MAX_PHOTON_PATHS, 
 use crate::geometry::Owner;
 use crate::guiding::{GuidingRecord, SdTree};
 use crate::integrator::{rays_cast, Guide, Integrator, PathFilter, PathScratch, PathSettings, PreparedScene};
-use crate::light_tracing::{balanced_light_paths, pilot_light_paths, LightPilot, LightTracer, Splat, LIGHT_PATHS_PER_CAMERA_PATH, PATHS_PER_CHUNK};
+use crate::light_tracing::{balanced_light_paths, LightWalk, pilot_light_paths, LightPilot, LightTracer, Splat, LIGHT_PATHS_PER_CAMERA_PATH, PATHS_PER_CHUNK};
 use crate::qmc::{self, StratifiedPixel};
 use crate::rng::Pcg32;
 
@@ -287,17 +287,20 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
     } else {
         0
     };
-    let work = samples + light_paths_estimate + photon_paths;
+    let work = samples + light_paths_estimate + 2 * photon_paths;
     let photons = (photon_paths > 0).then(|| {
-        let seed = glassbake_core::seed::purpose_seed(settings.seed, "caustic photons");
-        let photons = trace_photons(&photon_tracer, photon_paths, seed, &|paths| {
-            if let Some(p) = progress {
-                p(paths, work);
-            }
-        });
         let radius = merge_radius(photon_tracer.pixel_footprint_at_glass().unwrap_or(0.0), photon_paths);
-        tracing::debug!("caustic merging: {} photons of {photon_paths} light paths, radius {radius}", photons.len());
-        (photon_paths, PhotonMap::new(photons, photon_paths, radius))
+        let [caustic, global] = [(LightWalk::Caustic, "caustic photons", 0), (LightWalk::Global, "global photons", photon_paths)].map(|(walk, purpose, done)| {
+            let seed = glassbake_core::seed::purpose_seed(settings.seed, purpose);
+            let photons = trace_photons(&photon_tracer, walk, photon_paths, seed, &|paths| {
+                if let Some(p) = progress {
+                    p(done + paths, work);
+                }
+            });
+            tracing::debug!("{purpose}: {} photons of {photon_paths} light paths, radius {radius}", photons.len());
+            PhotonMap::new(photons, photon_paths, radius)
+        });
+        MergePhotons { paths: photon_paths, caustic, global }
     });
     let mut tiles = Vec::new();
     for y0 in (0..height).step_by(TILE as usize) {
@@ -317,7 +320,12 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
                 let mut tile_samples = 0u64;
                 for y in tile.y0..tile.y1 {
                     for x in tile.x0..tile.x1 {
-                        let mut guide = Guide { tree, records: learn.then_some(&mut result.records), photons: photons.as_ref().map(|(_, map)| map) };
+                        let mut guide = Guide {
+                            tree,
+                            records: learn.then_some(&mut result.records),
+                            photons: photons.as_ref().map(|m| &m.caustic),
+                            global_photons: photons.as_ref().map(|m| &m.global),
+                        };
                         let spp = spp_of(x, y);
                         let sums = render_pixel(
                             &prepared,
@@ -333,7 +341,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
                         tile_samples += spp as u64;
                     }
                 }
-                let finished = photon_paths + done.fetch_add(tile_samples, Ordering::Relaxed) + tile_samples;
+                let finished = 2 * photon_paths + done.fetch_add(tile_samples, Ordering::Relaxed) + tile_samples;
                 if let Some(p) = progress {
                     p(finished, work);
                 }
@@ -417,7 +425,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
             light_pilot_paths = pilot_light_paths(camera_samples);
             let pilot = trace_light_pilot(tracer, light_pilot_paths, glassbake_core::seed::purpose_seed(settings.seed, "light tracing pilot"));
             light_paths = light_tracing_budget(&sums, &pilot, camera_samples);
-            let done = photon_paths + samples + light_pilot_paths;
+            let done = 2 * photon_paths + samples + light_pilot_paths;
             let work = done + light_paths;
             if let Some(p) = progress {
                 p(done, work);
@@ -452,7 +460,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         tracing::warn!("{warning}");
         warnings.push(warning);
     }
-    let (photon_paths, merge_radius) = photons.as_ref().map_or((0, 0.0), |(paths, map)| (*paths, map.radius()));
+    let (photon_paths, merge_radius) = photons.as_ref().map_or((0, 0.0), |m| (m.paths, m.caustic.radius()));
     Ok(TraceOutput {
         image,
         discarded_samples,
@@ -530,15 +538,16 @@ fn light_tracing_budget(sums: &[PixelSums], pilot: &LightPilot, camera_samples: 
     balanced_light_paths(camera_variance, light_variance, camera_rays as f64, pilot.rays as f64 / m, camera_samples)
 }
 
-/// The photons of `paths` light paths of the stream `seed`, in the order traced: chunk `k`
+/// The photons of `paths` light paths of the stream `seed` traced as `walk` says, in the
+/// order traced: chunk `k`
 /// of [`PATHS_PER_CHUNK`] paths draws from its own stream and chunks are concatenated in
 /// order, so the photons do not depend on the thread count.
-fn trace_photons(tracer: &LightTracer, paths: u64, seed: u64, progress: &(dyn Fn(u64) + Sync)) -> Vec<Photon> {
+fn trace_photons(tracer: &LightTracer, walk: LightWalk, paths: u64, seed: u64, progress: &(dyn Fn(u64) + Sync)) -> Vec<Photon> {
     let done = AtomicU64::new(0);
     let chunks = light_chunks(0..paths.div_ceil(PATHS_PER_CHUNK), paths, seed, |rng, count| {
         let (mut photons, mut hits) = (Vec::new(), Vec::new());
         for _ in 0..count {
-            tracer.trace_photons(rng, &mut photons, &mut hits);
+            tracer.trace_photons(rng, walk, &mut photons, &mut hits);
         }
         progress(done.fetch_add(count, Ordering::Relaxed) + count);
         photons
@@ -635,6 +644,14 @@ fn first_transparent_object(prepared: &PreparedScene, ray: &glassbake_core::Ray)
         Owner::Object { object, .. } if prepared.scene.objects[object as usize].transparent => Some(object),
         _ => None,
     }
+}
+
+/// Photon merging's photons (`TraceSettings::merge_caustics`): of `paths` caustic light
+/// paths and as many light paths of all light.
+struct MergePhotons {
+    paths: u64,
+    caustic: PhotonMap,
+    global: PhotonMap,
 }
 
 /// One tile's pixels of one pass, and its guiding records when learning.
