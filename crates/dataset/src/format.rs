@@ -83,7 +83,7 @@ pub enum GroundTruthEstimator {
     #[serde(rename = "caustic-adaptive-stratified")]
     CausticAdaptiveStratified,
     /// `CausticAdaptiveStratified` with photon merging of the caustics seen through glass
-    /// (`glassbake_trace::caustic_merging`): biased (a blur of about a pixel, shrinking as
+    /// (`glassbake_trace::photon_merging`): biased (a blur of about a pixel, shrinking as
     /// the budget grows), much less noisy on glass. CPU only, opt-in.
     #[serde(rename = "caustic-merged")]
     CausticMerged,
@@ -137,8 +137,8 @@ impl GroundTruthEstimator {
     }
 
     /// Whether caustics seen through glass are merged from photons
-    /// (`glassbake_trace::TraceSettings::merge_caustics`).
-    pub fn merge_caustics(self) -> bool {
+    /// (`glassbake_trace::TraceSettings::photon_merging`).
+    pub fn photon_merging(self) -> bool {
         self == GroundTruthEstimator::CausticMerged
     }
 }

@@ -125,7 +125,7 @@ fn make_frame(
         settings.integrator = spec.estimator.integrator();
         settings.adaptive = spec.estimator.adaptive();
         settings.stratified = spec.estimator.stratified();
-        settings.merge_caustics = spec.estimator.merge_caustics();
+        settings.photon_merging = spec.estimator.photon_merging();
         match gpu_tracer {
             // The GPU tracer draws every pixel at one spp: the glass pixels' for all of them.
             Some(tracer) => {

@@ -349,10 +349,10 @@ fn upgrade_rasterizes_the_buffers_again_and_keeps_the_ground_truth() {
     let buffers = std::fs::read(store.buffers_path(1)).unwrap();
     std::fs::write(store.buffers_path(1), &buffers[..buffers.len() / 3]).unwrap();
     std::fs::remove_file(store.buffers_path(4)).unwrap();
-    let err = generate(&scene, &spec(3), &d, &GenerateOptions::default(), &no_progress).err().expect("an older format is not continued").to_string();
+    let err = generate(&scene, &spec(3), &d, &GenerateOptions::default(), &no_progress).expect_err("an older format is not continued").to_string();
     assert!(err.contains("format version 2") && err.contains("glassbake dataset upgrade"), "{err}");
     let other = builtin("cornellbox").unwrap();
-    let err = upgrade(&d, &other, &raster, &|_, _| {}).err().expect("another scene is refused").to_string();
+    let err = upgrade(&d, &other, &raster, &|_, _| {}).expect_err("another scene is refused").to_string();
     assert!(err.contains("manifest.json") && err.contains("scene"), "{err}");
     assert!(!DatasetStore::open(&d).unwrap().manifest.reads_cached_buffers(), "a refused upgrade leaves the old format");
 

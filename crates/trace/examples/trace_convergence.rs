@@ -12,7 +12,7 @@
 //!
 //! `+adaptive` after an estimator's name turns on adaptive sampling (`TraceSettings::adaptive`),
 //! `+stratified` stratified sample values (`TraceSettings::stratified`), `+merge` photon
-//! merging of caustics seen through glass (`TraceSettings::merge_caustics`, biased: its row is
+//! merging of caustics seen through glass (`TraceSettings::photon_merging`, biased: its row is
 //! followed by its squared bias against the last unbiased estimator listed before it, and its
 //! efficiency by error = variance + squared bias).
 //! `--paths bent-view` renders only the paths whose view from the camera bends at glass,
@@ -59,7 +59,7 @@ struct Estimator {
     integrator: Integrator,
     adaptive: bool,
     stratified: bool,
-    /// Photon merging of caustics seen through glass (`TraceSettings::merge_caustics`).
+    /// Photon merging of caustics seen through glass (`TraceSettings::photon_merging`).
     merge: bool,
 }
 
@@ -306,7 +306,7 @@ fn main() {
             let mut images = Vec::new();
             let mut seconds = 0.0;
             for seed in 1..=args.seeds {
-                let settings = TraceSettings { integrator, adaptive, stratified, merge_caustics: merge, max_depth: args.max_depth, rr_depth: args.rr_depth, path_filter: args.paths, glass_spp: args.glass_spp, ..TraceSettings::new(args.res, args.res, args.spp, seed) };
+                let settings = TraceSettings { integrator, adaptive, stratified, photon_merging: merge, max_depth: args.max_depth, rr_depth: args.rr_depth, path_filter: args.paths, glass_spp: args.glass_spp, ..TraceSettings::new(args.res, args.res, args.spp, seed) };
                 let start = Instant::now();
                 let output = render(&instance, &sample.camera, &settings, None).expect("render");
                 seconds += start.elapsed().as_secs_f64() / args.seeds as f64;

@@ -16,7 +16,7 @@ use glassbake_core::Ray;
 use glassbake_scene::Scene;
 
 use crate::bsdf::{Bsdf, BsdfSample, MaterialModel, SurfaceMaterial};
-use crate::caustic_merging::{MergeQuery, PhotonMap};
+use crate::photon_merging::{MergeQuery, PhotonMap};
 use crate::geometry::{Hit, Owner, SceneGeometry};
 use crate::guiding::{GuidingRecord, SdTree};
 use crate::light_tracing::PathClass;
@@ -168,10 +168,10 @@ pub struct Guide<'a> {
     pub tree: Option<&'a SdTree>,
     /// Where to leave records while learning.
     pub records: Option<&'a mut Vec<GuidingRecord>>,
-    /// Photons of caustics seen through glass (`caustic_merging.rs`): with them, the
+    /// Photons of caustics seen through glass (`photon_merging.rs`): with them, the
     /// `caustic` estimator's path tracer leaves those paths to the photons' density estimate.
     pub photons: Option<&'a PhotonMap>,
-    /// Photons of all light that scattered (`caustic_merging.rs`): with them, a path whose
+    /// Photons of all light that scattered (`photon_merging.rs`): with them, a path whose
     /// view is blurred by rough glass takes everything but direct light at its first opaque
     /// vertex from their density estimate and ends there.
     pub global_photons: Option<&'a PhotonMap>,
@@ -274,6 +274,16 @@ impl<'a> PreparedScene<'a> {
         let material = &self.scene.materials[self.scene.objects[object].material];
         let surface = SurfaceMaterial::new(material.base_color, material.roughness, material.metallic, material.transmission);
         Bsdf::new(&surface, Vec3::Z, model).is_glass()
+    }
+
+    /// Whether any object is rough glass ([`Bsdf::rough_glass_alpha`]) under `model`: only
+    /// rough glass blurs a view, so only then can photon merging gather global photons.
+    pub fn has_rough_glass(&self, model: MaterialModel) -> bool {
+        self.scene.objects.iter().any(|object| {
+            let material = &self.scene.materials[object.material];
+            let surface = SurfaceMaterial::new(material.base_color, material.roughness, material.metallic, material.transmission);
+            Bsdf::new(&surface, Vec3::Z, model).rough_glass_alpha().is_some()
+        })
     }
 
     /// Material parameters at a hit, textures applied.
@@ -439,7 +449,9 @@ impl<'a> PreparedScene<'a> {
             };
 
             // Next-event estimation.
-            if !gathered && bsdf.has_non_delta() && !(split && class.light_traced_by_shadow_ray(glass)) && !(merging && class.merged_by_shadow_ray(glass)) {
+            // Shadow rays from here that the light tracer or the photons take instead.
+            let shadow_ray_left_out = (split && class.light_traced_by_shadow_ray(glass)) || (merging && class.merged_by_shadow_ray(glass));
+            if !gathered && bsdf.has_non_delta() && !shadow_ray_left_out {
                 let u_select = rng.next_f32();
                 let u_light = draw_2d(rng, qmc::light_dimension(vertex));
                 if let Some(light) = self.lights.sample(hit.position, u_select, u_light) {

@@ -7,13 +7,13 @@
 //! next-event estimation, MIS, Russian roulette and path guiding (an SD-tree learned over
 //! the first passes), a light tracer for the light that reaches surfaces through glass
 //! (the `caustic` estimator), adaptive sampling (a pilot pass spreads the samples where
-//! the noise is), stratified (randomized quasi-Monte Carlo) sample values, and the tiling over threads that keeps images bit-identical
+//! the noise is), stratified (randomized quasi-Monte Carlo) sample values, opt-in photon merging
+//! (biased) of what the camera sees through bending glass, and the tiling over threads that keeps images bit-identical
 //! whatever the thread count. The dataset stage calls [`render`] once per sample; the CLI's `trace`
 //! command wraps it.
 
 pub mod adaptive;
 pub mod bsdf;
-pub mod caustic_merging;
 pub mod geometry;
 pub mod glass_cones;
 pub mod guiding;
@@ -21,6 +21,7 @@ pub mod integrator;
 pub mod light_tracing;
 pub mod lights;
 pub mod microfacet;
+pub mod photon_merging;
 pub mod qmc;
 pub mod render;
 pub mod rng;

@@ -41,7 +41,7 @@ use glassbake_core::Camera;
 use crate::bsdf::Bsdf;
 use crate::geometry::{Hit, Owner};
 use crate::glass_cones::GlassBounds;
-use crate::caustic_merging::Photon;
+use crate::photon_merging::Photon;
 use crate::integrator::{offset_origin, PathSettings, PreparedScene, SurfaceHit, MAX_VERTICES};
 use crate::rng::Pcg32;
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf, Frame};
@@ -158,7 +158,7 @@ impl PathClass {
 
     /// Whether a vertex about to be entered (`glass`: see [`PathClass::enter_vertex`]) is the
     /// first opaque one of a path whose view bent at glass: where photon merging
-    /// (`caustic_merging.rs`) estimates the light that reached it through bending glass.
+    /// (`photon_merging.rs`) estimates the light that reached it through bending glass.
     pub fn first_opaque_of_bent_view(&self, glass: bool) -> bool {
         !glass && self.prefix_decided && !self.connectable && !self.seen_opaque
     }
@@ -318,7 +318,7 @@ impl<'a> LightTracer<'a> {
     }
 
     /// One light path from the stream `rng`, traced as `walk` says, its vertices left as
-    /// photons in `photons` for [`crate::caustic_merging`] instead of being connected to the
+    /// photons in `photons` for [`crate::photon_merging`] instead of being connected to the
     /// camera.
     pub fn trace_photons(&self, rng: &mut Pcg32, walk: LightWalk, photons: &mut Vec<Photon>, hits: &mut Vec<Hit>) {
         self.walk(rng, hits, walk, &mut |vertex, _| {

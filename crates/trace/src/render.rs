@@ -23,7 +23,7 @@ use rayon::prelude::*;
 
 use crate::adaptive;
 use crate::bsdf::MaterialModel;
-use crate::caustic_merging::{merge_radius, Photon, PhotonMap, MAX_PHOTON_PATHS, PHOTON_PATHS_PER_CAMERA_SAMPLE};
+use crate::photon_merging::{merge_radius, Photon, PhotonMap, MAX_PHOTON_PATHS, PHOTON_PATHS_PER_CAMERA_SAMPLE};
 use crate::geometry::Owner;
 use crate::guiding::{GuidingRecord, SdTree};
 use crate::integrator::{rays_cast, Guide, Integrator, PathFilter, PathScratch, PathSettings, PreparedScene};
@@ -70,9 +70,9 @@ pub struct TraceSettings {
     /// Count only some of the paths (an analysis tool; [`PathFilter::All`] otherwise).
     pub path_filter: PathFilter,
     /// `caustic` only: estimate the caustics seen in or through bending glass by photon
-    /// merging (see [`crate::caustic_merging`]) instead of path tracing them. Biased (the
+    /// merging (see [`crate::photon_merging`]) instead of path tracing them. Biased (the
     /// kernel's blur, shrinking as the budget grows), much less noisy.
-    pub merge_caustics: bool,
+    pub photon_merging: bool,
 }
 
 /// The guided estimator learns over 1/LEARNING_SHARE of the samples (Müller et al. train
@@ -101,7 +101,7 @@ impl TraceSettings {
             adaptive: false,
             stratified: false,
             path_filter: PathFilter::All,
-            merge_caustics: false,
+            photon_merging: false,
         }
     }
 
@@ -128,8 +128,8 @@ impl TraceSettings {
         if self.adaptive && self.integrator == Integrator::Guided {
             return Err(Error::bad_input(SOURCE, "adaptive", "the guided estimator renders every pixel at one spp (its learning passes)"));
         }
-        if self.merge_caustics && self.integrator != Integrator::Caustic {
-            return Err(Error::bad_input(SOURCE, "merge_caustics", format!("photon merging is part of the caustic estimator, not of {}", self.integrator.name())));
+        if self.photon_merging && self.integrator != Integrator::Caustic {
+            return Err(Error::bad_input(SOURCE, "photon_merging", format!("photon merging is part of the caustic estimator, not of {}", self.integrator.name())));
         }
         if self.max_depth == 0 {
             return Err(Error::bad_input(SOURCE, "max_depth", "must be at least 1 (1 = emitters seen directly)"));
@@ -157,9 +157,12 @@ pub struct TraceOutput {
     /// `light_tracing::balanced_light_paths`), and those of its pilot, set aside.
     pub light_paths: u64,
     pub light_pilot_paths: u64,
-    /// Light paths traced for photon merging (`TraceSettings::merge_caustics`), and the
-    /// merging radius; 0 without.
+    /// Light paths traced for photon merging (`TraceSettings::photon_merging`): for the
+    /// caustic map and for the global one (none without rough glass); the photons both keep
+    /// and the merging radius. 0 without merging.
     pub photon_paths: u64,
+    pub global_photon_paths: u64,
+    pub photons: u64,
     pub merge_radius: f32,
     pub warnings: Vec<String>,
     /// Wall time of the render, BVH build included.
@@ -180,6 +183,8 @@ impl TraceOutput {
             light_paths: 0,
             light_pilot_paths: 0,
             photon_paths: 0,
+            global_photon_paths: 0,
+            photons: 0,
             merge_radius: 0.0,
             warnings,
             elapsed,
@@ -282,24 +287,29 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
     };
     // Photons first: every camera pass, the adaptive pilot's too, reads them.
     let photon_tracer = LightTracer::new(&prepared, camera, width, height, path_settings);
-    let photon_paths = if settings.merge_caustics && photon_tracer.has_work() {
+    let photon_paths = if settings.photon_merging && photon_tracer.has_work() {
         ((samples as f64 * PHOTON_PATHS_PER_CAMERA_SAMPLE).ceil() as u64).clamp(1, MAX_PHOTON_PATHS)
     } else {
         0
     };
-    let work = samples + light_paths_estimate + 2 * photon_paths;
+    // Global photons only serve views that rough glass blurs.
+    let global_photon_paths = if prepared.has_rough_glass(settings.material_model) { photon_paths } else { 0 };
+    let all_photon_paths = photon_paths + global_photon_paths;
+    let work = samples + light_paths_estimate + all_photon_paths;
     let photons = (photon_paths > 0).then(|| {
         let radius = merge_radius(photon_tracer.pixel_footprint_at_glass().unwrap_or(0.0), photon_paths);
-        let [caustic, global] = [(LightWalk::Caustic, "caustic photons", 0), (LightWalk::Global, "global photons", photon_paths)].map(|(walk, purpose, done)| {
+        let photon_map = |walk: LightWalk, paths: u64, purpose: &str, done: u64| {
             let seed = glassbake_core::seed::purpose_seed(settings.seed, purpose);
-            let photons = trace_photons(&photon_tracer, walk, photon_paths, seed, &|paths| {
+            let photons = trace_photons(&photon_tracer, walk, paths, seed, &|traced| {
                 if let Some(p) = progress {
-                    p(done + paths, work);
+                    p(done + traced, work);
                 }
             });
-            tracing::debug!("{purpose}: {} photons of {photon_paths} light paths, radius {radius}", photons.len());
-            PhotonMap::new(photons, photon_paths, radius)
-        });
+            tracing::debug!("{purpose}: {} photons of {paths} light paths, radius {radius}", photons.len());
+            PhotonMap::new(photons, paths, radius)
+        };
+        let caustic = photon_map(LightWalk::Caustic, photon_paths, "caustic photons", 0);
+        let global = (global_photon_paths > 0).then(|| photon_map(LightWalk::Global, global_photon_paths, "global photons", photon_paths));
         MergePhotons { paths: photon_paths, caustic, global }
     });
     let mut tiles = Vec::new();
@@ -324,7 +334,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
                             tree,
                             records: learn.then_some(&mut result.records),
                             photons: photons.as_ref().map(|m| &m.caustic),
-                            global_photons: photons.as_ref().map(|m| &m.global),
+                            global_photons: photons.as_ref().and_then(|m| m.global.as_ref()),
                         };
                         let spp = spp_of(x, y);
                         let sums = render_pixel(
@@ -341,7 +351,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
                         tile_samples += spp as u64;
                     }
                 }
-                let finished = 2 * photon_paths + done.fetch_add(tile_samples, Ordering::Relaxed) + tile_samples;
+                let finished = all_photon_paths + done.fetch_add(tile_samples, Ordering::Relaxed) + tile_samples;
                 if let Some(p) = progress {
                     p(finished, work);
                 }
@@ -425,7 +435,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
             light_pilot_paths = pilot_light_paths(camera_samples);
             let pilot = trace_light_pilot(tracer, light_pilot_paths, glassbake_core::seed::purpose_seed(settings.seed, "light tracing pilot"));
             light_paths = light_tracing_budget(&sums, &pilot, camera_samples);
-            let done = 2 * photon_paths + samples + light_pilot_paths;
+            let done = all_photon_paths + samples + light_pilot_paths;
             let work = done + light_paths;
             if let Some(p) = progress {
                 p(done, work);
@@ -461,6 +471,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         warnings.push(warning);
     }
     let (photon_paths, merge_radius) = photons.as_ref().map_or((0, 0.0), |m| (m.paths, m.caustic.radius()));
+    let photons = photons.as_ref().map_or(0, |m| (m.caustic.len() + m.global.as_ref().map_or(0, PhotonMap::len)) as u64);
     Ok(TraceOutput {
         image,
         discarded_samples,
@@ -469,6 +480,8 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         light_paths,
         light_pilot_paths,
         photon_paths,
+        global_photon_paths,
+        photons,
         merge_radius,
         warnings,
         elapsed: start.elapsed(),
@@ -646,12 +659,12 @@ fn first_transparent_object(prepared: &PreparedScene, ray: &glassbake_core::Ray)
     }
 }
 
-/// Photon merging's photons (`TraceSettings::merge_caustics`): of `paths` caustic light
-/// paths and as many light paths of all light.
+/// Photon merging's photons (`TraceSettings::photon_merging`): of `paths` caustic light
+/// paths, and of as many light paths of all light where the scene has rough glass.
 struct MergePhotons {
     paths: u64,
     caustic: PhotonMap,
-    global: PhotonMap,
+    global: Option<PhotonMap>,
 }
 
 /// One tile's pixels of one pass, and its guiding records when learning.

@@ -501,14 +501,14 @@ fn merged_images_are_bit_identical_whatever_the_thread_count() {
     let scene = glassbake_scene::builtin::builtin("cornellbox").unwrap();
     let sample = scene.sample(0, 0);
     let instance = scene.instantiate(&sample.values).unwrap();
-    let base = TraceSettings { integrator: Integrator::Caustic, adaptive: true, stratified: true, merge_caustics: true, ..TraceSettings::new(24, 20, 128, 5) };
+    let base = TraceSettings { integrator: Integrator::Caustic, adaptive: true, stratified: true, photon_merging: true, ..TraceSettings::new(24, 20, 128, 5) };
     let renders: Vec<_> = [1, 2, 3].map(|threads| render(&instance, &sample.camera, &TraceSettings { threads: Some(threads), ..base.clone() }, None).unwrap()).into();
     // 0.1 light paths per camera sample (the pilot's samples included).
     assert_eq!(renders[0].photon_paths, (24 * 20 * 128u64).div_ceil(10));
     assert!(renders[0].merge_radius > 0.0);
     assert_eq!(bits(&renders[0].image), bits(&renders[1].image));
     assert_eq!(bits(&renders[0].image), bits(&renders[2].image));
-    let unmerged = render(&instance, &sample.camera, &TraceSettings { merge_caustics: false, threads: Some(2), ..base.clone() }, None).unwrap();
+    let unmerged = render(&instance, &sample.camera, &TraceSettings { photon_merging: false, threads: Some(2), ..base.clone() }, None).unwrap();
     assert_eq!(unmerged.photon_paths, 0);
     assert_ne!(bits(&renders[0].image), bits(&unmerged.image), "merging must change the image");
     let plain = TraceSettings { integrator: Integrator::Plain, ..base.clone() };
@@ -529,13 +529,13 @@ fn merging_quiets_what_is_seen_through_glass_and_keeps_its_light() {
         let sample = scene.sample(0, 0);
         let instance = scene.instantiate(&sample.values).unwrap();
         // (mean of two renders, variance of that mean, mean per-pixel variance of one render)
-        let estimate = |merge_caustics: bool, seed_base: u64| {
+        let estimate = |photon_merging: bool, seed_base: u64| {
             let [a, b] = [seed_base, seed_base + 1].map(|seed| {
                 let settings = TraceSettings {
                     integrator: Integrator::Caustic,
                     adaptive: true,
                     stratified: true,
-                    merge_caustics,
+                    photon_merging,
                     path_filter: PathFilter::BentView,
                     ..TraceSettings::new(32, 32, 256, seed)
                 };

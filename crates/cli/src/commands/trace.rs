@@ -72,12 +72,13 @@ pub struct TraceArgs {
     /// (independent random numbers; the only choice with --device wgpu). Same converged image.
     #[arg(long, value_parser = parse_sampler)]
     sampler: Option<bool>,
-    /// With `--integrator caustic` (CPU): estimate the caustics seen in or through bending
-    /// glass (light through the frosted cylinder onto a floor seen through it) by photon
-    /// merging instead of path tracing them. Biased (a blur of about a pixel, shrinking as
-    /// --spp grows), far less noise on glass; docs/trace.md.
+    /// With `--integrator caustic` (CPU): photon merging of what the camera sees through
+    /// bending glass: the caustics seen in or through glass, and where rough glass blurs the
+    /// view widely (a frosted partition) all light that scattered, from photons' density
+    /// estimates instead of path tracing. Biased (a blur of about a pixel, shrinking as --spp
+    /// grows), far less noise on glass; docs/trace.md.
     #[arg(long)]
-    merge_caustics: bool,
+    photon_merging: bool,
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long, conflicts_with = "device")]
     threads: Option<usize>,
@@ -154,7 +155,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
         adaptive,
         stratified,
         glass_spp: args.glass_spp,
-        merge_caustics: args.merge_caustics,
+        photon_merging: args.photon_merging,
         ..TraceSettings::new(args.res, args.res, args.spp, image_seed)
     };
 
@@ -176,7 +177,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
         (false, true) => "stratified",
         (false, false) => "uniform, independent",
     };
-    let sampling = if args.merge_caustics { format!("{sampling}, caustics merged") } else { sampling.to_string() };
+    let sampling = if args.photon_merging { format!("{sampling}, photon merging") } else { sampling.to_string() };
     bar.set_message(format!("tracing {} {}x{} @ {} spp ({}, {sampling}, {on})", scene.name, args.res, args.res, args.spp, integrator.name()));
     let progress = |done: u64, total: u64| {
         bar.set_length(total);
@@ -215,9 +216,13 @@ pub fn run(args: TraceArgs) -> Result<()> {
         );
     }
     if output.photon_paths > 0 {
+        let global = match output.global_photon_paths {
+            0 => "no global ones (no rough glass)".to_string(),
+            paths => format!("{paths} global"),
+        };
         println!(
-            "caustics seen through glass merged from the photons of {} light paths, radius {:.3e} (biased: a blur of about a pixel)",
-            output.photon_paths, output.merge_radius
+            "photon merging: {} photons of {} caustic light paths and {global}, radius {:.3e} (biased: a blur of about a pixel)",
+            output.photons, output.photon_paths, output.merge_radius
         );
     }
     Ok(())

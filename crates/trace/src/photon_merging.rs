@@ -1,22 +1,32 @@
-//! Photon merging of caustics seen through glass: the `caustic` estimator's biased,
-//! opt-in third part (`TraceSettings::merge_caustics`).
+//! Photon merging of what the camera sees through bending glass: the `caustic` estimator's
+//! biased, opt-in third part (`TraceSettings::photon_merging`).
 //!
 //! The light tracer (`light_tracing.rs`) takes the caustic paths the camera sees in a
 //! straight line. Caustics seen *in or through* bending glass (light through the frosted
 //! cylinder onto a floor seen through the same cylinder; a caustic mirrored in a glass
 //! sphere) are specular-diffuse-specular paths: a connection cannot reach the camera through
 //! glass that bends, and the path tracer finds the light through glass only by chance. They
-//! are most of the noise the unbiased estimator leaves (docs/trace.md).
+//! are most of the noise the unbiased estimator leaves on the Cornell boxes and the desk
+//! (docs/trace.md).
 //!
 //! With merging, those paths leave the path tracer too: light paths are traced first, the
 //! same way the light tracer traces them, and each of their opaque vertices is kept as a
-//! photon. Where a camera path whose view bent at glass reaches its first opaque surface, the
-//! light arriving there through glass is the photons' density estimate (Jensen 1996): the
-//! sum of f(wo, w_photon) x flux over the photons within radius r, divided by pi r^2. The
-//! path classes are the light tracer's, so no path is counted twice or left out; the only
-//! error is the kernel's blur, bias of order r^2. The radius shrinks with the number of
-//! light paths as N^(-1/6) (r^2 ~ N^(-1/3), i.e. alpha = 2/3 of Knaus and Zwicker 2011), so
-//! bias and variance both vanish as the budget grows: consistent, not unbiased.
+//! photon (the caustic map). Where a camera path whose view bent at glass reaches its first
+//! opaque surface, the light arriving there through glass is the photons' density estimate
+//! (Jensen 1996): the sum of f(wo, w_photon) x flux over the photons within radius r, divided
+//! by pi r^2. The path classes are the light tracer's, so no path is counted twice or left
+//! out; the only error is the kernel's blur, bias of order r^2.
+//!
+//! Where rough glass blurs the view widely (the bathroom's frosted partition: each pixel
+//! averages a patch of the shower many photon radii wide), the path takes *all* light that
+//! scattered since the light from a second, global map (light paths in cosine-distributed
+//! directions, a photon at every opaque vertex after the first scattering) and then only looks
+//! for direct light. The patch averages the photons' noise away, and the room's many diffuse
+//! bounces, the bathroom's noise, cost one lookup.
+//!
+//! The radius shrinks with the number of light paths as N^(-1/6) (r^2 ~ N^(-1/3), i.e.
+//! alpha = 2/3 of Knaus and Zwicker 2011), so bias and variance both vanish as the budget
+//! grows: consistent, not unbiased.
 
 use glam::{IVec3, Vec3};
 use rustc_hash::FxHashMap;
@@ -45,8 +55,9 @@ pub struct Photon {
 /// so only about), and the kernel's blur stays near a pixel.
 pub const RADIUS_IN_PIXELS_AT_ONE_MILLION: f32 = 1.0;
 
-/// Light paths traced for the photons, per camera sample, and the most in one image (the
-/// photons of 2^21 paths take about 200 MB).
+/// Light paths traced for each photon map, per camera sample, and the most in one image. The
+/// built-in scenes keep 0.1 (cornell-glass) to 1.3 (bathroom) photons per light path, 64
+/// bytes each: at most about 350 MB for both maps at the cap.
 pub const PHOTON_PATHS_PER_CAMERA_SAMPLE: f64 = 0.1;
 pub const MAX_PHOTON_PATHS: u64 = 1 << 21;
 
