@@ -82,7 +82,7 @@ pub enum GroundTruthEstimator {
     /// stratified sample values (`glassbake_trace::qmc`); CPU only, the default there.
     #[serde(rename = "caustic-adaptive-stratified")]
     CausticAdaptiveStratified,
-    /// `CausticAdaptiveStratified` with photon merging of the caustics seen through glass
+    /// `CausticAdaptiveStratified` with photon merging of what the camera sees through glass
     /// (`glassbake_trace::photon_merging`): biased (a blur of about a pixel, shrinking as
     /// the budget grows), much less noisy on glass. CPU only, opt-in.
     #[serde(rename = "caustic-merged")]

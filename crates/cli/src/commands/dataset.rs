@@ -96,8 +96,8 @@ pub struct MakeArgs {
     /// caustic fireflies, with adaptive sampling from 256 spp, where a pilot of 1/16 of the
     /// samples decides where the rest go, and stratified sample values), `caustic` (the path tracer
     /// and light tracer alone, every pixel at --spp), `caustic-merged` (the default's
-    /// sampling plus photon merging of the caustics seen through glass: biased, a blur of
-    /// about a pixel, much less noise on glass; docs/trace.md) or `plain` (the path
+    /// sampling plus photon merging of what the camera sees through glass: biased, a blur
+    /// of about a pixel, much less noise on glass; docs/trace.md) or `plain` (the path
     /// tracer alone; the only one with --device wgpu). Continuing a dataset keeps the
     /// estimator it was started with.
     #[arg(long, value_parser = parse_estimator)]
