@@ -136,7 +136,7 @@ impl GroundTruthEstimator {
         matches!(self, GroundTruthEstimator::CausticAdaptiveStratified | GroundTruthEstimator::CausticMerged)
     }
 
-    /// Whether caustics seen through glass are merged from photons
+    /// Whether what the camera sees through glass is merged from photons
     /// (`glassbake_trace::TraceSettings::photon_merging`).
     pub fn photon_merging(self) -> bool {
         self == GroundTruthEstimator::CausticMerged
