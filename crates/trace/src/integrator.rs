@@ -16,11 +16,11 @@ use glassbake_core::Ray;
 use glassbake_scene::Scene;
 
 use crate::bsdf::{Bsdf, BsdfSample, MaterialModel, SurfaceMaterial};
-use crate::photon_merging::{MergeQuery, PhotonMap};
 use crate::geometry::{Hit, Owner, SceneGeometry};
 use crate::guiding::{GuidingRecord, SdTree};
 use crate::light_tracing::PathClass;
 use crate::lights::LightSampler;
+use crate::photon_merging::{MergeQuery, PhotonMap};
 use crate::qmc::{self, StratifiedSample};
 use crate::rng::Pcg32;
 use crate::sampling::{luminance, power_heuristic};
@@ -161,7 +161,7 @@ const GATHER_FOOTPRINT_IN_RADII: f32 = 4.0;
 /// the BSDF); Müller et al. use one half.
 const GUIDED_FRACTION: f32 = 0.25;
 
-/// What a path reads besides the scene (learned guiding, caustic photons) and records into.
+/// What a path reads besides the scene (learned guiding, photons) and records into.
 #[derive(Default)]
 pub struct Guide<'a> {
     /// The distribution learned so far; `None` samples BSDFs only.

@@ -41,8 +41,8 @@ use glassbake_core::Camera;
 use crate::bsdf::Bsdf;
 use crate::geometry::{Hit, Owner};
 use crate::glass_cones::GlassBounds;
-use crate::photon_merging::Photon;
 use crate::integrator::{offset_origin, PathSettings, PreparedScene, SurfaceHit, MAX_VERTICES};
+use crate::photon_merging::Photon;
 use crate::rng::Pcg32;
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf, Frame};
 

@@ -23,11 +23,11 @@ use rayon::prelude::*;
 
 use crate::adaptive;
 use crate::bsdf::MaterialModel;
-use crate::photon_merging::{merge_radius, Photon, PhotonMap, MAX_PHOTON_PATHS, PHOTON_PATHS_PER_CAMERA_SAMPLE};
 use crate::geometry::Owner;
 use crate::guiding::{GuidingRecord, SdTree};
 use crate::integrator::{rays_cast, Guide, Integrator, PathFilter, PathScratch, PathSettings, PreparedScene};
-use crate::light_tracing::{balanced_light_paths, LightWalk, pilot_light_paths, LightPilot, LightTracer, Splat, LIGHT_PATHS_PER_CAMERA_PATH, PATHS_PER_CHUNK};
+use crate::light_tracing::{balanced_light_paths, pilot_light_paths, LightPilot, LightTracer, LightWalk, Splat, LIGHT_PATHS_PER_CAMERA_PATH, PATHS_PER_CHUNK};
+use crate::photon_merging::{merge_radius, Photon, PhotonMap, MAX_PHOTON_PATHS, PHOTON_PATHS_PER_CAMERA_SAMPLE};
 use crate::qmc::{self, StratifiedPixel};
 use crate::rng::Pcg32;
 
