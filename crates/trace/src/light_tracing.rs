@@ -296,13 +296,18 @@ impl<'a> LightTracer<'a> {
     }
 
     /// Width of one pixel at the camera's mean distance to the glass objects' bounding
-    /// spheres (their nearest points), or `None` without glass.
+    /// spheres (their nearest points; at least a tenth of the distance to their centres, so a
+    /// camera inside a sphere still gets a footprint), or `None` without glass.
     pub fn pixel_footprint_at_glass(&self) -> Option<f32> {
         let spheres = &self.glass.spheres;
         if spheres.is_empty() {
             return None;
         }
-        let distance = spheres.iter().map(|s| ((s.center - self.camera.position).length() - s.radius).max(0.0)).sum::<f32>() / spheres.len() as f32;
+        let to_sphere = |s: &crate::glass_cones::BoundingSphere| {
+            let centre = (s.center - self.camera.position).length();
+            (centre - s.radius).max(0.1 * centre).max(1e-3 * s.radius)
+        };
+        let distance = spheres.iter().map(to_sphere).sum::<f32>() / spheres.len() as f32;
         Some(distance * 2.0 * self.camera.tan_half_x / self.camera.width as f32)
     }
 

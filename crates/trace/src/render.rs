@@ -69,9 +69,10 @@ pub struct TraceSettings {
     pub stratified: bool,
     /// Count only some of the paths (an analysis tool; [`PathFilter::All`] otherwise).
     pub path_filter: PathFilter,
-    /// `caustic` only: estimate the caustics seen in or through bending glass by photon
-    /// merging (see [`crate::photon_merging`]) instead of path tracing them. Biased (the
-    /// kernel's blur, shrinking as the budget grows), much less noisy.
+    /// `caustic` only: estimate what the camera sees through bending glass by photon merging
+    /// (see [`crate::photon_merging`]): the caustics seen in or through glass, and all
+    /// scattered light where rough glass blurs the view widely, instead of path tracing
+    /// them. Biased (the kernel's blur, shrinking as the budget grows), much less noisy.
     pub photon_merging: bool,
 }
 
@@ -552,9 +553,8 @@ fn light_tracing_budget(sums: &[PixelSums], pilot: &LightPilot, camera_samples: 
 }
 
 /// The photons of `paths` light paths of the stream `seed` traced as `walk` says, in the
-/// order traced: chunk `k`
-/// of [`PATHS_PER_CHUNK`] paths draws from its own stream and chunks are concatenated in
-/// order, so the photons do not depend on the thread count.
+/// order traced: chunk `k` of [`PATHS_PER_CHUNK`] paths draws from its own stream and chunks
+/// are concatenated in order, so the photons do not depend on the thread count.
 fn trace_photons(tracer: &LightTracer, walk: LightWalk, paths: u64, seed: u64, progress: &(dyn Fn(u64) + Sync)) -> Vec<Photon> {
     let done = AtomicU64::new(0);
     let chunks = light_chunks(0..paths.div_ceil(PATHS_PER_CHUNK), paths, seed, |rng, count| {
