@@ -271,19 +271,20 @@ impl<'a> PreparedScene<'a> {
     /// Whether object `object` is glass ([`Bsdf::is_glass`]) under `model`: its material
     /// has a transmissive dielectric lobe (textures never change that).
     pub fn object_is_glass(&self, object: usize, model: MaterialModel) -> bool {
-        let material = &self.scene.materials[self.scene.objects[object].material];
-        let surface = SurfaceMaterial::new(material.base_color, material.roughness, material.metallic, material.transmission);
-        Bsdf::new(&surface, Vec3::Z, model).is_glass()
+        self.untextured_bsdf(&self.scene.objects[object], model).is_glass()
     }
 
     /// Whether any object is rough glass ([`Bsdf::rough_glass_alpha`]) under `model`: only
     /// rough glass blurs a view, so only then can photon merging gather global photons.
     pub fn has_rough_glass(&self, model: MaterialModel) -> bool {
-        self.scene.objects.iter().any(|object| {
-            let material = &self.scene.materials[object.material];
-            let surface = SurfaceMaterial::new(material.base_color, material.roughness, material.metallic, material.transmission);
-            Bsdf::new(&surface, Vec3::Z, model).rough_glass_alpha().is_some()
-        })
+        self.scene.objects.iter().any(|object| self.untextured_bsdf(object, model).rough_glass_alpha().is_some())
+    }
+
+    /// The BSDF of an object's material without its textures.
+    fn untextured_bsdf(&self, object: &glassbake_scene::Object, model: MaterialModel) -> Bsdf {
+        let material = &self.scene.materials[object.material];
+        let surface = SurfaceMaterial::new(material.base_color, material.roughness, material.metallic, material.transmission);
+        Bsdf::new(&surface, Vec3::Z, model)
     }
 
     /// Material parameters at a hit, textures applied.

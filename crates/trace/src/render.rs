@@ -280,28 +280,29 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         path_filter: settings.path_filter,
     };
     // Light paths are all straight-view paths.
-    let light_tracer = (caustic && settings.path_filter != PathFilter::BentView).then(|| LightTracer::new(&prepared, camera, width, height, path_settings));
+    // One tracer of light paths serves the light tracer's splats and photon merging's photons.
+    let tracer = caustic.then(|| LightTracer::new(&prepared, camera, width, height, path_settings));
+    let light_tracer = tracer.as_ref().filter(|_| settings.path_filter != PathFilter::BentView);
     // A first estimate, for the progress bar: the budget is balanced after the camera pass.
     let light_paths_estimate = match &light_tracer {
         Some(tracer) if tracer.has_work() => ((samples as f64 * LIGHT_PATHS_PER_CAMERA_PATH).ceil() as u64).max(1),
         _ => 0,
     };
     // Photons first: every camera pass, the adaptive pilot's too, reads them.
-    let photon_tracer = LightTracer::new(&prepared, camera, width, height, path_settings);
-    let photon_paths = if settings.photon_merging && photon_tracer.has_work() {
-        ((samples as f64 * PHOTON_PATHS_PER_CAMERA_SAMPLE).ceil() as u64).clamp(1, MAX_PHOTON_PATHS)
-    } else {
-        0
+    let photon_tracer = tracer.as_ref().filter(|t| settings.photon_merging && t.has_work());
+    let photon_paths = match photon_tracer {
+        Some(_) => ((samples as f64 * PHOTON_PATHS_PER_CAMERA_SAMPLE).ceil() as u64).clamp(1, MAX_PHOTON_PATHS),
+        None => 0,
     };
     // Global photons only serve views that rough glass blurs.
     let global_photon_paths = if prepared.has_rough_glass(settings.material_model) { photon_paths } else { 0 };
     let all_photon_paths = photon_paths + global_photon_paths;
     let work = samples + light_paths_estimate + all_photon_paths;
-    let photons = (photon_paths > 0).then(|| {
+    let photons = photon_tracer.map(|photon_tracer| {
         let radius = merge_radius(photon_tracer.pixel_footprint_at_glass().unwrap_or(0.0), photon_paths);
         let photon_map = |walk: LightWalk, paths: u64, purpose: &str, done: u64| {
             let seed = glassbake_core::seed::purpose_seed(settings.seed, purpose);
-            let photons = trace_photons(&photon_tracer, walk, paths, seed, &|traced| {
+            let photons = trace_photons(photon_tracer, walk, paths, seed, &|traced| {
                 if let Some(p) = progress {
                     p(done + traced, work);
                 }
