@@ -12,7 +12,7 @@
 //!
 //! `+adaptive` after an estimator's name turns on adaptive sampling (`TraceSettings::adaptive`),
 //! `+stratified` stratified sample values (`TraceSettings::stratified`), `+merge` photon
-//! merging of caustics seen through glass (`TraceSettings::photon_merging`, biased: its row is
+//! merging of what is seen through glass (`TraceSettings::photon_merging`, biased: its row is
 //! followed by its squared bias against the last unbiased estimator listed before it, and its
 //! efficiency by error = variance + squared bias).
 //! `--paths bent-view` renders only the paths whose view from the camera bends at glass,
@@ -59,7 +59,7 @@ struct Estimator {
     integrator: Integrator,
     adaptive: bool,
     stratified: bool,
-    /// Photon merging of caustics seen through glass (`TraceSettings::photon_merging`).
+    /// Photon merging of what is seen through glass (`TraceSettings::photon_merging`).
     merge: bool,
 }
 
