@@ -54,7 +54,9 @@ fn write_lpips_weights(file: &Path) {
 fn bake_runs_every_stage_then_skips_them_and_eval_scores_with_lpips() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("bake");
-    let (code, stdout, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--out", path(&out)]);
+    // With the biased estimator, which the dataset records; the second run below, without
+    // the flag, keeps it (a changed estimator would retrace every frame or be refused).
+    let (code, stdout, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--estimator", "caustic-merged", "--out", path(&out)]);
     assert_eq!(code, 0, "{err}\n{stdout}");
     for file in ["dataset/manifest.json", "glassnet/glassnet.safetensors", "naive/glassnet.safetensors", "eval/metrics.json", "eval/metrics.csv", "report/index.html", "report/report.md"] {
         assert!(out.join(file).is_file(), "{file} missing");
@@ -72,6 +74,7 @@ fn bake_runs_every_stage_then_skips_them_and_eval_scores_with_lpips() {
     assert!(stdout.contains("Noise floor (gt-4spp"), "{stdout}");
     let manifest: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("dataset/manifest.json")).unwrap()).unwrap();
     assert_eq!((manifest["spec"]["spp"].as_u64(), manifest["spec"]["test_spp"].as_u64()), (Some(4), Some(32)));
+    assert_eq!(manifest["spec"]["estimator"], "caustic-merged");
     assert_eq!(metrics["order_test"]["reversed_max_abs_diff"], 0.0);
     assert_eq!(metrics["order_test"]["shuffled_max_abs_diff"], 0.0);
     assert_eq!(metrics["frames"].as_array().unwrap().len(), 2);
@@ -104,6 +107,12 @@ fn bake_runs_every_stage_then_skips_them_and_eval_scores_with_lpips() {
     let (code, _, err) = glassbake(&["bake", "cornell-glass", "--preset", "huge", "--out", path(&dir.path().join("b2"))]);
     assert_eq!(code, 2);
     assert!(err.contains("--preset") && !dir.path().join("b2").exists(), "{err}");
+    let (code, _, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--estimator", "noisy", "--out", path(&dir.path().join("b3"))]);
+    assert_eq!(code, 2);
+    assert!(err.contains("--estimator") && err.contains("caustic-merged") && !dir.path().join("b3").exists(), "{err}");
+    let (code, _, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--device", "wgpu", "--estimator", "caustic-merged", "--out", path(&dir.path().join("b4"))]);
+    assert_eq!(code, 2);
+    assert!(err.contains("--estimator") && err.contains("CPU only") && !dir.path().join("b4").exists(), "{err}");
 }
 
 #[test]

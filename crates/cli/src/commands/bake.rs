@@ -47,6 +47,12 @@ pub struct BakeArgs {
     /// Path-tracer threads for the dataset (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// The ground truth's estimator, as `glassbake dataset --estimator`: by default
+    /// `caustic-adaptive-stratified` on the CPU (unbiased) and `plain` with `--device wgpu`;
+    /// `caustic-merged` trades a blur of about a pixel for much less noise behind glass
+    /// (docs/trace.md). A bake being continued keeps its dataset's estimator.
+    #[arg(long, value_parser = super::dataset::parse_estimator)]
+    pub estimator: Option<glassbake_dataset::GroundTruthEstimator>,
 }
 
 /// Dataset size and training preset of a bake preset.
@@ -109,6 +115,12 @@ pub fn run(args: BakeArgs) -> Result<()> {
     if args.baselines && !glassbake_eval::denoise::AVAILABLE {
         return Err(Error::bad_input("--baselines", "oidn", format!("{} (or bake without --baselines)", glassbake_eval::denoise::HOW_TO_ENABLE)).into());
     }
+    let trace_device = if args.device == "wgpu" { glassbake_dataset::TraceDevice::Wgpu } else { glassbake_dataset::TraceDevice::Cpu };
+    if let Some(estimator) = args.estimator {
+        if trace_device == glassbake_dataset::TraceDevice::Wgpu && estimator != glassbake_dataset::GroundTruthEstimator::Plain {
+            return Err(Error::bad_input("bake", "--estimator", format!("{} runs on the CPU only; a bake with --device wgpu traces its ground truth plain on the GPU", estimator.name())).into());
+        }
+    }
     glassbake_scene::load_scene(&args.scene)?;
     std::fs::create_dir_all(&args.out).map_err(|e| Error::io(&args.out, e))?;
     let started = Instant::now();
@@ -123,7 +135,8 @@ pub fn run(args: BakeArgs) -> Result<()> {
     overall.set_prefix(args.scene.clone());
     overall.enable_steady_tick(Duration::from_millis(500));
     let bar = multi.add(ProgressBar::new(0));
-    let mut facts = vec![format!("`glassbake bake {} --preset {}` on {}", args.scene, args.preset, args.device)];
+    let estimator_flag = args.estimator.map(|e| format!(" --estimator {}", e.name())).unwrap_or_default();
+    let mut facts = vec![format!("`glassbake bake {} --preset {}{estimator_flag}` on {}", args.scene, args.preset, args.device)];
     // Wall time of each stage when it last did its work, kept across runs so that a resumed
     // or repeated bake still reports what the stages cost.
     let times_path = args.out.join("stage_times.json");
@@ -163,8 +176,8 @@ pub fn run(args: BakeArgs) -> Result<()> {
         shard: None,
         threads: args.threads,
         // A bake on the GPU path-traces its ground truth there too.
-        device: if args.device == "wgpu" { glassbake_dataset::TraceDevice::Wgpu } else { glassbake_dataset::TraceDevice::Cpu },
-        estimator: None,
+        device: trace_device,
+        estimator: args.estimator,
     };
     stage(
         format!(

@@ -124,7 +124,7 @@ pub fn default_test_glass_spp(test_spp: u32) -> u32 {
     test_spp.saturating_mul(DEFAULT_TEST_GLASS_SPP_FACTOR)
 }
 
-fn parse_estimator(name: &str) -> std::result::Result<GroundTruthEstimator, String> {
+pub(super) fn parse_estimator(name: &str) -> std::result::Result<GroundTruthEstimator, String> {
     GroundTruthEstimator::parse(name).map_err(|_| format!("unknown estimator {name:?}: expected plain, caustic, caustic-adaptive-stratified or caustic-merged"))
 }
 
