@@ -215,6 +215,16 @@ impl Bsdf {
         self.lambertian || (self.base_weight >= 0.5 && self.ggx.alpha >= MIN_MERGING_ALPHA)
     }
 
+    /// The GGX alpha of the base's specular lobe (1 for a Lambertian surface): how narrow
+    /// the narrowest lobe of a surface that [`Bsdf::suits_merging`] is.
+    pub fn base_alpha(&self) -> f32 {
+        if self.lambertian {
+            1.0
+        } else {
+            self.ggx.alpha
+        }
+    }
+
     /// Probabilities of picking the diffuse, specular (base), conductor and dielectric lobes
     /// when sampling from `wo` (local).
     fn lobe_probabilities(&self, wo: Vec3) -> [f32; 4] {

@@ -274,12 +274,6 @@ impl<'a> PreparedScene<'a> {
         self.untextured_bsdf(&self.scene.objects[object], model).is_glass()
     }
 
-    /// Whether any object is rough glass ([`Bsdf::rough_glass_alpha`]) under `model`: only
-    /// rough glass blurs a view, so only then can photon merging gather global photons.
-    pub fn has_rough_glass(&self, model: MaterialModel) -> bool {
-        self.scene.objects.iter().any(|object| self.untextured_bsdf(object, model).rough_glass_alpha().is_some())
-    }
-
     /// The BSDF of an object's material without its textures.
     fn untextured_bsdf(&self, object: &glassbake_scene::Object, model: MaterialModel) -> Bsdf {
         let material = &self.scene.materials[object.material];
@@ -379,6 +373,9 @@ impl<'a> PreparedScene<'a> {
         let mut gathered = false;
         // (GGX alpha, distance since): see where it is updated.
         let mut blur = (0.0f32, 0.0f32);
+        // The same for a view that met an opaque surface first: that surface's narrowest
+        // lobe and the distance since it.
+        let mut straight_blur: Option<(f32, f32)> = None;
 
         for vertex in 0..MAX_VERTICES {
             let Some(hit) = self.intersect_from(origin, direction, t_min, f32::INFINITY) else {
@@ -422,21 +419,41 @@ impl<'a> PreparedScene<'a> {
             // otherwise of the caustics.
             let merge_here = merging && class.first_opaque_of_bent_view(glass);
             blur.1 += hit.distance;
+            if let Some(straight) = &mut straight_blur {
+                straight.1 += hit.distance;
+            }
             // The view's footprint here, about the lobe's angular width (2 alpha for a
             // refraction through a GGX lobe) times the distance: gather where it spans several
             // photon radii, so that the pixel averages the photons' noise over many disks.
             let gather = |photons: &&PhotonMap| 2.0 * blur.0 * blur.1 >= GATHER_FOOTPRINT_IN_RADII * photons.radius();
-            let global = guide.global_photons.filter(|photons| merge_here && bsdf.suits_merging() && gather(photons));
+            // A final gather: at the second opaque vertex of a straight view, seen from a
+            // surface whose lobes all blur it over several radii. The light tracer's paths
+            // (the light's first opaque vertex after bending glass) stay with it.
+            let final_gather = merging
+                && class.second_opaque_of_straight_view(glass)
+                && straight_blur.is_some_and(|(alpha, distance)| {
+                    guide.global_photons.is_some_and(|photons| 2.0 * alpha * distance >= GATHER_FOOTPRINT_IN_RADII * photons.radius())
+                });
+            let global = guide.global_photons.filter(|photons| bsdf.suits_merging() && ((merge_here && gather(photons)) || final_gather));
             if let Some(photons) = global.or(guide.photons.filter(|_| merge_here)) {
                 let u_subset = rng.next_f32();
-                let query = MergeQuery { position: hit.position, normal: hit.geometric_normal, wo, max_segments: settings.max_depth - depth };
+                let query = MergeQuery {
+                    position: hit.position,
+                    normal: hit.geometric_normal,
+                    wo,
+                    max_segments: settings.max_depth - depth,
+                    skip_caustic_starts: !merge_here,
+                };
                 let light = throughput * photons.radiance(&query, &bsdf, u_subset, &mut scratch.photons_found);
                 radiance += light;
-                if filter.counts(true) {
+                if filter.counts(class.view_bent(None)) {
                     counted += light;
                 }
             }
             class.enter_vertex(glass);
+            if merging && !glass && class.at_first_opaque_of_straight_view() {
+                straight_blur = bsdf.suits_merging().then(|| (bsdf.base_alpha(), 0.0));
+            }
             // Segments a shadow ray from here may still cross panes with: a path of
             // `depth + 1 + crossings` segments must fit, as the BSDF-sampled one must.
             let crossings_allowed = settings.max_depth - depth - 1;

@@ -111,6 +111,8 @@ pub struct PathClass {
     seen_opaque: bool,
     /// A glass vertex other than a straight pane crossing follows the last opaque vertex.
     bent_since_opaque: bool,
+    /// Opaque vertices met since the camera (counted up to 2).
+    opaque_vertices: u8,
 }
 
 impl PathClass {
@@ -126,6 +128,7 @@ impl PathClass {
         }
         self.seen_opaque = true;
         self.bent_since_opaque = false;
+        self.opaque_vertices = (self.opaque_vertices + 1).min(2);
     }
 
     /// Record the event sampled at the vertex last entered.
@@ -161,6 +164,20 @@ impl PathClass {
     /// (`photon_merging.rs`) estimates the light that reached it through bending glass.
     pub fn first_opaque_of_bent_view(&self, glass: bool) -> bool {
         !glass && self.prefix_decided && !self.connectable && !self.seen_opaque
+    }
+
+    /// Whether the vertex just entered is the first opaque one of a path that the camera saw
+    /// straight (through panes at most).
+    pub fn at_first_opaque_of_straight_view(&self) -> bool {
+        self.connectable && self.opaque_vertices == 1 && !self.bent_since_opaque
+    }
+
+    /// Whether a vertex about to be entered is the second opaque one of a path that the
+    /// camera saw straight (through panes at most) and that went straight (through panes
+    /// at most) from its first opaque vertex: where photon merging may gather the light that
+    /// scattered since the light (a final gather).
+    pub fn second_opaque_of_straight_view(&self, glass: bool) -> bool {
+        !glass && self.connectable && self.opaque_vertices == 1 && !self.bent_since_opaque
     }
 
     /// [`PathClass::light_traced`]'s mirror for paths whose view bent: whether the path,
@@ -211,6 +228,9 @@ struct LightVertex<'a> {
     beta: Vec3,
     /// Segments from the light to the vertex.
     segments: u32,
+    /// The path's first opaque vertex came after glass that bent its light: seen from a
+    /// camera path whose view did not bend, the light tracer's path.
+    caustic_start: bool,
 }
 
 /// A light path's contribution to one pixel, before dividing by the number of light paths.
@@ -327,11 +347,11 @@ impl<'a> LightTracer<'a> {
     /// camera.
     pub fn trace_photons(&self, rng: &mut Pcg32, walk: LightWalk, photons: &mut Vec<Photon>, hits: &mut Vec<Hit>) {
         self.walk(rng, hits, walk, &mut |vertex, _| {
-            let LightVertex { hit, w_light, beta, segments, .. } = *vertex;
+            let LightVertex { hit, w_light, beta, segments, caustic_start, .. } = *vertex;
             let correction = w_light.dot(hit.shading_normal).abs() / w_light.dot(hit.geometric_normal).abs();
             let flux = beta * correction;
             if flux.is_finite() && flux != Vec3::ZERO {
-                photons.push(Photon { position: hit.position, normal: hit.geometric_normal, w_light, flux, segments });
+                photons.push(Photon { position: hit.position, normal: hit.geometric_normal, w_light, flux, segments, caustic_start });
             }
             0
         });
@@ -380,6 +400,8 @@ impl<'a> LightTracer<'a> {
         let mut caustic = false;
         // Whether the path has scattered (anything but a straight pane crossing) since the light.
         let mut scattered = false;
+        // Whether the path's first opaque vertex came after bending glass (once it is met).
+        let mut caustic_start: Option<bool> = None;
 
         let mut discarded = 0;
 
@@ -393,11 +415,15 @@ impl<'a> LightTracer<'a> {
             let w_light = -direction;
             let ng = hit.geometric_normal;
             let ns = hit.shading_normal;
+            if !glass && caustic_start.is_none() {
+                caustic_start = Some(bent);
+            }
+            let caustic_start = caustic_start == Some(true);
             if !glass && walk == LightWalk::Global {
                 // Light that came straight from the light (through panes at most) is the
                 // camera path's next-event estimation's.
                 if scattered {
-                    discarded += visit(&LightVertex { hit: &hit, bsdf: &bsdf, w_light, beta, segments }, hits);
+                    discarded += visit(&LightVertex { hit: &hit, bsdf: &bsdf, w_light, beta, segments, caustic_start }, hits);
                 }
             } else if !glass {
                 if !caustic {
@@ -408,7 +434,7 @@ impl<'a> LightTracer<'a> {
                     }
                     caustic = true;
                 }
-                discarded += visit(&LightVertex { hit: &hit, bsdf: &bsdf, w_light, beta, segments }, hits);
+                discarded += visit(&LightVertex { hit: &hit, bsdf: &bsdf, w_light, beta, segments, caustic_start }, hits);
             }
             // One more segment must leave room for the connection to the camera.
             if segments + 2 > self.settings.max_depth {
@@ -460,7 +486,7 @@ impl<'a> LightTracer<'a> {
     /// Connect an opaque vertex of a light path to the camera, through smooth thin panes
     /// only. Returns 1 if the splat was not finite (and so left out).
     fn connect_to_camera(&self, vertex: &LightVertex, splats: &mut Vec<Splat>, hits: &mut Vec<Hit>) -> u64 {
-        let LightVertex { hit, bsdf, w_light, beta, segments } = *vertex;
+        let LightVertex { hit, bsdf, w_light, beta, segments, .. } = *vertex;
         let Some((pixel, importance)) = self.camera.pixel_and_importance(hit.position) else { return 0 };
         let ng = hit.geometric_normal;
         let ns = hit.shading_normal;

@@ -24,6 +24,15 @@
 //! for direct light. The patch averages the photons' noise away, and the room's many diffuse
 //! bounces, the bathroom's noise, cost one lookup.
 //!
+//! The same map serves a final gather (Jensen 1996) of the views that did not bend: at the
+//! second opaque vertex of a path the camera saw straight, reached straight from a mostly
+//! diffuse first vertex whose narrowest lobe spreads over several photon radii there, the
+//! path takes the scattered light from the global photons (leaving out those whose light
+//! path started with bending glass: with a straight view, the light tracer's) and then only
+//! looks for direct light. The first vertex's lobe averages the photons' noise and blur.
+//! The global map holds the emitters' light only, so it is traced only where the background
+//! is black: a gather would miss the background's light that scattered.
+//!
 //! The radius shrinks with the number of light paths as N^(-1/6) (r^2 ~ N^(-1/3), i.e.
 //! alpha = 2/3 of Knaus and Zwicker 2011), so bias and variance both vanish as the budget
 //! grows: consistent, not unbiased.
@@ -33,7 +42,8 @@ use rustc_hash::FxHashMap;
 
 use crate::bsdf::Bsdf;
 
-/// A light path's vertex on an opaque surface, after glass bent the path.
+/// A light path's vertex on an opaque surface: in the caustic map after glass bent the path,
+/// in the global map after the path first scattered.
 #[derive(Clone, Copy, Debug)]
 pub struct Photon {
     pub position: Vec3,
@@ -47,6 +57,9 @@ pub struct Photon {
     pub flux: Vec3,
     /// Segments from the light to the photon.
     pub segments: u32,
+    /// The light path's first opaque vertex came after glass that bent its light: with a
+    /// camera path whose view did not bend, the light tracer's path.
+    pub caustic_start: bool,
 }
 
 /// Merging radius at one million light paths, in pixel footprints at the glass: the width
@@ -78,6 +91,9 @@ pub struct MergeQuery {
     /// Segments the light's part of the path may have: the camera's path length limit less
     /// the segments from the camera to here.
     pub max_segments: u32,
+    /// Leave out the photons whose light path started with bending glass (the light
+    /// tracer's, when the camera's view did not bend).
+    pub skip_caustic_starts: bool,
 }
 
 /// Cosine between a photon's surface normal and the query's above which they are taken to
@@ -143,7 +159,7 @@ impl PhotonMap {
     /// offset drawn with `u`) and weighted by s: each photon counts with probability 1 / s,
     /// so the estimate's expectation is the full sum's. `found` is scratch space.
     pub fn radiance(&self, query: &MergeQuery, bsdf: &Bsdf, u: f32, found: &mut Vec<u32>) -> Vec3 {
-        let MergeQuery { position, normal, wo, max_segments } = *query;
+        let MergeQuery { position, normal, wo, max_segments, skip_caustic_starts } = *query;
         let centre = (position / self.cell_size).floor().as_ivec3();
         let r2 = self.radius * self.radius;
         found.clear();
@@ -154,7 +170,10 @@ impl PhotonMap {
                     for (index, p) in (start..end).zip(&self.positions[start as usize..end as usize]) {
                         if (*p - position).length_squared() < r2 {
                             let photon = &self.photons[index as usize];
-                            if photon.segments <= max_segments && photon.normal.dot(normal) >= SAME_SURFACE_COS {
+                            if photon.segments <= max_segments
+                                && photon.normal.dot(normal) >= SAME_SURFACE_COS
+                                && !(skip_caustic_starts && photon.caustic_start)
+                            {
                                 found.push(index);
                             }
                         }
@@ -200,9 +219,9 @@ mod tests {
             let position = Vec3::new((u.x - 0.5) * side, (u.y - 0.5) * side, 0.0);
             let (a, b) = (rng.next_f32(), rng.next_f32());
             let w_light = Vec3::new(a - 0.5, b - 0.5, 0.7).normalize();
-            photons.push(Photon { position, normal: Vec3::Z, w_light, flux: Vec3::splat(flux_per_path), segments: 2 });
+            photons.push(Photon { position, normal: Vec3::Z, w_light, flux: Vec3::splat(flux_per_path), segments: 2, caustic_start: false });
             // The other face of the plane (a thin wall): must not leak through.
-            photons.push(Photon { position, normal: -Vec3::Z, w_light: -w_light, flux: Vec3::splat(100.0), segments: 2 });
+            photons.push(Photon { position, normal: -Vec3::Z, w_light: -w_light, flux: Vec3::splat(100.0), segments: 2, caustic_start: false });
         }
         let radius = 0.08;
         let map = PhotonMap::new(photons, paths, radius);
@@ -214,17 +233,25 @@ mod tests {
             let position = Vec3::new(x, y, 0.0);
             let wo = Vec3::new(0.2, 0.1, 1.0).normalize();
             let offsets = 400;
-            let query = MergeQuery { position, normal: Vec3::Z, wo, max_segments: 8 };
+            let query = MergeQuery { position, normal: Vec3::Z, wo, max_segments: 8, skip_caustic_starts: false };
             let mean = (0..offsets).map(|k| map.radiance(&query, &bsdf, (k as f32 + 0.5) / offsets as f32, &mut found).x).sum::<f32>() / offsets as f32;
             assert!(found.len() > 1500, "{} photons found", found.len());
             assert!((mean / expected - 1.0).abs() < 0.08, "{x},{y}: {mean} vs {expected}");
         }
         // Paths too long for the camera's remaining segments are not counted.
-        let query = MergeQuery { position: Vec3::ZERO, normal: Vec3::Z, wo: Vec3::Z, max_segments: 8 };
+        let query = MergeQuery { position: Vec3::ZERO, normal: Vec3::Z, wo: Vec3::Z, max_segments: 8, skip_caustic_starts: false };
         assert!(map.radiance(&query, &bsdf, 0.5, &mut found).x > 0.0);
         assert_eq!(map.radiance(&MergeQuery { max_segments: 1, ..query }, &bsdf, 0.5, &mut found), Vec3::ZERO);
         // Beyond the photons' plane nothing is found.
         assert_eq!(map.radiance(&MergeQuery { position: Vec3::new(0.0, 0.0, 0.5), ..query }, &bsdf, 0.5, &mut found), Vec3::ZERO);
+
+        // A photon whose light path started with bending glass counts unless the query
+        // leaves those out (a final gather: the light tracer has those paths).
+        let caustic = Photon { position: Vec3::ZERO, normal: Vec3::Z, w_light: Vec3::Z, flux: Vec3::ONE, segments: 2, caustic_start: true };
+        let map = PhotonMap::new(vec![caustic], 1, radius);
+        let expected = albedo / std::f32::consts::PI / (std::f32::consts::PI * radius * radius);
+        assert!((map.radiance(&query, &bsdf, 0.5, &mut found).x / expected - 1.0).abs() < 1e-5);
+        assert_eq!(map.radiance(&MergeQuery { skip_caustic_starts: true, ..query }, &bsdf, 0.5, &mut found), Vec3::ZERO);
     }
 
     #[test]

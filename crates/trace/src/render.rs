@@ -71,8 +71,9 @@ pub struct TraceSettings {
     pub path_filter: PathFilter,
     /// `caustic` only: estimate what the camera sees through bending glass by photon merging
     /// (see [`crate::photon_merging`]): the caustics seen in or through glass, and all
-    /// scattered light where rough glass blurs the view widely, instead of path tracing
-    /// them. Biased (the kernel's blur, shrinking as the budget grows), much less noisy.
+    /// scattered light where rough glass blurs the view widely and (a final gather) at the
+    /// second vertex of a straight view, instead of path tracing them. Biased (the kernel's
+    /// blur, shrinking as the budget grows), much less noisy.
     pub photon_merging: bool,
 }
 
@@ -294,8 +295,9 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         Some(_) => ((samples as f64 * PHOTON_PATHS_PER_CAMERA_SAMPLE).ceil() as u64).clamp(1, MAX_PHOTON_PATHS),
         None => 0,
     };
-    // Global photons only serve views that rough glass blurs.
-    let global_photon_paths = if prepared.has_rough_glass(settings.material_model) { photon_paths } else { 0 };
+    // Global photons carry the light of the emitters alone: where a background lights the
+    // scene too, a gather would miss what of its light scattered before, so none is made.
+    let global_photon_paths = if scene.background == Vec3::ZERO { photon_paths } else { 0 };
     let all_photon_paths = photon_paths + global_photon_paths;
     let work = samples + light_paths_estimate + all_photon_paths;
     let photons = photon_tracer.map(|photon_tracer| {

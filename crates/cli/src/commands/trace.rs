@@ -75,8 +75,9 @@ pub struct TraceArgs {
     /// With `--integrator caustic` (CPU): photon merging of what the camera sees through
     /// bending glass: the caustics seen in or through glass, and where rough glass blurs the
     /// view widely (a frosted partition) all light that scattered, from photons' density
-    /// estimates instead of path tracing. Biased (a blur of about a pixel, shrinking as --spp
-    /// grows), far less noise on glass; docs/trace.md.
+    /// estimates instead of path tracing; and, in scenes with a black background, the light
+    /// of many bounces by a final gather at the second vertex. Biased (a blur of about a
+    /// pixel, shrinking as --spp grows), far less noise on glass; docs/trace.md.
     #[arg(long)]
     photon_merging: bool,
     /// Worker threads (default: all cores). The image does not depend on it.
@@ -217,7 +218,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
     }
     if output.photon_paths > 0 {
         let global = match output.global_photon_paths {
-            0 => "no global ones (no rough glass)".to_string(),
+            0 => "no global ones (the background lights the scene too)".to_string(),
             paths => format!("{paths} global"),
         };
         println!(
