@@ -227,7 +227,8 @@ impl<'a> PreparedScene<'a> {
     }
 
     pub fn for_integrator(scene: &'a Scene, integrator: Integrator) -> Self {
-        let lights = LightSampler::new(scene, matches!(integrator, Integrator::SolidAngle | Integrator::Guided | Integrator::Caustic));
+        let solid_angle = matches!(integrator, Integrator::SolidAngle | Integrator::Guided | Integrator::Caustic);
+        let lights = LightSampler::new(scene, solid_angle, integrator == Integrator::Caustic);
         let geometry = SceneGeometry::build(scene, &|owner, index| lights.emitter_of(owner, index));
         PreparedScene { scene, geometry, lights }
     }

@@ -95,10 +95,21 @@ pub struct LightSampler {
     object_first_emitter: Vec<Option<u32>>,
     /// Sample rectangles by solid angle (false: by area, the plain estimator).
     solid_angle_rectangles: bool,
+    /// Next-event estimation picks among the emitters (few of them) by their unshadowed
+    /// contribution at the shading point rather than by power.
+    by_contribution: bool,
 }
 
+/// Up to this many emitters, next-event estimation picks one by its contribution at the
+/// shading point (see `LightSampler::contributions`); with more, by power alone (a scene's
+/// emissive meshes have an emitter per triangle, too many to weigh at every vertex).
+const MAX_EMITTERS_BY_CONTRIBUTION: usize = 8;
+
 impl LightSampler {
-    pub fn new(scene: &Scene, solid_angle_rectangles: bool) -> Self {
+    /// `solid_angle_rectangles`: sample rectangles by solid angle near them;
+    /// `pick_by_contribution`: with 2 to [`MAX_EMITTERS_BY_CONTRIBUTION`] emitters, pick the
+    /// one to sample by its contribution at the shading point (otherwise by power).
+    pub fn new(scene: &Scene, solid_angle_rectangles: bool, pick_by_contribution: bool) -> Self {
         let mut emitters = Vec::new();
         let mut rect_light_emitter = Vec::new();
         for light in &scene.rect_lights {
@@ -158,7 +169,8 @@ impl LightSampler {
         if total <= 0.0 {
             cdf.clear();
         }
-        LightSampler { emitters, pmf, cdf, rect_light_emitter, object_first_emitter, solid_angle_rectangles }
+        let by_contribution = pick_by_contribution && (2..=MAX_EMITTERS_BY_CONTRIBUTION).contains(&emitters.len());
+        LightSampler { emitters, pmf, cdf, rect_light_emitter, object_first_emitter, solid_angle_rectangles, by_contribution }
     }
 
     /// Whether next-event estimation has anything to sample.
@@ -183,8 +195,76 @@ impl LightSampler {
         Some((index, self.pmf[index]))
     }
 
+    /// A point on an emitter for next-event estimation from `from`, and its solid-angle
+    /// density (the emitter's selection included).
     pub fn sample(&self, from: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
-        let (index, _) = self.pick(u_select)?;
+        let (index, selection) = if self.by_contribution {
+            let weights = self.contributions(from);
+            let total: f32 = weights.iter().sum();
+            if total <= 0.0 {
+                return None;
+            }
+            // The first emitter whose cumulative weight passes u x total; rounding past the
+            // end falls to the last emitter with any weight.
+            let target = u_select * total;
+            let mut running = 0.0;
+            let mut index = None;
+            for (i, &w) in weights.iter().enumerate().filter(|(_, &w)| w > 0.0) {
+                running += w;
+                index = Some(i);
+                if target < running {
+                    break;
+                }
+            }
+            let index = index?;
+            (index, weights[index] / total)
+        } else {
+            self.pick(u_select)?
+        };
+        self.sample_emitter(index, selection, from, u)
+    }
+
+    /// Each emitter's unshadowed contribution to a point at `from`, roughly: its luminance
+    /// times the solid angle it subtends (area x cosine at its centre / distance^2, at most
+    /// 2 pi; the cosine at least 0.05 so that no emitter in front gets 0), 0 behind a
+    /// one-sided emitter (which sends nothing there). Any positive weights keep the estimate
+    /// unbiased; these put the samples where the light is.
+    fn contributions(&self, from: Vec3) -> [f32; MAX_EMITTERS_BY_CONTRIBUTION] {
+        let mut weights = [0.0f32; MAX_EMITTERS_BY_CONTRIBUTION];
+        for (weight, e) in weights.iter_mut().zip(&self.emitters) {
+            let centre = match e.shape {
+                Shape::Parallelogram { corner, edge_u, edge_v } => corner + 0.5 * (edge_u + edge_v),
+                Shape::Triangle { v0, edge1, edge2 } => v0 + (edge1 + edge2) / 3.0,
+            };
+            let to_point = from - centre;
+            let distance2 = to_point.length_squared().max(1e-12);
+            let facing = e.normal.dot(to_point);
+            if !e.two_sided && facing <= 0.0 {
+                continue;
+            }
+            let cos = (facing.abs() / distance2.sqrt()).max(0.05);
+            let solid_angle = (e.area * cos / distance2).min(2.0 * PI);
+            *weight = luminance(e.radiance).max(0.0) * solid_angle;
+        }
+        weights
+    }
+
+    /// Probability with which next-event estimation from `from` takes emitter `index`.
+    fn selection_probability(&self, index: usize, from: Vec3) -> f32 {
+        if self.by_contribution {
+            let weights = self.contributions(from);
+            let total: f32 = weights.iter().sum();
+            if total > 0.0 {
+                weights[index] / total
+            } else {
+                0.0
+            }
+        } else {
+            self.pmf[index]
+        }
+    }
+
+    fn sample_emitter(&self, index: usize, selection: f32, from: Vec3, u: Vec2) -> Option<LightSample> {
         let emitter = &self.emitters[index];
         if let Some(rect) = self.spherical_rect(emitter, from) {
             let point = rect.sample(u);
@@ -195,7 +275,7 @@ impl LightSampler {
             }
             let wi = to_light / distance;
             let radiance = emitter.emitted(-wi);
-            let pdf = (self.pmf[index] as f64 / rect.solid_angle) as f32;
+            let pdf = (selection as f64 / rect.solid_angle) as f32;
             if radiance == Vec3::ZERO {
                 return None;
             }
@@ -214,7 +294,7 @@ impl LightSampler {
         if radiance == Vec3::ZERO || cos_light <= 0.0 {
             return None;
         }
-        let pdf = self.pmf[index] * distance2 / (cos_light * emitter.area);
+        let pdf = selection * distance2 / (cos_light * emitter.area);
         (pdf.is_finite() && pdf > 0.0).then_some(LightSample { point, wi, distance, radiance, pdf })
     }
 
@@ -250,7 +330,7 @@ impl LightSampler {
         let e = &self.emitters[emitter as usize];
         if self.uses_solid_angle(e, from) {
             return match self.spherical_rect(e, from) {
-                Some(rect) => (self.pmf[emitter as usize] as f64 / rect.solid_angle) as f32,
+                Some(rect) => (self.selection_probability(emitter as usize, from) as f64 / rect.solid_angle) as f32,
                 None => 0.0,
             };
         }
@@ -260,7 +340,7 @@ impl LightSampler {
         if cos_light <= 0.0 || e.area <= 0.0 {
             return 0.0;
         }
-        self.pmf[emitter as usize] * distance2 / (cos_light * e.area)
+        self.selection_probability(emitter as usize, from) * distance2 / (cos_light * e.area)
     }
 
     /// Probability that [`Self::sample`] picks emitter `index`, and the cumulative
@@ -275,5 +355,79 @@ impl LightSampler {
             Shape::Parallelogram { edge_u, edge_v, .. } => edge_u.dot(edge_v).abs() <= 1e-4 * edge_u.length() * edge_v.length(),
             Shape::Triangle { .. } => false,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glassbake_scene::RectLight;
+
+    /// A large dim light high up and a small bright one low down, both facing down (edge_u x
+    /// edge_v = X x Z = -Y).
+    fn two_lights() -> Scene {
+        let mut scene = Scene::empty("two lights");
+        let light = |name: &str, corner: Vec3, side: f32, radiance: f32| RectLight {
+            name: name.into(),
+            corner,
+            edge_u: Vec3::X * side,
+            edge_v: Vec3::Z * side,
+            radiance: Vec3::splat(radiance),
+            two_sided: false,
+        };
+        scene.rect_lights.push(light("high", Vec3::new(-0.5, 2.0, -0.5), 1.0, 2.0));
+        scene.rect_lights.push(light("low", Vec3::new(1.0, 0.4, 0.0), 0.2, 20.0));
+        scene
+    }
+
+    /// Which of `two_lights`' emitters a sampled point lies on (their heights differ).
+    fn emitter_at(point: Vec3) -> u32 {
+        if (point.y - 2.0).abs() < 1e-4 {
+            0
+        } else {
+            assert!((point.y - 0.4).abs() < 1e-4, "{point}");
+            1
+        }
+    }
+
+    /// Picking by contribution: the selection probabilities sum to one, the pick follows them
+    /// over u_select, every sample's density is what `pdf` says for its point (MIS needs
+    /// both to agree), and near the small light it is picked far more often than its share
+    /// of the power.
+    #[test]
+    fn emitters_picked_by_contribution_agree_with_their_density() {
+        let scene = two_lights();
+        let sampler = LightSampler::new(&scene, true, true);
+        assert!(sampler.by_contribution);
+        let by_power = LightSampler::new(&scene, true, false);
+        assert!(!by_power.by_contribution);
+        let mut state = 0x9e37_79b9u32;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state as f32 / u32::MAX as f32
+        };
+        for _ in 0..200 {
+            let from = Vec3::new(next() * 4.0 - 2.0, next() * 0.3, next() * 4.0 - 2.0);
+            let probabilities = [0, 1].map(|i| sampler.selection_probability(i, from));
+            assert!((probabilities.iter().sum::<f32>() - 1.0).abs() < 1e-5, "{probabilities:?}");
+            let n = 4000;
+            let low_picked = (0..n).filter(|k| sampler.sample(from, (*k as f32 + 0.5) / n as f32, Vec2::splat(0.5)).is_some_and(|s| emitter_at(s.point) == 1)).count();
+            assert!((low_picked as f32 / n as f32 - probabilities[1]).abs() < 1e-3, "{low_picked} of {n} vs {}", probabilities[1]);
+            for s in [&sampler, &by_power] {
+                let sample = s.sample(from, next(), Vec2::new(next(), next())).expect("both lights face the point");
+                let pdf = s.pdf(emitter_at(sample.point), from, sample.point);
+                assert!((pdf / sample.pdf - 1.0).abs() < 1e-4, "{pdf} vs {}", sample.pdf);
+            }
+        }
+        let under_the_low_light = Vec3::new(1.1, 0.0, 0.1);
+        let power_share = by_power.selection_probability(1, under_the_low_light);
+        let picked = sampler.selection_probability(1, under_the_low_light);
+        assert!(picked > 2.0 * power_share, "{picked} vs {power_share}");
+        // Above both lights' planes (one-sided, facing down) nothing is picked or sampled.
+        let above = Vec3::new(0.0, 3.0, 0.0);
+        assert_eq!(sampler.selection_probability(0, above) + sampler.selection_probability(1, above), 0.0);
+        assert!(sampler.sample(above, 0.3, Vec2::splat(0.5)).is_none());
     }
 }
