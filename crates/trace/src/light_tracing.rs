@@ -169,7 +169,7 @@ impl PathClass {
     /// Whether the vertex just entered is the first opaque one of a path that the camera saw
     /// straight (through panes at most).
     pub fn at_first_opaque_of_straight_view(&self) -> bool {
-        self.connectable && self.opaque_vertices == 1 && !self.bent_since_opaque
+        self.straight_to_one_opaque()
     }
 
     /// Whether a vertex about to be entered is the second opaque one of a path that the
@@ -177,7 +177,12 @@ impl PathClass {
     /// at most) from its first opaque vertex: where photon merging may gather the light that
     /// scattered since the light (a final gather).
     pub fn second_opaque_of_straight_view(&self, glass: bool) -> bool {
-        !glass && self.connectable && self.opaque_vertices == 1 && !self.bent_since_opaque
+        !glass && self.straight_to_one_opaque()
+    }
+
+    /// The camera saw one opaque vertex straight, and nothing has bent the path since.
+    fn straight_to_one_opaque(&self) -> bool {
+        self.connectable && self.opaque_vertices == 1 && !self.bent_since_opaque
     }
 
     /// [`PathClass::light_traced`]'s mirror for paths whose view bent: whether the path,
