@@ -4,7 +4,7 @@ choice) vs Mitsuba 3's path tracer on the same exported scene instance.
     pip install mitsuba numpy
     python3 tools/mitsuba-compare/equal_time.py --glassbake target/release/glassbake \
         [--scenes cornellbox,desk] [--sample 0] [--res 128] [--spp 256] [--ref-factor 16] \
-        [--integrator caustic] [--sampling adaptive] [--sampler stratified] [--variant llvm_ad_rgb]
+        [--integrator caustic] [--sampling adaptive] [--sampler stratified] [--photon-merging] [--variant llvm_ad_rgb]
 
 Per scene: glassbake traces the instance at --spp (process wall time t, BVH build and EXR
 write included); Mitsuba renders it with as many spp as fit in t (calibrated on a first
@@ -12,7 +12,8 @@ render, kernel compilation excluded, then timed again). Each renderer's error is
 against its own reference, --ref-factor times the spp, traced with independent random
 numbers: the two renderers interpret a few materials differently by design (docs/trace.md:
 the default opaque blend is 1-3% brighter in Mitsuba), so a shared reference would measure
-that difference, not convergence. The reference's own noise is 1/ref-factor of a test
+that difference, not convergence. With --photon-merging glassbake's test render merges
+photons (biased) while its reference stays unbiased, so the error counts the bias. The reference's own noise is 1/ref-factor of a test
 render's variance; the printed MSE is not corrected for it. Prints a Markdown table:
 seconds, spp, MSE over all pixels and over the pixels away from emitters (no reference value
 above 1 in a pixel's 3x3 neighbourhood: the light's edge pixels, whose box-filtered noise is
@@ -39,6 +40,7 @@ def main():
     p.add_argument("--integrator", default="caustic")
     p.add_argument("--sampling", default="adaptive", help="glassbake trace --sampling")
     p.add_argument("--sampler", default="stratified", help="glassbake trace --sampler")
+    p.add_argument("--photon-merging", action="store_true", help="glassbake's test render with --photon-merging (its reference without)")
     p.add_argument("--variant", default="llvm_ad_rgb")
     p.add_argument("--max-depth", type=int, default=64)
     a = p.parse_args()
@@ -48,7 +50,8 @@ def main():
 
     mi.set_variant(a.variant)
     work = tempfile.mkdtemp(prefix="gb-mitsuba-equal-time-")
-    print(f"{a.res}x{a.res}, sample {a.sample}, glassbake --integrator {a.integrator} --sampling {a.sampling} --sampler {a.sampler} at {a.spp} spp, "
+    merging = " --photon-merging" if a.photon_merging else ""
+    print(f"{a.res}x{a.res}, sample {a.sample}, glassbake --integrator {a.integrator} --sampling {a.sampling} --sampler {a.sampler}{merging} at {a.spp} spp, "
           f"Mitsuba {a.variant} `path` at equal wall time;")
     print(f"references: each renderer at {a.ref_factor}x the spp, independent seeds; MSE over all pixels and RGB")
     print()
@@ -56,9 +59,11 @@ def main():
           "| glassbake MSE away from emitters | Mitsuba | ratio | glassbake MSE clamped | Mitsuba | ratio |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 
-    def trace(scene, spp, out, image_seed=None):
+    def trace(scene, spp, out, image_seed=None, photon_merging=False):
         cmd = [a.glassbake, "trace", scene, "--sample", str(a.sample), "--res", str(a.res), "--spp", str(spp),
                "--max-depth", str(a.max_depth), "--integrator", a.integrator, "--sampling", a.sampling, "--sampler", a.sampler, "--out", out]
+        if photon_merging:
+            cmd.append("--photon-merging")
         if image_seed is not None:
             cmd += ["--image-seed", str(image_seed)]
         t0 = time.time()
@@ -68,7 +73,7 @@ def main():
     for name in a.scenes.split(","):
         xml = os.path.join(work, f"{name}.xml")
         subprocess.run([a.glassbake, "scene", "mitsuba", name, "--sample", str(a.sample), "--out", xml], check=True, stdout=subprocess.DEVNULL)
-        gb_time, gb = trace(name, a.spp, os.path.join(work, f"{name}_gb.exr"))
+        gb_time, gb = trace(name, a.spp, os.path.join(work, f"{name}_gb.exr"), photon_merging=a.photon_merging)
         _, gb_ref = trace(name, a.spp * a.ref_factor, os.path.join(work, f"{name}_gb_ref.exr"), image_seed=1)
 
         scene = mi.load_file(xml, res=a.res, spp=a.spp, max_depth=a.max_depth)
