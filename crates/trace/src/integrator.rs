@@ -372,6 +372,9 @@ impl<'a> PreparedScene<'a> {
         // global photons: what is left to find is light straight from an emitter (through
         // panes at most).
         let mut gathered = false;
+        // The path took the caustics at its first opaque vertex from the caustic photons: the
+        // paths they carry are left out below.
+        let mut caustics_merged = false;
         // (GGX alpha, distance since): see where it is updated.
         let mut blur = (0.0f32, 0.0f32);
         // The same for a view that met an opaque surface first: that surface's narrowest
@@ -391,7 +394,7 @@ impl<'a> PreparedScene<'a> {
 
             if let Some(emitter) = hit.emitter {
                 let emitted = self.lights.emitters[emitter as usize].emitted(wo);
-                if emitted != Vec3::ZERO && !(split && class.light_traced()) && !(merging && class.merged()) {
+                if emitted != Vec3::ZERO && !(split && class.light_traced()) && !(caustics_merged && class.merged()) {
                     let weight = if specular {
                         1.0
                     } else {
@@ -436,7 +439,11 @@ impl<'a> PreparedScene<'a> {
                     guide.global_photons.is_some_and(|photons| 2.0 * alpha * distance >= GATHER_FOOTPRINT_IN_RADII * photons.radius())
                 });
             let global = guide.global_photons.filter(|photons| bsdf.suits_merging() && ((merge_here && gather(photons)) || final_gather));
-            if let Some(photons) = global.or(guide.photons.filter(|_| merge_here)) {
+            // Caustics only on a surface that suits merging: on a narrow lobe (chrome) the odd
+            // photon's f is huge, and BSDF sampling finds the same light well.
+            let caustic_merge = merge_here && global.is_none() && bsdf.suits_merging();
+            caustics_merged |= caustic_merge && guide.photons.is_some();
+            if let Some(photons) = global.or(guide.photons.filter(|_| caustic_merge)) {
                 let u_subset = rng.next_f32();
                 let query = MergeQuery {
                     position: hit.position,
@@ -469,7 +476,7 @@ impl<'a> PreparedScene<'a> {
 
             // Next-event estimation.
             // Shadow rays from here that the light tracer or the photons take instead.
-            let shadow_ray_left_out = (split && class.light_traced_by_shadow_ray(glass)) || (merging && class.merged_by_shadow_ray(glass));
+            let shadow_ray_left_out = (split && class.light_traced_by_shadow_ray(glass)) || (caustics_merged && class.merged_by_shadow_ray(glass));
             if !gathered && bsdf.has_non_delta() && !shadow_ray_left_out {
                 let u_select = rng.next_f32();
                 let u_light = draw_2d(rng, qmc::light_dimension(vertex));

@@ -15,7 +15,9 @@
 //! opaque surface, the light arriving there through glass is the photons' density estimate
 //! (Jensen 1996): the sum of f(wo, w_photon) x flux over the photons within radius r, divided
 //! by pi r^2. The path classes are the light tracer's, so no path is counted twice or left
-//! out; the only error is the kernel's blur, bias of order r^2.
+//! out; the only error is the kernel's blur, bias of order r^2. Only on surfaces that suit a
+//! density estimate (`Bsdf::suits_merging`): on a narrow lobe (chrome) single photons are
+//! specks, and the path tracer keeps those paths.
 //!
 //! Where rough glass blurs the view widely (the bathroom's frosted partition: each pixel
 //! averages a patch of the shower many photon radii wide), the path takes *all* light that
