@@ -429,16 +429,15 @@ impl<'a> PreparedScene<'a> {
             // The view's footprint here, about the lobe's angular width (2 alpha for a
             // refraction through a GGX lobe) times the distance: gather where it spans several
             // photon radii, so that the pixel averages the photons' noise over many disks.
-            let gather = |photons: &&PhotonMap| 2.0 * blur.0 * blur.1 >= GATHER_FOOTPRINT_IN_RADII * photons.radius();
+            let spans_radii = |(alpha, distance): (f32, f32), photons: &PhotonMap| 2.0 * alpha * distance >= GATHER_FOOTPRINT_IN_RADII * photons.radius();
             // A final gather: at the second opaque vertex of a straight view, seen from a
             // surface whose lobes all blur it over several radii. The light tracer's paths
             // (the light's first opaque vertex after bending glass) stay with it.
-            let final_gather = merging
-                && class.second_opaque_of_straight_view(glass)
-                && straight_blur.is_some_and(|(alpha, distance)| {
-                    guide.global_photons.is_some_and(|photons| 2.0 * alpha * distance >= GATHER_FOOTPRINT_IN_RADII * photons.radius())
-                });
-            let global = guide.global_photons.filter(|photons| bsdf.suits_merging() && ((merge_here && gather(photons)) || final_gather));
+            let final_gather = merging && class.second_opaque_of_straight_view(glass);
+            let global = guide.global_photons.filter(|photons| {
+                bsdf.suits_merging()
+                    && ((merge_here && spans_radii(blur, photons)) || (final_gather && straight_blur.is_some_and(|straight| spans_radii(straight, photons))))
+            });
             // Caustics only on a surface that suits merging: on a narrow lobe (chrome) the odd
             // photon's f is huge, and BSDF sampling finds the same light well.
             let caustic_merge = merge_here && global.is_none() && bsdf.suits_merging();
