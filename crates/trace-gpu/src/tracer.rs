@@ -275,7 +275,7 @@ impl GpuTracer {
             tracing::warn!("{warning}");
             warnings.push(warning);
         }
-        Ok(TraceOutput { image, discarded_samples, samples, pilot_samples: 0, light_paths: 0, light_pilot_paths: 0, photon_paths: 0, global_photon_paths: 0, photons: 0, merge_radius: 0.0, warnings, elapsed: start.elapsed(), learning_spp: 0 })
+        Ok(TraceOutput { image, discarded_samples, samples, pilot_samples: 0, camera_rays: 0, light_paths: 0, light_pilot_paths: 0, photon_paths: 0, global_photon_paths: 0, photons: 0, merge_radius: 0.0, warnings, elapsed: start.elapsed(), learning_spp: 0 })
     }
 
     pub(crate) fn wait(&self) -> Result<()> {

@@ -310,10 +310,12 @@ fn main() {
                 let start = Instant::now();
                 let output = render(&instance, &sample.camera, &settings, None).expect("render");
                 seconds += start.elapsed().as_secs_f64() / args.seeds as f64;
-                if output.light_paths > 0 {
-                    let camera_samples = output.samples - output.pilot_samples;
-                    eprintln!("{name} {label} seed {seed}: {:.4} light paths per camera sample", output.light_paths as f64 / camera_samples as f64);
-                }
+                let camera_samples = output.samples - output.pilot_samples;
+                eprintln!(
+                    "{name} {label} seed {seed}: {:.3} camera rays per sample (pilot included), {:.4} light paths per camera sample",
+                    output.camera_rays as f64 / output.samples as f64,
+                    output.light_paths as f64 / camera_samples as f64
+                );
                 if let Some(out) = &args.out {
                     let path = out.join(format!("{name}_{label}_{}spp_seed{seed}.png", args.spp));
                     output.image.write_png_rgb(&path, [0, 1, 2]).expect("write png");

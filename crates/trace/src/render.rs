@@ -155,6 +155,9 @@ pub struct TraceOutput {
     /// Samples of the adaptive pilot pass (part of `samples`, set aside: see
     /// [`crate::adaptive`]); 0 when sampling uniformly.
     pub pilot_samples: u64,
+    /// Rays the camera samples cast (closest hits and shadow rays, the pilot's included): a
+    /// measure of their cost that, unlike seconds, does not depend on the machine's load.
+    pub camera_rays: u64,
     /// Light paths the `caustic` estimator traced into the image (balanced per image,
     /// `light_tracing::balanced_light_paths`), and those of its pilot, set aside.
     pub light_paths: u64,
@@ -182,6 +185,7 @@ impl TraceOutput {
             discarded_samples: 0,
             samples,
             pilot_samples: 0,
+            camera_rays: 0,
             light_paths: 0,
             light_pilot_paths: 0,
             photon_paths: 0,
@@ -402,6 +406,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
     // Adaptive sampling: a pilot of its own streams, set aside once it has told where the
     // noise is; the main pass then draws each pixel's count from the pixel's usual stream.
     let mut pilot_samples = 0u64;
+    let mut pilot_rays = 0u64;
     let mut main_spp = pixel_spp;
     if settings.adaptive && main_spp.iter().any(|&budget| adaptive::pilot_spp(budget) > 0) {
         let pilot_seed = glassbake_core::seed::purpose_seed(settings.seed, "adaptive pilot");
@@ -413,6 +418,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
                 for x in tile.x0..tile.x1 {
                     let sums = values.next().expect("one value per tile pixel");
                     pilot_samples += sums.finite + sums.discarded;
+                    pilot_rays += sums.rays;
                     // The whole image's light whatever the filter, so that a filtered image's
                     // samples are spread as the full image's are.
                     pilot[(y * width + x) as usize] = adaptive::PilotStats { sum: sums.all_sum, sum_squares: sums.all_sum_squares, count: sums.finite };
@@ -425,6 +431,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
     }
     accumulate(pass(&|x, y| main_spp[(y * width + x) as usize] - learning_spp, settings.seed, tree.as_ref(), false));
     let samples = pilot_samples + main_spp.iter().map(|&s| s as u64).sum::<u64>();
+    let camera_rays = pilot_rays + sums.iter().map(|pixel| pixel.rays).sum::<u64>();
 
     let mut discarded_samples = 0;
     let mut light_paths = 0;
@@ -481,6 +488,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         discarded_samples,
         samples,
         pilot_samples,
+        camera_rays,
         light_paths,
         light_pilot_paths,
         photon_paths,
