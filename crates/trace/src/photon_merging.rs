@@ -282,6 +282,51 @@ mod tests {
         assert_eq!(map.radiance(&MergeQuery { skip_caustic_starts: true, ..query }, &bsdf, 0.5, &mut found), Vec3::ZERO);
     }
 
+    /// A query finds exactly the photons within r that pass its filters (against a scan of
+    /// all photons), with the cells of a sparse map (2r) and of a dense one (r).
+    #[test]
+    fn queries_find_every_photon_within_the_radius() {
+        let mut rng = Pcg32::for_pixel(11, 3);
+        let radius = 0.05;
+        let material = SurfaceMaterial::new(Vec3::splat(0.5), 1.0, 0.0, None);
+        let bsdf = Bsdf::new(&material, Vec3::Z, MaterialModel::Lambertian);
+        // Photons on the plane z = 0 (and a few off it), over a 1 x 1 square or a spot 0.1 wide.
+        for (spread, count, expect_dense) in [(1.0f32, 2_000usize, false), (0.1, 4_000, true)] {
+            let photons: Vec<Photon> = (0..count)
+                .map(|k| {
+                    let u = rng.next_vec2();
+                    let z = if k % 10 == 0 { 0.03 } else { 0.0 };
+                    let normal = if k % 7 == 0 { Vec3::X } else { Vec3::Z };
+                    let position = Vec3::new((u.x - 0.5) * spread, (u.y - 0.5) * spread, z);
+                    Photon { position, normal, w_light: Vec3::Z, flux: Vec3::ONE, segments: 1 + (k % 4) as u32, caustic_start: k % 3 == 0 }
+                })
+                .collect();
+            assert_eq!(cell_size_for(&photons, radius) == radius, expect_dense);
+            let map = PhotonMap::new(photons.clone(), 1, radius);
+            let mut found = Vec::new();
+            for q in 0..200 {
+                let u = rng.next_vec2();
+                let position = Vec3::new((u.x - 0.5) * spread * 1.1, (u.y - 0.5) * spread * 1.1, 0.01);
+                let query = MergeQuery { position, normal: Vec3::Z, wo: Vec3::Z, max_segments: 1 + q % 4, skip_caustic_starts: q % 2 == 0 };
+                map.radiance(&query, &bsdf, 0.5, &mut found);
+                let mut got: Vec<[u32; 3]> = found.iter().map(|&i| map.photons[i as usize].position.to_array().map(f32::to_bits)).collect();
+                let mut expected: Vec<[u32; 3]> = photons
+                    .iter()
+                    .filter(|p| {
+                        (p.position - position).length_squared() < radius * radius
+                            && p.segments <= query.max_segments
+                            && p.normal.dot(query.normal) >= SAME_SURFACE_COS
+                            && !(query.skip_caustic_starts && p.caustic_start)
+                    })
+                    .map(|p| p.position.to_array().map(f32::to_bits))
+                    .collect();
+                got.sort_unstable();
+                expected.sort_unstable();
+                assert_eq!(got, expected, "spread {spread}, query {q}");
+            }
+        }
+    }
+
     #[test]
     fn the_radius_shrinks_as_the_sixth_root_of_the_paths() {
         assert!((merge_radius(2.0, 1_000_000) - 2.0 * RADIUS_IN_PIXELS_AT_ONE_MILLION).abs() < 1e-6);
