@@ -71,6 +71,8 @@ fn a_gpu_traced_dataset_resumes_stays_on_its_device_and_trains() {
     assert_eq!(manifest["spec"]["device"], "wgpu");
     let (_, info, _) = glassbake(&["dataset", "info", data_arg]);
     assert!(info.contains("traced on wgpu"), "{info}");
+    assert!(info.contains(&format!("tracer revision {}", manifest["tracer_revision"])), "{info}");
+    assert!(manifest["tracer_revision"].as_u64().is_some_and(|r| r >= 1), "{manifest}");
 
     // A lost frame is made again, identical on the same device; the rest are kept.
     let complete = snapshot(&data);

@@ -284,6 +284,12 @@ pub struct SampleRecord {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DatasetManifest {
     pub format_version: u32,
+    /// `glassbake_trace::TRACER_REVISION` of the glassbake that started the dataset: another
+    /// revision may trace other images for the same frames, so the dataset is continued and
+    /// merged only at its own. Absent in manifests older than the field (their revision is
+    /// unknown, and not checked).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tracer_revision: Option<u32>,
     pub spec: DatasetSpec,
     pub scene: SceneRecord,
     /// Ground truth is stored as f32 EXR; cached buffers as f16 EXR.
@@ -304,6 +310,7 @@ impl DatasetManifest {
             .collect();
         DatasetManifest {
             format_version: FORMAT_VERSION,
+            tracer_revision: Some(glassbake_trace::TRACER_REVISION),
             spec: spec.clone(),
             scene: SceneRecord {
                 name: scene.name.clone(),
@@ -346,6 +353,14 @@ impl DatasetManifest {
                 other.scene.name,
                 short(&other.scene.hash)
             ));
+        }
+        if let (Some(was), Some(now)) = (self.tracer_revision, other.tracer_revision) {
+            if was != now {
+                return Some(format!(
+                    "its frames were traced by tracer revision {was} and this glassbake's is {now}, so the frames traced now \
+                     would not be the ones a single run makes (finish it with the glassbake that started it)"
+                ));
+            }
         }
         let fields: [(&str, String, String); 10] = [
             ("--res", a.resolution.to_string(), b.resolution.to_string()),

@@ -223,7 +223,9 @@ pub fn upgrade(dir: &Path, scene: &Scene, options: &RasterizerOptions, progress:
     if existing.format_version == crate::FORMAT_VERSION {
         return Ok(summary);
     }
-    let planned = DatasetManifest::plan(&existing.spec, scene);
+    let mut planned = DatasetManifest::plan(&existing.spec, scene);
+    // The ground truth stays, and with it the revision that traced it.
+    planned.tracer_revision = existing.tracer_revision;
     let mut as_today = existing.clone();
     as_today.format_version = crate::FORMAT_VERSION;
     if let Some(why) = as_today.mismatch(&planned) {

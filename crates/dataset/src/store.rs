@@ -65,6 +65,8 @@ pub struct DatasetInfo {
     pub device: TraceDevice,
     /// With which estimator.
     pub estimator: GroundTruthEstimator,
+    /// By which revision of the tracers (`None`: a dataset from before revisions were recorded).
+    pub tracer_revision: Option<u32>,
     pub transparent_objects: usize,
     /// (split, frames planned, frames complete)
     pub splits: Vec<(Split, usize, usize)>,
@@ -265,6 +267,7 @@ impl DatasetStore {
             test_glass_spp: m.spec.glass_spp_of(Split::Test),
             device: m.spec.device,
             estimator: m.spec.estimator,
+            tracer_revision: m.tracer_revision,
             seed: m.spec.seed,
             cache_buffers: m.spec.cache_buffers,
             transparent_objects: m.scene.transparent_objects.len(),

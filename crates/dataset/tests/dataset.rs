@@ -165,6 +165,12 @@ fn shards_merge_into_the_single_machine_dataset_byte_for_byte() {
     assert!(matches!(merge(&merged, &partial), Err(Error::BadInput { .. })));
     assert!(!merged.exists());
     let all: Vec<&Path> = shard_dirs.iter().map(|p| p.as_path()).collect();
+    // Shards of two tracer revisions are refused and write nothing.
+    set_manifest_field(&shard_dirs[1], "tracer_revision", Some((glassbake_trace::TRACER_REVISION + 1).into()));
+    let err = merge(&merged, &all).expect_err("two revisions").to_string();
+    assert!(err.contains("tracer revision"), "{err}");
+    assert!(!merged.exists());
+    set_manifest_field(&shard_dirs[1], "tracer_revision", Some(glassbake_trace::TRACER_REVISION.into()));
     assert_eq!(merge(&merged, &all).unwrap(), 8);
     assert_eq!(snapshot(&merged), snapshot(&single));
 }
@@ -197,6 +203,22 @@ fn a_different_command_on_an_existing_dataset_is_refused() {
             other => panic!("expected a refusal for {why}, got {:?}", other.map(|s| s.generated)),
         }
     }
+    // Frames of another tracer revision would not be the bytes one run makes: refused, with
+    // the field named; a manifest from before revisions were recorded is continued.
+    let revision = glassbake_trace::TRACER_REVISION;
+    assert_eq!(DatasetStore::open(&d).unwrap().manifest.tracer_revision, Some(revision));
+    set_manifest_field(&d, "tracer_revision", Some((revision + 1).into()));
+    match generate(&scene, &tiny, &d, &GenerateOptions::default(), &no_progress) {
+        Err(Error::BadInput { file, message, .. }) => {
+            assert!(file.ends_with("manifest.json"), "{file}");
+            assert!(message.contains(&format!("tracer revision {}", revision + 1)), "{message}");
+        }
+        other => panic!("expected a refusal for the tracer revision, got {:?}", other.map(|s| s.generated)),
+    }
+    set_manifest_field(&d, "tracer_revision", None);
+    let continued = generate(&scene, &tiny, &d, &GenerateOptions::default(), &no_progress).unwrap();
+    assert_eq!((continued.generated, continued.skipped), (0, 1));
+    assert_eq!(DatasetStore::open(&d).unwrap().manifest.tracer_revision, None, "an unknown revision stays unknown");
     // Glass pixels below the test spp are refused before anything is written.
     let below = dir.path().join("below");
     let result = generate(&scene, &DatasetSpec { test_glass_spp: Some(128), ..spec(3) }, &below, &GenerateOptions::default(), &no_progress);
@@ -284,6 +306,18 @@ fn loader_batches_crops_and_matches_rasterizing_again() {
             assert!((x - y).abs() <= 2e-3 * x.abs().max(1.0), "{x} vs {y}");
         }
     }
+}
+
+/// Sets (or, with `None`, removes) a top-level field of the dataset manifest in `dir`.
+fn set_manifest_field(dir: &Path, field: &str, value: Option<serde_json::Value>) {
+    let path = dir.join("manifest.json");
+    let mut manifest: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    let object = manifest.as_object_mut().unwrap();
+    match value {
+        Some(value) => object.insert(field.to_string(), value),
+        None => object.remove(field),
+    };
+    std::fs::write(&path, serde_json::to_vec_pretty(&manifest).unwrap()).unwrap();
 }
 
 /// Rewrites the `format_version` of the dataset manifest in `dir`.

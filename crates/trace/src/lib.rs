@@ -31,6 +31,13 @@ pub mod spherical_rect;
 #[cfg(test)]
 mod bsdf_tests;
 
+/// The tracers' revision (CPU and GPU): raised by every change after which the same scene,
+/// camera, settings and seed give another image (other sample values, another estimator
+/// behind the same name), and by nothing else. Datasets record it, so that one is continued
+/// or merged only by the revision that traced its frames: its promise is the bytes a fresh run
+/// makes. Revision 1: 2026-11-25 (before it, datasets recorded none).
+pub const TRACER_REVISION: u32 = 1;
+
 pub use bsdf::{Bsdf, MaterialModel, SurfaceMaterial};
 pub use integrator::{Integrator, PathFilter, PathRadiance, PreparedScene, SurfaceHit};
 pub use render::{glass_pixels, render, sample_trace_seed, unlit_warning, Progress, TraceOutput, TraceSettings};

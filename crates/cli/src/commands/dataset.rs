@@ -151,7 +151,7 @@ pub fn run(args: DatasetArgs) -> Result<()> {
             println!("dataset {}", dir.display());
             println!("  scene {} (hash {})", info.scene_name, info.scene_hash);
             println!(
-                "  {}x{} px, {} spp{} (traced on {}, {} estimator), seed {}, {} transparent objects",
+                "  {}x{} px, {} spp{} (traced on {}, {} estimator, {}), seed {}, {} transparent objects",
                 info.resolution,
                 info.resolution,
                 info.spp,
@@ -162,6 +162,7 @@ pub fn run(args: DatasetArgs) -> Result<()> {
                 },
                 info.device.name(),
                 info.estimator.name(),
+                info.tracer_revision.map_or("tracer revision not recorded".to_string(), |r| format!("tracer revision {r}")),
                 info.seed,
                 info.transparent_objects
             );
