@@ -2,6 +2,10 @@
 choice) vs Mitsuba 3's path tracer on the same exported scene instance.
 
     pip install mitsuba numpy
+    # llvm_ad_rgb (the default variant) aborts with LLVM 15, whose x86 backend cannot select
+    # the `fminimum` Dr.Jit emits; LLVM 19 works (Debian 12 has both):
+    apt-get install libllvm19
+    export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1
     python3 tools/mitsuba-compare/equal_time.py --glassbake target/release/glassbake \
         [--scenes cornellbox,desk] [--sample 0] [--res 128] [--spp 256] [--ref-factor 16] \
         [--integrator caustic] [--sampling adaptive] [--sampler stratified] [--photon-merging] [--variant llvm_ad_rgb]
