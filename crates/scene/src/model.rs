@@ -404,3 +404,22 @@ impl Scene {
         w
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bilinear_sample_interpolates_between_texel_centres_and_wraps_at_the_seam() {
+        let texture = Texture::from_fn("ramp", 4, 2, false, |u, v| Vec4::new(u, v, u * v, 1.0));
+        // At a texel's centre the sample is that texel.
+        assert_eq!(texture.sample(Vec2::new(2.5 / 4.0, 0.5 / 2.0)), texture.texels[2]);
+        // Halfway between two centres, their mean.
+        assert_eq!(texture.sample(Vec2::new(2.0 / 4.0, 0.5 / 2.0)), (texture.texels[1] + texture.texels[2]) * 0.5);
+        // On the left edge, halfway between the last column and the first (repeat wrapping),
+        // and the same one period over in u and v.
+        let seam = (texture.texels[0] + texture.texels[3]) * 0.5;
+        assert_eq!(texture.sample(Vec2::new(0.0, 0.5 / 2.0)), seam);
+        assert_eq!(texture.sample(Vec2::new(-3.0, 1.0 + 0.5 / 2.0)), seam);
+    }
+}
