@@ -1,8 +1,11 @@
 //! Closest-hit throughput of two BVH crates on the built-in scenes: obvhs's compressed wide
 //! BVH8 (what glassbake-trace uses) against the `bvh` crate's SAH binary BVH, traversed front to
 //! back with t-max culling. Same triangles, same rays, same Moller-Trumbore test.
+//! With `--features embree` also Embree 3 (`rtcIntersect1`, one ray at a time as glassbake
+//! traces, its own watertight triangle test; needs `apt-get install libembree-dev`), the BVH
+//! behind Mitsuba 3's CPU variants.
 //!
-//! CARGO_TARGET_DIR=../../target cargo run --release   (from tools/bvh-compare)
+//! CARGO_TARGET_DIR=../../target cargo run --release [--features embree]   (from tools/bvh-compare)
 use std::time::{Duration, Instant};
 use bvh::aabb::{Aabb, Bounded};
 use bvh::bounding_hierarchy::BHShape;
@@ -57,8 +60,9 @@ fn bvh_closest(bvh: &Bvh<f32, 3>, tris: &[Tri], o: Vec3, d: Vec3) -> f32 {
 }
 
 fn main() {
-    println!("| scene | triangles | rays | obvhs build | obvhs Mrays/s | bvh build | bvh Mrays/s | same hits |");
-    println!("|---|---|---|---|---|---|---|---|");
+    let embree_columns = if cfg!(feature = "embree") { (" Embree build | Embree Mrays/s | same t as obvhs |", "---|---|---|") } else { ("", "") };
+    println!("| scene | triangles | rays | obvhs build | obvhs Mrays/s | bvh build | bvh Mrays/s | same hits |{}", embree_columns.0);
+    println!("|---|---|---|---|---|---|---|---|{}", embree_columns.1);
     for name in ["cornell-glass", "cornellbox", "cornellbox8", "desk", "bathroom"] {
         let scene = glassbake_scene::builtin::builtin(name).unwrap();
         let sample = scene.sample(0, 0);
@@ -97,6 +101,58 @@ fn main() {
         let btime = t3.elapsed();
         let same = osum.iter().zip(&bsum).filter(|(a, b)| a == b || (a.is_infinite() && b.is_infinite())).count();
         let n = (rays.len() * reps) as f64;
-        println!("| {name} | {} | {} | {:.1} ms | {:.2} | {:.1} ms | {:.2} | {:.4} |", tris.len(), rays.len(), obuild.as_secs_f64() * 1e3, n / otime.as_secs_f64() / 1e6, bbuild.as_secs_f64() * 1e3, n / btime.as_secs_f64() / 1e6, same as f64 / rays.len() as f64);
+        print!("| {name} | {} | {} | {:.1} ms | {:.2} | {:.1} ms | {:.2} | {:.4} |", tris.len(), rays.len(), obuild.as_secs_f64() * 1e3, n / otime.as_secs_f64() / 1e6, bbuild.as_secs_f64() * 1e3, n / btime.as_secs_f64() / 1e6, same as f64 / rays.len() as f64);
+        #[cfg(feature = "embree")]
+        {
+            let (build, seconds, hits) = embree_closest(&tris, &rays, reps);
+            // Embree's watertight test and Moller-Trumbore round differently: compare t to 1e-4
+            // relative.
+            let close = osum.iter().zip(&hits).filter(|(a, b)| (a.is_infinite() && b.is_infinite()) || (*a - *b).abs() <= 1e-4 * a.abs().max(1e-3)).count();
+            print!(" {:.1} ms | {:.2} | {:.4} |", build.as_secs_f64() * 1e3, n / seconds.as_secs_f64() / 1e6, close as f64 / rays.len() as f64);
+        }
+        println!();
     }
+}
+
+/// Build an Embree scene over `tris` (high build quality, with Embree's own build threads) and
+/// time `reps` passes of single-ray closest-hit queries. Returns the build time,
+/// the query time and the hit distances of the last pass (infinite for a miss).
+#[cfg(feature = "embree")]
+fn embree_closest(tris: &[Tri], rays: &[(Vec3, Vec3)], reps: usize) -> (Duration, Duration, Vec<f32>) {
+    use cgmath::{Vector3 as V3, Vector4 as V4};
+    use embree::{Device, Geometry, IntersectContext, Ray, RayHit, Scene, TriangleMesh};
+    let device = Device::new();
+    let t0 = Instant::now();
+    let mut mesh = TriangleMesh::unanimated(&device, tris.len(), 3 * tris.len());
+    {
+        let mut vertices = mesh.vertex_buffer.map();
+        let mut indices = mesh.index_buffer.map();
+        for (i, t) in tris.iter().enumerate() {
+            for (k, v) in [t.v0, t.v0 + t.e1, t.v0 + t.e2].into_iter().enumerate() {
+                vertices[3 * i + k] = V4::new(v.x, v.y, v.z, 0.0);
+            }
+            let first = 3 * i as u32;
+            indices[i] = V3::new(first, first + 1, first + 2);
+        }
+    }
+    let mut geometry = Geometry::Triangle(mesh);
+    geometry.commit();
+    let mut scene = Scene::new(&device);
+    // SAFETY: the handle is the live scene's, before its commit.
+    unsafe { embree::sys::rtcSetSceneBuildQuality(scene.handle(), embree::BuildQuality::HIGH) };
+    scene.attach_geometry(geometry);
+    let committed = scene.commit();
+    let build = t0.elapsed();
+    let mut context = IntersectContext::incoherent();
+    let mut hits = Vec::with_capacity(rays.len());
+    let t1 = Instant::now();
+    for _ in 0..reps {
+        hits.clear();
+        for &(o, d) in rays {
+            let mut ray_hit = RayHit::new(Ray::new(V3::new(o.x, o.y, o.z), V3::new(d.x, d.y, d.z)));
+            committed.intersect(&mut context, &mut ray_hit);
+            hits.push(if ray_hit.hit.hit() { ray_hit.ray.tfar } else { f32::INFINITY });
+        }
+    }
+    (build, t1.elapsed(), hits)
 }
