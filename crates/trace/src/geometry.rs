@@ -1,5 +1,7 @@
-//! The scene flattened into world-space triangles behind one BVH (obvhs' compressed wide
-//! BVH8, Ylitie et al. 2017), with the per-triangle attributes shading needs.
+//! The scene flattened into world-space triangles behind one BVH, with the per-triangle
+//! attributes shading needs. The BVH is obvhs' compressed wide BVH8 (Ylitie et al. 2017),
+//! pure Rust; a build with the `embree` feature casts rays with Intel Embree 3 instead
+//! (`embree_caster.rs`, [`RAY_CASTER`]).
 
 use std::time::Duration;
 
@@ -11,6 +13,16 @@ use obvhs::cwbvh::CwBvh;
 use obvhs::ray::{Ray as BvhRay, RayHit};
 use obvhs::triangle::Triangle as BvhTriangle;
 use obvhs::BvhBuildParams;
+
+/// The ray caster this build traces with: `obvhs`, or `embree` (the `embree` feature). The
+/// two find the same hits up to rounding (each has its own triangle test), so the same
+/// inputs give slightly different images: datasets record which one traced them.
+pub const RAY_CASTER: &str = if cfg!(feature = "embree") { "embree" } else { "obvhs" };
+
+#[cfg(not(feature = "embree"))]
+type Caster = ObvhsCaster;
+#[cfg(feature = "embree")]
+type Caster = crate::embree_caster::EmbreeCaster;
 
 /// What a triangle belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -37,8 +49,33 @@ pub struct TriangleAttributes {
     pub may_pass_through: bool,
 }
 
+/// Möller & Trumbore 1997, "Fast, Minimum Storage Ray/Triangle Intersection". Returns
+/// (t, b1, b2) with t in (t_min, t_max).
+#[inline(always)]
+fn moller_trumbore(v0: Vec3, edge1: Vec3, edge2: Vec3, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
+    let p = direction.cross(edge2);
+    let det = edge1.dot(p);
+    if det == 0.0 {
+        return None;
+    }
+    let inv_det = 1.0 / det;
+    let s = origin - v0;
+    let b1 = s.dot(p) * inv_det;
+    if !(0.0..=1.0).contains(&b1) {
+        return None;
+    }
+    let q = s.cross(edge1);
+    let b2 = direction.dot(q) * inv_det;
+    if b2 < 0.0 || b1 + b2 > 1.0 {
+        return None;
+    }
+    let t = edge2.dot(q) * inv_det;
+    (t > t_min && t < t_max).then_some((t, b1, b2))
+}
+
 /// The intersection data of one triangle, in BVH order for locality.
 #[derive(Clone, Copy, Debug)]
+#[cfg_attr(feature = "embree", allow(dead_code))]
 struct HotTriangle {
     v0: Vec3,
     edge1: Vec3,
@@ -48,28 +85,9 @@ struct HotTriangle {
 }
 
 impl HotTriangle {
-    /// Möller & Trumbore 1997, "Fast, Minimum Storage Ray/Triangle Intersection". Returns
-    /// (t, b1, b2) with t in (t_min, t_max).
     #[inline(always)]
     fn intersect(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
-        let p = direction.cross(self.edge2);
-        let det = self.edge1.dot(p);
-        if det == 0.0 {
-            return None;
-        }
-        let inv_det = 1.0 / det;
-        let s = origin - self.v0;
-        let b1 = s.dot(p) * inv_det;
-        if !(0.0..=1.0).contains(&b1) {
-            return None;
-        }
-        let q = s.cross(self.edge1);
-        let b2 = direction.dot(q) * inv_det;
-        if b2 < 0.0 || b1 + b2 > 1.0 {
-            return None;
-        }
-        let t = self.edge2.dot(q) * inv_det;
-        (t > t_min && t < t_max).then_some((t, b1, b2))
+        moller_trumbore(self.v0, self.edge1, self.edge2, origin, direction, t_min, t_max)
     }
 }
 
@@ -85,9 +103,16 @@ pub struct Hit {
 }
 
 pub struct SceneGeometry {
-    bvh: Option<CwBvh>,
-    hot: Vec<HotTriangle>,
+    /// `None` when the scene has no triangles.
+    caster: Option<Caster>,
     pub attributes: Vec<TriangleAttributes>,
+}
+
+/// obvhs' CWBVH over the triangles, and their intersection data in BVH order.
+#[cfg_attr(feature = "embree", allow(dead_code))]
+struct ObvhsCaster {
+    bvh: CwBvh,
+    hot: Vec<HotTriangle>,
 }
 
 fn to_bvh(v: Vec3) -> BvhVec3 {
@@ -148,9 +173,35 @@ impl SceneGeometry {
             }
         }
 
-        if attributes.is_empty() {
-            return SceneGeometry { bvh: None, hot: Vec::new(), attributes };
+        let caster = (!attributes.is_empty()).then(|| Caster::build(&attributes));
+        SceneGeometry { caster, attributes }
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.attributes.len()
+    }
+
+    /// The closest triangle hit with t in (t_min, t_max).
+    pub fn closest_hit(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<Hit> {
+        self.caster.as_ref()?.closest_hit(origin, direction, t_min, t_max)
+    }
+
+    /// One traversal for a shadow segment (t_min, t_max): returns whether anything that
+    /// cannot let light through lies on it, and (when nothing does) leaves in `panes` every
+    /// hit with a triangle that may pass light through, each once, in an order fixed by the
+    /// scene and the ray (not by the thread that asks).
+    pub fn shadow_query(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32, panes: &mut Vec<Hit>) -> bool {
+        panes.clear();
+        match &self.caster {
+            Some(caster) => caster.shadow_query(&self.attributes, origin, direction, t_min, t_max, panes),
+            None => false,
         }
+    }
+}
+
+#[cfg_attr(feature = "embree", allow(dead_code))]
+impl ObvhsCaster {
+    fn build(attributes: &[TriangleAttributes]) -> Self {
         let bvh_triangles: Vec<BvhTriangle> = attributes
             .iter()
             .map(|a| BvhTriangle { v0: to_bvh(a.positions[0]), v1: to_bvh(a.positions[1]), v2: to_bvh(a.positions[2]) })
@@ -164,20 +215,14 @@ impl SceneGeometry {
                 HotTriangle { v0: p[0], edge1: p[1] - p[0], edge2: p[2] - p[0], index: i }
             })
             .collect();
-        SceneGeometry { bvh: Some(bvh), hot, attributes }
+        ObvhsCaster { bvh, hot }
     }
 
-    pub fn triangle_count(&self) -> usize {
-        self.attributes.len()
-    }
-
-    /// The closest triangle hit with t in (t_min, t_max).
-    pub fn closest_hit(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<Hit> {
-        let bvh = self.bvh.as_ref()?;
+    fn closest_hit(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<Hit> {
         let mut best: Option<(f32, f32, f32, u32)> = None;
         let mut ray_hit = RayHit::none();
         let hot = &self.hot;
-        bvh.ray_traverse(bvh_ray(origin, direction, t_min, t_max), &mut ray_hit, |ray, id| {
+        self.bvh.ray_traverse(bvh_ray(origin, direction, t_min, t_max), &mut ray_hit, |ray, id| {
             let tri = &hot[id];
             match tri.intersect(origin, direction, t_min, ray.tmax) {
                 Some((t, b1, b2)) => {
@@ -193,16 +238,10 @@ impl SceneGeometry {
         best.map(|(t, b1, b2, triangle)| Hit { t, triangle, b1, b2 })
     }
 
-    /// One traversal for a shadow segment (t_min, t_max): returns whether anything that
-    /// cannot let light through lies on it, and (when nothing does) leaves in `panes` every
-    /// hit with a triangle that may pass light through, in BVH traversal order
-    /// (deterministic for a given scene).
-    pub fn shadow_query(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32, panes: &mut Vec<Hit>) -> bool {
-        panes.clear();
-        let Some(bvh) = self.bvh.as_ref() else { return false };
+    /// Panes come in BVH traversal order (each triangle is in one leaf: no duplicates).
+    fn shadow_query(&self, attributes: &[TriangleAttributes], origin: Vec3, direction: Vec3, t_min: f32, t_max: f32, panes: &mut Vec<Hit>) -> bool {
         let hot = &self.hot;
-        let attributes = &self.attributes;
-        !bvh.ray_traverse_miss(bvh_ray(origin, direction, t_min, t_max), |_, id| {
+        !self.bvh.ray_traverse_miss(bvh_ray(origin, direction, t_min, t_max), |_, id| {
             let tri = &hot[id];
             let Some((t, b1, b2)) = tri.intersect(origin, direction, t_min, t_max) else { return f32::INFINITY };
             if attributes[tri.index as usize].may_pass_through {
@@ -222,10 +261,11 @@ mod tests {
     /// Brute force over all triangles, for checking the BVH.
     fn brute_force(geometry: &SceneGeometry, origin: Vec3, direction: Vec3) -> Option<(f32, u32)> {
         let mut best: Option<(f32, u32)> = None;
-        for tri in &geometry.hot {
-            if let Some((t, _, _)) = tri.intersect(origin, direction, 0.0, f32::INFINITY) {
+        for (index, triangle) in geometry.attributes.iter().enumerate() {
+            let [v0, v1, v2] = triangle.positions;
+            if let Some((t, _, _)) = moller_trumbore(v0, v1 - v0, v2 - v0, origin, direction, 0.0, f32::INFINITY) {
                 if best.is_none_or(|b| t < b.0) {
-                    best = Some((t, tri.index));
+                    best = Some((t, index as u32));
                 }
             }
         }
@@ -265,5 +305,58 @@ mod tests {
                 assert!(!geometry.shadow_query(origin, direction, 0.0, 1e3, &mut panes) && panes.is_empty());
             }
         }
+    }
+
+    /// Every hit on the segment (0, t_max), by brute force: (t, triangle, b1, b2).
+    fn all_hits(geometry: &SceneGeometry, origin: Vec3, direction: Vec3, t_max: f32) -> Vec<(f32, u32, f32, f32)> {
+        let mut hits = Vec::new();
+        for (index, triangle) in geometry.attributes.iter().enumerate() {
+            let [v0, v1, v2] = triangle.positions;
+            if let Some((t, b1, b2)) = moller_trumbore(v0, v1 - v0, v2 - v0, origin, direction, 0.0, t_max) {
+                hits.push((t, index as u32, b1, b2));
+            }
+        }
+        hits
+    }
+
+    #[test]
+    fn shadow_queries_report_every_pane_on_the_segment_once() {
+        // The bathroom's partition and the glass cube's thin panes are pass-through triangles.
+        let mut queries_with_panes = 0;
+        for name in ["bathroom", "cornellbox"] {
+            let scene = builtin(name).unwrap();
+            let geometry = SceneGeometry::build(&scene, &|_, _| None);
+            assert!(geometry.attributes.iter().any(|a| a.may_pass_through), "{name} has no pane");
+            let lower = geometry.attributes.iter().flat_map(|a| a.positions).fold(Vec3::MAX, Vec3::min);
+            let upper = geometry.attributes.iter().flat_map(|a| a.positions).fold(Vec3::MIN, Vec3::max);
+            let mut rng = crate::rng::Pcg32::new(3, 4);
+            let mut panes = Vec::new();
+            for _ in 0..4000 {
+                let origin = lower + (upper - lower) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+                let direction = crate::sampling::uniform_sphere(rng.next_vec2());
+                let t_max = rng.next_f32() * (upper - lower).length();
+                let hits = all_hits(&geometry, origin, direction, t_max);
+                // Hits within rounding of the segment's ends may go either way.
+                if hits.iter().any(|h| h.0 < 1e-3 || h.0 > t_max * (1.0 - 1e-4)) {
+                    continue;
+                }
+                let blocked = hits.iter().any(|h| !geometry.attributes[h.1 as usize].may_pass_through);
+                assert_eq!(geometry.shadow_query(origin, direction, 0.0, t_max, &mut panes), blocked, "{name}: {origin} {direction} {t_max}");
+                if blocked {
+                    continue;
+                }
+                queries_with_panes += usize::from(!hits.is_empty());
+                let mut reported: Vec<u32> = panes.iter().map(|h| h.triangle).collect();
+                reported.sort_unstable();
+                let mut expected: Vec<u32> = hits.iter().map(|h| h.1).collect();
+                expected.sort_unstable();
+                assert_eq!(reported, expected, "{name}: {origin} {direction} {t_max}");
+                for pane in &panes {
+                    let &(t, _, b1, b2) = hits.iter().find(|h| h.1 == pane.triangle).unwrap();
+                    assert!((pane.t - t).abs() <= 1e-4 * t.max(1.0) && (pane.b1 - b1).abs() < 1e-4 && (pane.b2 - b2).abs() < 1e-4, "{pane:?} vs {t} {b1} {b2}");
+                }
+            }
+        }
+        assert!(queries_with_panes > 100, "only {queries_with_panes} unblocked segments crossed a pane");
     }
 }

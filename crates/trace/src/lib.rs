@@ -1,7 +1,7 @@
 //! glassbake-trace: the ground-truth CPU path tracer.
 //!
 //! It owns everything between a scene instance plus a camera and a linear-RGB radiance
-//! image: the BVH over the scene's triangles (obvhs), the BSDFs of the scene model (glTF
+//! image: the BVH over the scene's triangles (obvhs, or Intel Embree with the `embree` feature), the BSDFs of the scene model (glTF
 //! metallic-roughness, smooth / rough / thin dielectrics), rectangle and emissive-mesh
 //! lights (rectangles sampled by solid angle), a unidirectional path tracer with
 //! next-event estimation, MIS, Russian roulette and path guiding (an SD-tree learned over
@@ -14,6 +14,8 @@
 
 pub mod adaptive;
 pub mod bsdf;
+#[cfg(feature = "embree")]
+mod embree_caster;
 pub mod geometry;
 pub mod glass_cones;
 pub mod guiding;
@@ -39,5 +41,6 @@ mod bsdf_tests;
 pub const TRACER_REVISION: u32 = 1;
 
 pub use bsdf::{Bsdf, MaterialModel, SurfaceMaterial};
+pub use geometry::RAY_CASTER;
 pub use integrator::{Integrator, PathFilter, PathRadiance, PreparedScene, SurfaceHit};
 pub use render::{glass_pixels, render, sample_trace_seed, unlit_warning, Progress, TraceOutput, TraceSettings};
