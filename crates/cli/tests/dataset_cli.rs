@@ -73,6 +73,7 @@ fn a_gpu_traced_dataset_resumes_stays_on_its_device_and_trains() {
     assert!(info.contains("traced on wgpu"), "{info}");
     assert!(info.contains(&format!("tracer revision {}", manifest["tracer_revision"])), "{info}");
     assert!(manifest["tracer_revision"].as_u64().is_some_and(|r| r >= 1), "{manifest}");
+    assert!(manifest.get("ray_caster").is_none() && !info.contains("rays cast by"), "a GPU dataset records no CPU ray caster: {info}");
 
     // A lost frame is made again, identical on the same device; the rest are kept.
     let complete = snapshot(&data);

@@ -290,6 +290,12 @@ pub struct DatasetManifest {
     /// unknown, and not checked).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tracer_revision: Option<u32>,
+    /// `glassbake_trace::RAY_CASTER` (`obvhs`, or `embree` in a build with that feature) of the
+    /// glassbake that started a CPU dataset: the two round hits differently, so frames of one
+    /// are not the bytes the other makes. Absent for GPU datasets and in manifests older than
+    /// the field (not checked then).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ray_caster: Option<String>,
     pub spec: DatasetSpec,
     pub scene: SceneRecord,
     /// Ground truth is stored as f32 EXR; cached buffers as f16 EXR.
@@ -311,6 +317,7 @@ impl DatasetManifest {
         DatasetManifest {
             format_version: FORMAT_VERSION,
             tracer_revision: Some(glassbake_trace::TRACER_REVISION),
+            ray_caster: (spec.device == TraceDevice::Cpu).then(|| glassbake_trace::RAY_CASTER.to_string()),
             spec: spec.clone(),
             scene: SceneRecord {
                 name: scene.name.clone(),
@@ -359,6 +366,14 @@ impl DatasetManifest {
                 return Some(format!(
                     "its frames were traced by tracer revision {was} and this glassbake's is {now}, so the frames traced now \
                      would not be the ones a single run makes (finish it with the glassbake that started it)"
+                ));
+            }
+        }
+        if let (Some(was), Some(now)) = (&self.ray_caster, &other.ray_caster) {
+            if was != now {
+                return Some(format!(
+                    "its frames were traced with the {was} ray caster, not {now} (a glassbake built with the `embree` \
+                     feature casts rays with Embree, one without with obvhs), and the two round hits differently"
                 ));
             }
         }

@@ -226,6 +226,7 @@ pub fn upgrade(dir: &Path, scene: &Scene, options: &RasterizerOptions, progress:
     let mut planned = DatasetManifest::plan(&existing.spec, scene);
     // The ground truth stays, and with it the revision that traced it.
     planned.tracer_revision = existing.tracer_revision;
+    planned.ray_caster = existing.ray_caster.clone();
     let mut as_today = existing.clone();
     as_today.format_version = crate::FORMAT_VERSION;
     if let Some(why) = as_today.mismatch(&planned) {

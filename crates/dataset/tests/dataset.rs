@@ -171,6 +171,12 @@ fn shards_merge_into_the_single_machine_dataset_byte_for_byte() {
     assert!(err.contains("tracer revision"), "{err}");
     assert!(!merged.exists());
     set_manifest_field(&shard_dirs[1], "tracer_revision", Some(glassbake_trace::TRACER_REVISION.into()));
+    // So are shards traced with two ray casters.
+    set_manifest_field(&shard_dirs[1], "ray_caster", Some("another-caster".into()));
+    let err = merge(&merged, &all).expect_err("two ray casters").to_string();
+    assert!(err.contains("ray caster") && err.contains("another-caster"), "{err}");
+    assert!(!merged.exists());
+    set_manifest_field(&shard_dirs[1], "ray_caster", Some(glassbake_trace::RAY_CASTER.into()));
     assert_eq!(merge(&merged, &all).unwrap(), 8);
     assert_eq!(snapshot(&merged), snapshot(&single));
 }
@@ -219,6 +225,20 @@ fn a_different_command_on_an_existing_dataset_is_refused() {
     let continued = generate(&scene, &tiny, &d, &GenerateOptions::default(), &no_progress).unwrap();
     assert_eq!((continued.generated, continued.skipped), (0, 1));
     assert_eq!(DatasetStore::open(&d).unwrap().manifest.tracer_revision, None, "an unknown revision stays unknown");
+    // The same for frames cast by another ray caster (a build with or without `embree`).
+    assert_eq!(DatasetStore::open(&d).unwrap().manifest.ray_caster.as_deref(), Some(glassbake_trace::RAY_CASTER));
+    set_manifest_field(&d, "ray_caster", Some("another-caster".into()));
+    match generate(&scene, &tiny, &d, &GenerateOptions::default(), &no_progress) {
+        Err(Error::BadInput { file, message, .. }) => {
+            assert!(file.ends_with("manifest.json"), "{file}");
+            assert!(message.contains("another-caster ray caster"), "{message}");
+        }
+        other => panic!("expected a refusal for the ray caster, got {:?}", other.map(|s| s.generated)),
+    }
+    set_manifest_field(&d, "ray_caster", None);
+    let continued = generate(&scene, &tiny, &d, &GenerateOptions::default(), &no_progress).unwrap();
+    assert_eq!((continued.generated, continued.skipped), (0, 1));
+    assert_eq!(DatasetStore::open(&d).unwrap().manifest.ray_caster, None, "an unknown ray caster stays unknown");
     // Glass pixels below the test spp are refused before anything is written.
     let below = dir.path().join("below");
     let result = generate(&scene, &DatasetSpec { test_glass_spp: Some(128), ..spec(3) }, &below, &GenerateOptions::default(), &no_progress);

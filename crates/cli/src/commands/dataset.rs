@@ -162,7 +162,11 @@ pub fn run(args: DatasetArgs) -> Result<()> {
                 },
                 info.device.name(),
                 info.estimator.name(),
-                info.tracer_revision.map_or("tracer revision not recorded".to_string(), |r| format!("tracer revision {r}")),
+                match (info.tracer_revision, &info.ray_caster) {
+                    (None, _) => "tracer revision not recorded".to_string(),
+                    (Some(r), None) => format!("tracer revision {r}"),
+                    (Some(r), Some(caster)) => format!("tracer revision {r}, rays cast by {caster}"),
+                },
                 info.seed,
                 info.transparent_objects
             );
