@@ -171,7 +171,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
         TraceDevice::Wgpu => Some(GpuTracer::new(&RasterizerOptions::default())?),
         TraceDevice::Cpu => None,
     };
-    let on = gpu_tracer.as_ref().map_or_else(|| "CPU".to_string(), |t| t.adapter_name().to_string());
+    let on = gpu_tracer.as_ref().map_or_else(|| format!("CPU, rays cast by {}", glassbake_trace::RAY_CASTER), |t| t.adapter_name().to_string());
     let sampling = match (adaptive, stratified) {
         (true, true) => "adaptive, stratified",
         (true, false) => "adaptive",
