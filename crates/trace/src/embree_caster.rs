@@ -158,9 +158,12 @@ impl EmbreeCaster {
     pub(crate) fn shadow_query(&self, _attributes: &[TriangleAttributes], origin: Vec3, direction: Vec3, t_min: f32, t_max: f32, panes: &mut Vec<Hit>) -> bool {
         let mut shadow_ray = ray(origin, direction, t_min, t_max);
         let mut state = ShadowContext { context: context(), pane_triangles: &self.triangles[PANES as usize], panes: &mut *panes };
-        // SAFETY: the context pointer is the state's first field (repr(C)); `record_pane` reads
-        // the state through it during this call only.
-        unsafe { rtcOccluded1(self.scene, &mut state.context, &mut shadow_ray) };
+        // The pointer Embree gets is derived from the whole state (not from `&mut state.context`),
+        // so that `record_pane` may reach the rest of it through the context's address.
+        let context_of_state = (&mut state as *mut ShadowContext).cast::<RTCIntersectContext>();
+        // SAFETY: the context is the state's first field (repr(C)); `record_pane` uses the state
+        // during this call only, and nothing else touches it meanwhile.
+        unsafe { rtcOccluded1(self.scene, context_of_state, &mut shadow_ray) };
         // Embree marks an occluded ray by tfar = -inf.
         if shadow_ray.tfar == f32::NEG_INFINITY {
             panes.clear();
