@@ -292,8 +292,9 @@ pub struct DatasetManifest {
     pub tracer_revision: Option<u32>,
     /// `glassbake_trace::RAY_CASTER` (`obvhs`, or `embree` in a build with that feature) of the
     /// glassbake that started a CPU dataset: the two round hits differently, so frames of one
-    /// are not the bytes the other makes. Absent for GPU datasets and in manifests older than
-    /// the field (not checked then).
+    /// are not the bytes the other makes. Absent for GPU datasets, and in CPU manifests older
+    /// than the field, whose frames obvhs cast (it was the only caster then): see
+    /// [`DatasetManifest::cpu_ray_caster`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ray_caster: Option<String>,
     pub spec: DatasetSpec,
@@ -306,6 +307,16 @@ pub struct DatasetManifest {
 }
 
 impl DatasetManifest {
+    /// The ray caster that traced a CPU dataset's frames: the recorded one, or obvhs for a
+    /// manifest from before the field (the only caster then). `None` for GPU datasets.
+    pub fn cpu_ray_caster(&self) -> Option<&str> {
+        match (&self.ray_caster, self.spec.device) {
+            (Some(caster), _) => Some(caster),
+            (None, TraceDevice::Cpu) => Some("obvhs"),
+            (None, _) => None,
+        }
+    }
+
     /// The manifest of `spec` over `scene`: a pure function of its inputs.
     pub fn plan(spec: &DatasetSpec, scene: &Scene) -> DatasetManifest {
         let samples = (0..spec.total())
@@ -369,7 +380,7 @@ impl DatasetManifest {
                 ));
             }
         }
-        if let (Some(was), Some(now)) = (&self.ray_caster, &other.ray_caster) {
+        if let (Some(was), Some(now)) = (self.cpu_ray_caster(), other.cpu_ray_caster()) {
             if was != now {
                 return Some(format!(
                     "its frames were traced with the {was} ray caster, not {now} (a glassbake built with the `embree` \

@@ -67,7 +67,7 @@ pub struct DatasetInfo {
     pub estimator: GroundTruthEstimator,
     /// By which revision of the tracers (`None`: a dataset from before revisions were recorded).
     pub tracer_revision: Option<u32>,
-    /// With which CPU ray caster (`None` for GPU datasets and those from before it was recorded).
+    /// With which CPU ray caster (`None` for GPU datasets).
     pub ray_caster: Option<String>,
     pub transparent_objects: usize,
     /// (split, frames planned, frames complete)
@@ -270,7 +270,7 @@ impl DatasetStore {
             device: m.spec.device,
             estimator: m.spec.estimator,
             tracer_revision: m.tracer_revision,
-            ray_caster: m.ray_caster.clone(),
+            ray_caster: m.cpu_ray_caster().map(str::to_string),
             seed: m.spec.seed,
             cache_buffers: m.spec.cache_buffers,
             transparent_objects: m.scene.transparent_objects.len(),

@@ -171,11 +171,18 @@ fn shards_merge_into_the_single_machine_dataset_byte_for_byte() {
     assert!(err.contains("tracer revision"), "{err}");
     assert!(!merged.exists());
     set_manifest_field(&shard_dirs[1], "tracer_revision", Some(glassbake_trace::TRACER_REVISION.into()));
-    // So are shards traced with two ray casters.
+    // So are shards traced with two ray casters; a shard from before the field was recorded
+    // counts as obvhs, the only caster then.
     set_manifest_field(&shard_dirs[1], "ray_caster", Some("another-caster".into()));
     let err = merge(&merged, &all).expect_err("two ray casters").to_string();
     assert!(err.contains("ray caster") && err.contains("another-caster"), "{err}");
     assert!(!merged.exists());
+    set_manifest_field(&shard_dirs[0], "ray_caster", Some("embree".into()));
+    set_manifest_field(&shard_dirs[1], "ray_caster", None);
+    let err = merge(&merged, &all).expect_err("embree and an unrecorded (obvhs) shard").to_string();
+    assert!(err.contains("embree") && err.contains("obvhs"), "{err}");
+    assert!(!merged.exists());
+    set_manifest_field(&shard_dirs[0], "ray_caster", Some(glassbake_trace::RAY_CASTER.into()));
     set_manifest_field(&shard_dirs[1], "ray_caster", Some(glassbake_trace::RAY_CASTER.into()));
     assert_eq!(merge(&merged, &all).unwrap(), 8);
     assert_eq!(snapshot(&merged), snapshot(&single));
@@ -235,10 +242,18 @@ fn a_different_command_on_an_existing_dataset_is_refused() {
         }
         other => panic!("expected a refusal for the ray caster, got {:?}", other.map(|s| s.generated)),
     }
+    // A manifest from before the field was cast by obvhs, the only caster then: continued by
+    // an obvhs build, refused by an Embree one.
     set_manifest_field(&d, "ray_caster", None);
-    let continued = generate(&scene, &tiny, &d, &GenerateOptions::default(), &no_progress).unwrap();
-    assert_eq!((continued.generated, continued.skipped), (0, 1));
-    assert_eq!(DatasetStore::open(&d).unwrap().manifest.ray_caster, None, "an unknown ray caster stays unknown");
+    assert_eq!(DatasetStore::open(&d).unwrap().info().ray_caster.as_deref(), Some("obvhs"));
+    let result = generate(&scene, &tiny, &d, &GenerateOptions::default(), &no_progress);
+    if glassbake_trace::RAY_CASTER == "obvhs" {
+        let continued = result.unwrap();
+        assert_eq!((continued.generated, continued.skipped), (0, 1));
+        assert_eq!(DatasetStore::open(&d).unwrap().manifest.ray_caster, None, "the manifest is not rewritten");
+    } else {
+        assert!(matches!(&result, Err(Error::BadInput { message, .. }) if message.contains("obvhs ray caster")), "{:?}", result.map(|s| s.generated));
+    }
     // Glass pixels below the test spp are refused before anything is written.
     let below = dir.path().join("below");
     let result = generate(&scene, &DatasetSpec { test_glass_spp: Some(128), ..spec(3) }, &below, &GenerateOptions::default(), &no_progress);

@@ -6,7 +6,8 @@
 //! Determinism: the BVH is built on one thread (`threads=1`), so it is the same for any number
 //! of rendering threads, and the panes a shadow ray passes are sorted by distance before use.
 //! Embree picks its instruction set at run time, so two machines may differ in the last bits,
-//! as they may with libm.
+//! as they may with libm. With TBB, `threads=1` also limits other TBB users in the process to
+//! one thread while a device lives: one lives only while `render` runs.
 
 use std::ffi::CStr;
 
@@ -64,10 +65,15 @@ unsafe extern "C" fn record_pane(args: *const RTCFilterFunctionNArguments) {
         if *args.valid == 0 {
             return;
         }
-        let state = &mut *(args.context as *mut ShadowContext);
+        // Embree reads the context while it calls us: reach the other fields through the raw
+        // pointer instead of making a `&mut` to the whole state.
+        let state = args.context as *mut ShadowContext;
+        let pane_triangles = (*state).pane_triangles;
+        let panes: &mut Vec<Hit> = &mut *(*state).panes;
+        // Embree puts the hit's distance in the ray's tfar while the filter runs.
         let ray = &*(args.ray as *const RTCRay);
         let hit = &*(args.hit as *const RTCHit);
-        state.panes.push(Hit { t: ray.tfar, triangle: state.pane_triangles[hit.primID as usize], b1: hit.u, b2: hit.v });
+        panes.push(Hit { t: ray.tfar, triangle: pane_triangles[hit.primID as usize], b1: hit.u, b2: hit.v });
         *args.valid = 0;
     }
 }
@@ -100,7 +106,15 @@ impl EmbreeCaster {
         // are filled within their sizes (3 vertices and 3 indices per triangle).
         unsafe {
             let device = rtcNewDevice(config.as_ptr());
-            assert!(!device.is_null(), "Embree: no device ({:?}); is libembree3 installed?", rtcGetDeviceError(std::ptr::null_mut()));
+            assert!(!device.is_null(), "Embree: no device ({:?})", rtcGetDeviceError(std::ptr::null_mut()));
+            // What the queries below rely on, and a library built otherwise would break: the
+            // 3.x API these bindings describe, triangles, filter functions (else every pane
+            // would block), and no back-face culling (glass is hit from both sides).
+            let property = |p| rtcGetDeviceProperty(device, p);
+            assert_eq!(property(RTCDeviceProperty::VERSION_MAJOR), 3, "Embree 3 is needed");
+            assert_eq!(property(RTCDeviceProperty::TRIANGLE_GEOMETRY_SUPPORTED), 1, "this Embree has no triangles");
+            assert_eq!(property(RTCDeviceProperty::FILTER_FUNCTION_SUPPORTED), 1, "this Embree has no filter functions");
+            assert_eq!(property(RTCDeviceProperty::BACKFACE_CULLING_ENABLED), 0, "this Embree culls back faces");
             let scene = rtcNewScene(device);
             rtcSetSceneBuildQuality(scene, RTCBuildQuality::HIGH);
             let mut triangles = [Vec::new(), Vec::new()];
@@ -169,8 +183,9 @@ impl EmbreeCaster {
             panes.clear();
             return true;
         }
-        panes.sort_unstable_by(|a, b| a.t.total_cmp(&b.t).then(a.triangle.cmp(&b.triangle)));
+        panes.sort_unstable_by(|a, b| a.triangle.cmp(&b.triangle).then(a.t.total_cmp(&b.t)));
         panes.dedup_by_key(|hit| hit.triangle);
+        panes.sort_unstable_by(|a, b| a.t.total_cmp(&b.t).then(a.triangle.cmp(&b.triangle)));
         false
     }
 }
