@@ -7,7 +7,8 @@
 //! of rendering threads, and the panes a shadow ray passes are sorted by distance before use.
 //! Embree picks its instruction set at run time, so two machines may differ in the last bits,
 //! as they may with libm. With TBB, `threads=1` also limits other TBB users in the process to
-//! one thread while a device lives: one lives only while `render` runs.
+//! one thread while a device lives: as long as its `PreparedScene`, which `render` keeps for
+//! one render.
 
 use std::ffi::CStr;
 
