@@ -1,5 +1,5 @@
 //! Rays cast by Intel Embree 3 (the `embree` build feature): the same queries as the obvhs
-//! caster in `geometry.rs`, 1.2-1.3x faster for the whole tracer on the opaque-heavy built-in
+//! caster (`obvhs_caster.rs`), 1.2-1.3x faster for the whole tracer on the opaque-heavy built-in
 //! scenes (docs/benchmarks.md). Embree comes from the system (`libembree-dev`); we call its C
 //! API through the `embree` crate's raw bindings.
 //!

@@ -1,18 +1,10 @@
 //! The scene flattened into world-space triangles behind one BVH, with the per-triangle
 //! attributes shading needs. The BVH is obvhs' compressed wide BVH8 (Ylitie et al. 2017),
 //! pure Rust; a build with the `embree` feature casts rays with Intel Embree 3 instead
-//! (`embree_caster.rs`, [`RAY_CASTER`]).
-
-use std::time::Duration;
+//! (`obvhs_caster.rs`, or `embree_caster.rs`: [`RAY_CASTER`]).
 
 use glam::{Vec2, Vec3};
-use glam_bvh::Vec3A as BvhVec3;
 use glassbake_scene::Scene;
-use obvhs::cwbvh::builder::build_cwbvh_from_tris;
-use obvhs::cwbvh::CwBvh;
-use obvhs::ray::{Ray as BvhRay, RayHit};
-use obvhs::triangle::Triangle as BvhTriangle;
-use obvhs::BvhBuildParams;
 
 /// The ray caster this build traces with: `obvhs`, or `embree` (the `embree` feature). The
 /// two find the same hits up to rounding (each has its own triangle test), so the same
@@ -20,7 +12,7 @@ use obvhs::BvhBuildParams;
 pub const RAY_CASTER: &str = if cfg!(feature = "embree") { "embree" } else { "obvhs" };
 
 #[cfg(not(feature = "embree"))]
-type Caster = ObvhsCaster;
+type Caster = crate::obvhs_caster::ObvhsCaster;
 #[cfg(feature = "embree")]
 type Caster = crate::embree_caster::EmbreeCaster;
 
@@ -50,9 +42,11 @@ pub struct TriangleAttributes {
 }
 
 /// Möller & Trumbore 1997, "Fast, Minimum Storage Ray/Triangle Intersection". Returns
-/// (t, b1, b2) with t in (t_min, t_max).
+/// (t, b1, b2) with t in (t_min, t_max). The obvhs caster's triangle test, and the brute force
+/// the tests check both casters against.
 #[inline(always)]
-fn moller_trumbore(v0: Vec3, edge1: Vec3, edge2: Vec3, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
+#[cfg_attr(all(feature = "embree", not(test)), allow(dead_code))]
+pub(crate) fn moller_trumbore(v0: Vec3, edge1: Vec3, edge2: Vec3, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
     let p = direction.cross(edge2);
     let det = edge1.dot(p);
     if det == 0.0 {
@@ -73,24 +67,6 @@ fn moller_trumbore(v0: Vec3, edge1: Vec3, edge2: Vec3, origin: Vec3, direction: 
     (t > t_min && t < t_max).then_some((t, b1, b2))
 }
 
-/// The intersection data of one triangle, in BVH order for locality.
-#[derive(Clone, Copy, Debug)]
-#[cfg_attr(feature = "embree", allow(dead_code))]
-struct HotTriangle {
-    v0: Vec3,
-    edge1: Vec3,
-    edge2: Vec3,
-    /// Index into `attributes`.
-    index: u32,
-}
-
-impl HotTriangle {
-    #[inline(always)]
-    fn intersect(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
-        moller_trumbore(self.v0, self.edge1, self.edge2, origin, direction, t_min, t_max)
-    }
-}
-
 /// A closest-hit result.
 #[derive(Clone, Copy, Debug)]
 pub struct Hit {
@@ -106,21 +82,6 @@ pub struct SceneGeometry {
     /// `None` when the scene has no triangles.
     caster: Option<Caster>,
     pub attributes: Vec<TriangleAttributes>,
-}
-
-/// obvhs' CWBVH over the triangles, and their intersection data in BVH order.
-#[cfg_attr(feature = "embree", allow(dead_code))]
-struct ObvhsCaster {
-    bvh: CwBvh,
-    hot: Vec<HotTriangle>,
-}
-
-fn to_bvh(v: Vec3) -> BvhVec3 {
-    BvhVec3::new(v.x, v.y, v.z)
-}
-
-fn bvh_ray(origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> BvhRay {
-    BvhRay::new(to_bvh(origin), to_bvh(direction), t_min, t_max)
 }
 
 impl SceneGeometry {
@@ -196,61 +157,6 @@ impl SceneGeometry {
             Some(caster) => caster.shadow_query(&self.attributes, origin, direction, t_min, t_max, panes),
             None => false,
         }
-    }
-}
-
-#[cfg_attr(feature = "embree", allow(dead_code))]
-impl ObvhsCaster {
-    fn build(attributes: &[TriangleAttributes]) -> Self {
-        let bvh_triangles: Vec<BvhTriangle> = attributes
-            .iter()
-            .map(|a| BvhTriangle { v0: to_bvh(a.positions[0]), v1: to_bvh(a.positions[1]), v2: to_bvh(a.positions[2]) })
-            .collect();
-        let bvh = build_cwbvh_from_tris(&bvh_triangles, BvhBuildParams::medium_build(), &mut Duration::default());
-        let hot = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| {
-                let p = attributes[i as usize].positions;
-                HotTriangle { v0: p[0], edge1: p[1] - p[0], edge2: p[2] - p[0], index: i }
-            })
-            .collect();
-        ObvhsCaster { bvh, hot }
-    }
-
-    fn closest_hit(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<Hit> {
-        let mut best: Option<(f32, f32, f32, u32)> = None;
-        let mut ray_hit = RayHit::none();
-        let hot = &self.hot;
-        self.bvh.ray_traverse(bvh_ray(origin, direction, t_min, t_max), &mut ray_hit, |ray, id| {
-            let tri = &hot[id];
-            match tri.intersect(origin, direction, t_min, ray.tmax) {
-                Some((t, b1, b2)) => {
-                    // obvhs keeps the smallest t; remember the barycentrics that go with it.
-                    if best.is_none_or(|b| t < b.0) {
-                        best = Some((t, b1, b2, tri.index));
-                    }
-                    t
-                }
-                None => f32::INFINITY,
-            }
-        });
-        best.map(|(t, b1, b2, triangle)| Hit { t, triangle, b1, b2 })
-    }
-
-    /// Panes come in BVH traversal order, each once (`medium_build` does not split triangles, so
-    /// each is in one leaf).
-    fn shadow_query(&self, attributes: &[TriangleAttributes], origin: Vec3, direction: Vec3, t_min: f32, t_max: f32, panes: &mut Vec<Hit>) -> bool {
-        let hot = &self.hot;
-        !self.bvh.ray_traverse_miss(bvh_ray(origin, direction, t_min, t_max), |_, id| {
-            let tri = &hot[id];
-            let Some((t, b1, b2)) = tri.intersect(origin, direction, t_min, t_max) else { return f32::INFINITY };
-            if attributes[tri.index as usize].may_pass_through {
-                panes.push(Hit { t, triangle: tri.index, b1, b2 });
-                return f32::INFINITY;
-            }
-            t
-        })
     }
 }
 

@@ -23,6 +23,8 @@ pub mod integrator;
 pub mod light_tracing;
 pub mod lights;
 pub mod microfacet;
+#[cfg(not(feature = "embree"))]
+mod obvhs_caster;
 pub mod photon_merging;
 pub mod qmc;
 pub mod render;

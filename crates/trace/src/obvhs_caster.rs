@@ -1,0 +1,100 @@
+//! Rays cast by obvhs' compressed wide BVH8 (Ylitie et al. 2017), pure Rust: the default ray
+//! caster behind `geometry::SceneGeometry` (a build with the `embree` feature uses
+//! `embree_caster.rs` instead).
+
+use std::time::Duration;
+
+use glam::Vec3;
+use glam_bvh::Vec3A as BvhVec3;
+use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+use obvhs::cwbvh::CwBvh;
+use obvhs::ray::{Ray as BvhRay, RayHit};
+use obvhs::triangle::Triangle as BvhTriangle;
+use obvhs::BvhBuildParams;
+
+use crate::geometry::{moller_trumbore, Hit, TriangleAttributes};
+
+fn to_bvh(v: Vec3) -> BvhVec3 {
+    BvhVec3::new(v.x, v.y, v.z)
+}
+
+fn bvh_ray(origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> BvhRay {
+    BvhRay::new(to_bvh(origin), to_bvh(direction), t_min, t_max)
+}
+
+/// The intersection data of one triangle, in BVH order for locality.
+#[derive(Clone, Copy, Debug)]
+struct HotTriangle {
+    v0: Vec3,
+    edge1: Vec3,
+    edge2: Vec3,
+    /// Index into `attributes`.
+    index: u32,
+}
+
+impl HotTriangle {
+    #[inline(always)]
+    fn intersect(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
+        moller_trumbore(self.v0, self.edge1, self.edge2, origin, direction, t_min, t_max)
+    }
+}
+
+/// obvhs' CWBVH over the triangles, and their intersection data in BVH order.
+pub(crate) struct ObvhsCaster {
+    bvh: CwBvh,
+    hot: Vec<HotTriangle>,
+}
+
+impl ObvhsCaster {
+    pub(crate) fn build(attributes: &[TriangleAttributes]) -> Self {
+        let bvh_triangles: Vec<BvhTriangle> = attributes
+            .iter()
+            .map(|a| BvhTriangle { v0: to_bvh(a.positions[0]), v1: to_bvh(a.positions[1]), v2: to_bvh(a.positions[2]) })
+            .collect();
+        let bvh = build_cwbvh_from_tris(&bvh_triangles, BvhBuildParams::medium_build(), &mut Duration::default());
+        let hot = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| {
+                let p = attributes[i as usize].positions;
+                HotTriangle { v0: p[0], edge1: p[1] - p[0], edge2: p[2] - p[0], index: i }
+            })
+            .collect();
+        ObvhsCaster { bvh, hot }
+    }
+
+    pub(crate) fn closest_hit(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<Hit> {
+        let mut best: Option<(f32, f32, f32, u32)> = None;
+        let mut ray_hit = RayHit::none();
+        let hot = &self.hot;
+        self.bvh.ray_traverse(bvh_ray(origin, direction, t_min, t_max), &mut ray_hit, |ray, id| {
+            let tri = &hot[id];
+            match tri.intersect(origin, direction, t_min, ray.tmax) {
+                Some((t, b1, b2)) => {
+                    // obvhs keeps the smallest t; remember the barycentrics that go with it.
+                    if best.is_none_or(|b| t < b.0) {
+                        best = Some((t, b1, b2, tri.index));
+                    }
+                    t
+                }
+                None => f32::INFINITY,
+            }
+        });
+        best.map(|(t, b1, b2, triangle)| Hit { t, triangle, b1, b2 })
+    }
+
+    /// Panes come in BVH traversal order, each once (`medium_build` does not split triangles, so
+    /// each is in one leaf).
+    pub(crate) fn shadow_query(&self, attributes: &[TriangleAttributes], origin: Vec3, direction: Vec3, t_min: f32, t_max: f32, panes: &mut Vec<Hit>) -> bool {
+        let hot = &self.hot;
+        !self.bvh.ray_traverse_miss(bvh_ray(origin, direction, t_min, t_max), |_, id| {
+            let tri = &hot[id];
+            let Some((t, b1, b2)) = tri.intersect(origin, direction, t_min, t_max) else { return f32::INFINITY };
+            if attributes[tri.index as usize].may_pass_through {
+                panes.push(Hit { t, triangle: tri.index, b1, b2 });
+                return f32::INFINITY;
+            }
+            t
+        })
+    }
+}
