@@ -61,30 +61,43 @@ struct Figure {
     svg: Option<String>,
 }
 
-/// (step, loss) points.
+/// (x, y) points.
 type Curve = Vec<(f64, f64)>;
 
-/// The training and validation curves of a `train_log.csv`.
-fn read_training_log(path: &Path) -> Result<(Curve, Curve)> {
+/// The curves of a `train_log.csv`.
+struct TrainingCurves {
+    /// (step, loss) on the training batches.
+    train: Curve,
+    /// (step, loss) on the validation frames.
+    validation: Curve,
+    /// (training seconds, validation PSNR); empty for logs written before the column existed.
+    psnr_over_time: Curve,
+}
+
+fn read_training_log(path: &Path) -> Result<TrainingCurves> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
     let column = |name: &str| header.iter().position(|h| *h == name).ok_or_else(|| Error::bad_input(path.display(), name, "column missing"));
     let (step, train, val) = (column("step")?, column("train_loss")?, column("validation_loss")?);
-    let (mut train_points, mut val_points) = (Vec::new(), Vec::new());
+    let (elapsed, psnr) = (column("elapsed_s").ok(), column("validation_psnr").ok());
+    let mut curves = TrainingCurves { train: Vec::new(), validation: Vec::new(), psnr_over_time: Vec::new() };
     for line in lines {
         let cells: Vec<&str> = line.split(',').collect();
         let get = |i: usize| cells.get(i).and_then(|c| c.parse::<f64>().ok());
         if let Some(s) = get(step) {
             if let Some(v) = get(train) {
-                train_points.push((s, v));
+                curves.train.push((s, v));
             }
             if let Some(v) = get(val) {
-                val_points.push((s, v));
+                curves.validation.push((s, v));
             }
         }
+        if let (Some(t), Some(p)) = (elapsed.and_then(get), psnr.and_then(get)) {
+            curves.psnr_over_time.push((t, p));
+        }
     }
-    Ok((train_points, val_points))
+    Ok(curves)
 }
 
 fn figure(title: &str, file: &str, plot: Option<Plot>) -> Option<Figure> {
@@ -215,17 +228,25 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
         notes.push("No evaluation yet (run `glassbake eval`).".into());
     }
 
-    let mut curves = Vec::new();
+    let (mut curves, mut psnr_curves) = (Vec::new(), Vec::new());
     for log in &inputs.training_logs {
         if log.path.exists() {
-            let (train, val) = read_training_log(&log.path)?;
-            curves.push(Series { name: format!("{} train", log.name), points: train, dashed: false });
-            curves.push(Series { name: format!("{} validation", log.name), points: val, dashed: true });
+            let log_curves = read_training_log(&log.path)?;
+            curves.push(Series { name: format!("{} train", log.name), points: log_curves.train, dashed: false });
+            curves.push(Series { name: format!("{} validation", log.name), points: log_curves.validation, dashed: true });
+            if !log_curves.psnr_over_time.is_empty() {
+                psnr_curves.push(Series { name: log.name.clone(), points: log_curves.psnr_over_time, dashed: false });
+            }
         }
     }
     if !curves.is_empty() {
-        let figures = figure("Training curves", "training_curves.png", line_chart("Training curves", "step", "loss (L1 + SSIM term)", &curves)?).into_iter().collect();
-        sections.push(("Training".into(), "Loss per step (solid: training batches, dashed: validation frames).\n".into(), figures));
+        let mut figures: Vec<Figure> = figure("Training curves", "training_curves.png", line_chart("Training curves", "step", "loss (L1 + SSIM term)", &curves)?).into_iter().collect();
+        let mut text = String::from("Loss per step (solid: training batches, dashed: validation frames).\n");
+        if !psnr_curves.is_empty() {
+            figures.extend(figure("Validation PSNR over training time", "validation_psnr.png", line_chart("Validation PSNR over training time", "training seconds", "PSNR (dB)", &psnr_curves)?));
+            text.push_str("\nValidation PSNR (whole frames, clamped to [0, 1]) against training wall time: a curve still rising at its end says more training time would help.\n");
+        }
+        sections.push(("Training".into(), text, figures));
     }
 
     if let Some(path) = inputs.bench.as_ref().filter(|p| p.exists()) {

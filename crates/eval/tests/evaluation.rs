@@ -72,14 +72,17 @@ fn metrics_files_grids_and_report() {
     assert_eq!((grid.width(), grid.height()), (6 * 144 + 5 * 4, 120));
 
     let log = dir.path().join("train_log.csv");
-    std::fs::write(&log, "step,epoch,learning_rate,train_loss,validation_loss,elapsed_s\n1,0,1e-3,0.5,,0.1\n2,0,1e-3,0.4,0.45,0.2\n").unwrap();
+    std::fs::write(&log, "step,epoch,learning_rate,train_loss,validation_loss,elapsed_s,validation_psnr\n1,0,1e-3,0.5,,0.1,\n2,0,1e-3,0.4,0.45,0.2,24.5\n3,0,1e-3,0.3,0.35,0.3,26.0\n").unwrap();
+    // A log written before the PSNR column: its loss curves are still drawn.
+    let old_log = dir.path().join("old_train_log.csv");
+    std::fs::write(&old_log, "step,epoch,learning_rate,train_loss,validation_loss,elapsed_s\n1,0,1e-3,0.5,,0.1\n2,0,1e-3,0.4,0.45,0.2\n").unwrap();
     let bench = dir.path().join("bench.json");
     let rows = (1..=4).map(|t| BenchRow { resolution: 64, objects: t, ms_per_frame: 10.0 + t as f64, fps: 1000.0 / (10.0 + t as f64), peak_ram_mib: Some(50.0), peak_gpu_mib: None }).collect();
     std::fs::write(&bench, serde_json::to_string(&BenchFile { device: "cpu".into(), rows }).unwrap()).unwrap();
     let report_dir = dir.path().join("report");
     let index = write_report(
         &report_dir,
-        &ReportInputs { title: "test <bake>".into(), facts: vec!["a fact".into()], eval_dir: Some(eval_dir.clone()), training_logs: vec![TrainingLog { name: "glassnet".into(), path: log }], bench: Some(bench) },
+        &ReportInputs { title: "test <bake>".into(), facts: vec!["a fact".into()], eval_dir: Some(eval_dir.clone()), training_logs: vec![TrainingLog { name: "glassnet".into(), path: log }, TrainingLog { name: "naive".into(), path: old_log }], bench: Some(bench) },
     )
     .unwrap();
     let html = std::fs::read_to_string(&index).unwrap();
@@ -96,7 +99,8 @@ fn metrics_files_grids_and_report() {
     assert!(md.contains("![frame 7, glass](crops/000007.png)") && report_dir.join("crops/000007.png").is_file(), "{md}");
     if glassbake_eval::plot::font_available() {
         assert!(html.contains("<svg"), "plots are inline SVG");
-        for png in ["metrics.png", "training_curves.png", "speed.png", "memory.png"] {
+        assert!(html.contains("Validation PSNR over training time"));
+        for png in ["metrics.png", "training_curves.png", "validation_psnr.png", "speed.png", "memory.png"] {
             assert!(image::open(report_dir.join(png)).is_ok(), "{png}");
         }
     } else {

@@ -87,7 +87,9 @@ pub struct RunOptions {
 
 const CHECKPOINT: &str = "checkpoint";
 const LOG: &str = "train_log.csv";
-const LOG_HEADER: &str = "step,epoch,learning_rate,train_loss,validation_loss,elapsed_s";
+/// `validation_psnr` (dB, the prediction clamped to [0, 1] as the tone map does, over all
+/// validation pixels) came last so that logs written before it keep their columns.
+const LOG_HEADER: &str = "step,epoch,learning_rate,train_loss,validation_loss,elapsed_s,validation_psnr";
 
 /// Trains `model` into `files.dir`, resuming from its checkpoint when there is one.
 /// `model` must live on an autodiff device; `device` is that device.
@@ -159,7 +161,8 @@ where
 
             let mut validation_loss = None;
             if state.step.is_multiple_of(config.validate_every) || state.step == config.steps {
-                let v = validate(&model, &validation, device, config.ssim_weight)?;
+                let scores = validate(&model, &validation, device, config.ssim_weight)?;
+                let v = scores.map(|s| s.loss);
                 state.last_validation_loss = v;
                 validation_loss = v;
                 let train_loss = losses_since_log.iter().sum::<f64>() / losses_since_log.len().max(1) as f64;
@@ -167,13 +170,14 @@ where
                 append_log(
                     &files.dir.join(LOG),
                     &format!(
-                        "{},{},{:.6e},{:.6},{},{:.1}",
+                        "{},{},{:.6e},{:.6},{},{:.1},{}",
                         state.step,
                         epoch,
                         learning_rate,
                         train_loss,
                         v.map(|v| format!("{v:.6}")).unwrap_or_default(),
-                        elapsed_before + started.elapsed().as_secs_f64()
+                        elapsed_before + started.elapsed().as_secs_f64(),
+                        scores.map(|s| format!("{:.3}", s.psnr)).unwrap_or_default(),
                     ),
                 )?;
             }
@@ -207,21 +211,34 @@ where
     })
 }
 
-/// Mean loss over the validation batches, on the model without autodiff.
-pub fn validate<M: Trainable>(model: &M, batches: &[HostBatch], device: &Device, ssim_weight: f64) -> Result<Option<f64>> {
+/// How a network does on the validation frames.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ValidationScores {
+    /// Mean training loss over the frames.
+    pub loss: f64,
+    /// PSNR (dB) over all their pixels of the prediction clamped to [0, 1], what a user sees.
+    pub psnr: f64,
+}
+
+/// Scores on the validation batches, on the model without autodiff.
+pub fn validate<M: Trainable>(model: &M, batches: &[HostBatch], device: &Device, ssim_weight: f64) -> Result<Option<ValidationScores>> {
     if batches.is_empty() {
         return Ok(None);
     }
     let (model, device) = (model.valid(), device.clone().inner());
-    let mut total = 0.0;
+    let (mut total, mut squared_error, mut values) = (0.0, 0.0, 0usize);
     let mut frames = 0;
     for batch in batches {
         let prediction = model.predict(batch, &device);
         let target = model.target(batch, &device)?;
+        values += prediction.dims().iter().product::<usize>();
+        let difference = prediction.clone().clamp(0.0, 1.0) - target.clone();
+        squared_error += (difference.clone() * difference).sum().into_scalar::<f32>() as f64;
         total += training_loss(prediction, target, ssim_weight).into_scalar::<f32>() as f64 * batch.frames as f64;
         frames += batch.frames;
     }
-    Ok(Some(total / frames as f64))
+    let mse = squared_error / values.max(1) as f64;
+    Ok(Some(ValidationScores { loss: total / frames as f64, psnr: 10.0 * (1.0 / mse.max(1e-12)).log10() }))
 }
 
 fn existing_checkpoint(dir: &Path) -> Option<PathBuf> {
@@ -271,13 +288,16 @@ fn append_log(path: &Path, line: &str) -> Result<()> {
     writeln!(file, "{line}").map_err(|e| Error::io(path, e))
 }
 
-/// Drops log rows written after the checkpoint a run resumes from.
+/// Drops log rows written after the checkpoint a run resumes from. A header that today's
+/// extends (a log from before a column was added) becomes today's: old rows keep their cells.
 fn truncate_log(path: &Path, step: u64) -> Result<()> {
     let Ok(text) = fs::read_to_string(path) else {
         return write_log_header(path);
     };
     let kept: Vec<&str> = text
         .lines()
+        .enumerate()
+        .map(|(i, line)| if i == 0 && LOG_HEADER.starts_with(line) { LOG_HEADER } else { line })
         .filter(|line| match line.split(',').next().and_then(|s| s.parse::<u64>().ok()) {
             Some(row_step) => row_step <= step,
             None => true,

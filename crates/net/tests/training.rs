@@ -121,3 +121,27 @@ fn a_directory_holding_a_different_run_is_refused() {
     .unwrap_err();
     assert!(err.to_string().contains("config.json") && err.to_string().contains("train"), "{err}");
 }
+
+#[test]
+fn validation_psnr_is_that_of_the_clamped_prediction_over_all_pixels() {
+    use glassbake_net::train::{validate, Trainable};
+    let net = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap();
+    let (model, device) = model(&net, 3);
+    let frames: Vec<_> = (0..3).map(|i| common::frame(i, 16, 2, 1)).collect();
+    let batches = vec![common::batch(&frames[..2]), common::batch(&frames[2..])];
+    let scores = validate(&model, &batches, &device, 1.0).unwrap().unwrap();
+    // The same figure on the host, in f64.
+    let (valid, inner) = (model.valid(), device.clone().inner());
+    let (mut squared, mut count) = (0.0f64, 0usize);
+    for batch in &batches {
+        let prediction = valid.predict(batch, &inner).into_data().try_to_vec::<f32>().unwrap();
+        let target = valid.target(batch, &inner).unwrap().into_data().try_to_vec::<f32>().unwrap();
+        for (p, t) in prediction.iter().zip(&target) {
+            squared += (p.clamp(0.0, 1.0) as f64 - *t as f64).powi(2);
+            count += 1;
+        }
+    }
+    let expected = 10.0 * (count as f64 / squared).log10();
+    assert!((scores.psnr - expected).abs() < 1e-3, "{} vs {expected}", scores.psnr);
+    assert!(scores.loss.is_finite() && scores.loss > 0.0);
+}
