@@ -131,6 +131,25 @@ pub struct NetConfig {
     /// they were trained.
     #[serde(default)]
     pub terms_masked_by_coverage: bool,
+    /// A multiresolution hash grid of world position (`hash_grid.rs`) that replaces the Fourier
+    /// features of the position channels for F (opaque position) and, in GlassNet, for h
+    /// (the transparent surface's position, a grid of its own); the other channels keep theirs.
+    /// Absent: every channel Fourier-encoded, as in the paper.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position_grid: Option<crate::hash_grid::HashGridConfig>,
+    /// Whether R predicts, beside each RGB term, the light that multiplies the G-buffer's
+    /// albedo (demodulated output, as neural radiance caching and denoisers such as KPCN do),
+    /// so printed text and textures come from the G-buffer instead of being learnt. False in
+    /// configs saved before this existed, so those models render as they were trained.
+    #[serde(default)]
+    pub demodulated: bool,
+    /// Whether pixels whose rasterized direct light (seen through the glass in front, for the
+    /// models that read transparency buffers) reaches 1 in every channel are drawn as 1, the
+    /// tone map's white, whatever the network predicts there: the emitters, whose hard edges
+    /// the convolutions otherwise smear into a ring a pixel wide. False in configs saved
+    /// before this existed.
+    #[serde(default)]
+    pub saturate_direct_light: bool,
     /// B: (sigma, tau) -> phi.
     pub blending: UNetConfig,
     /// R: (phi, L_d) -> image.
@@ -189,6 +208,9 @@ impl NetConfig {
             scene_encoder: f,
             transparency_encoder: h,
             terms_masked_by_coverage: true,
+            position_grid: None,
+            demodulated: true,
+            saturate_direct_light: true,
             blending: b,
             renderer: r,
             pixel_generator: (model == ModelKind::Pixelgen).then_some(pixel),
@@ -227,6 +249,12 @@ impl NetConfig {
             }
             _ => {}
         }
+        if let Some(grid) = &self.position_grid {
+            if self.model == ModelKind::Pixelgen {
+                return bad("position_grid", "the pixelgen baseline keeps the paper's Fourier features".into());
+            }
+            grid.check(origin)?;
+        }
         if self.model == ModelKind::Concat && self.transparent_objects == 0 {
             return bad("transparent_objects", "the concat baseline needs at least one transparent object".into());
         }
@@ -241,9 +269,35 @@ impl NetConfig {
         1 << (self.scene_encoder.levels.max(self.blending.levels) - 1)
     }
 
+    /// Channels of one of R's output terms: RGB, and with [`NetConfig::demodulated`] the RGB
+    /// light the albedo multiplies.
+    pub fn renderer_term_channels(&self) -> usize {
+        if self.demodulated {
+            6
+        } else {
+            3
+        }
+    }
+
+    /// R's output channels: one term for the models that read no transparency buffer, three
+    /// (direct, transmitted, transmitted twice) for those that do.
+    pub fn renderer_outputs(&self) -> usize {
+        let terms = if self.model.reads_transparency_buffers() { 3 } else { 1 };
+        terms * self.renderer_term_channels()
+    }
+
     /// Channels of one positionally encoded input channel.
     pub fn encoded_width(&self) -> usize {
         1 + 2 * self.encoding_frequencies
+    }
+
+    /// Channels of a buffer of `channels` channels once encoded: each Fourier-encoded, or with a
+    /// position grid the 3 position channels raw plus the grid's features instead.
+    pub fn encoded_buffer_width(&self, channels: usize) -> usize {
+        match &self.position_grid {
+            None => channels * self.encoded_width(),
+            Some(grid) => (channels - 3) * self.encoded_width() + 3 + grid.output_channels(),
+        }
     }
 }
 

@@ -9,6 +9,7 @@ pub mod batch;
 pub mod blocks;
 pub mod config;
 pub mod device;
+pub mod hash_grid;
 pub mod infer;
 pub mod init;
 pub mod loss;

@@ -24,6 +24,7 @@ use glassbake_core::{Error, Result};
 
 use crate::blocks::{positional_encoding, PixelGenerator, PlainCnn, Renderer, UNet};
 use crate::config::{ModelKind, NetConfig};
+use crate::hash_grid::HashGrid;
 use crate::sum::{snap_to_grid, TransparencySum};
 
 #[derive(Module, Debug)]
@@ -36,6 +37,10 @@ pub struct GlassNet {
     pub renderer: Option<Renderer>,
     /// The whole `pixelgen` baseline; absent for the others.
     pub pixel_generator: Option<PixelGenerator>,
+    /// F's grid of opaque positions, with [`NetConfig::position_grid`].
+    pub scene_grid: Option<HashGrid>,
+    /// h's grid of transparent surfaces' positions (GlassNet), with [`NetConfig::position_grid`].
+    pub object_grid: Option<HashGrid>,
     #[module(skip)]
     pub config: NetConfig,
 }
@@ -57,6 +62,8 @@ pub struct SceneCode {
     pub sigma: Tensor<4>,
     /// L_d of the G-buffer, for R.
     pub direct_light: Tensor<4>,
+    /// The G-buffer's albedo, which a demodulated R multiplies part of its output by.
+    pub albedo: Tensor<4>,
 }
 
 impl GlassNet {
@@ -64,7 +71,7 @@ impl GlassNet {
     pub fn new(config: &NetConfig, seed: u64, device: &Device) -> Result<GlassNet> {
         config.check("config")?;
         let e = config.encoded_width();
-        let input_channels = OPAQUE_CHANNELS * e + config.variables;
+        let input_channels = config.encoded_buffer_width(OPAQUE_CHANNELS) + config.variables;
         if let (ModelKind::Pixelgen, Some(pixel)) = (config.model, &config.pixel_generator) {
             let net = GlassNet {
                 scene_encoder: None,
@@ -72,6 +79,8 @@ impl GlassNet {
                 blending: None,
                 renderer: None,
                 pixel_generator: Some(PixelGenerator::new(input_channels, pixel, 3, device)),
+                scene_grid: None,
+                object_grid: None,
                 config: config.clone(),
             };
             return Ok(crate::init::initialize(net, seed));
@@ -80,7 +89,7 @@ impl GlassNet {
         let tau = config.transparency_encoder.out_channels;
         let scene_encoder = UNet::new(input_channels, &config.scene_encoder, device);
         let (transparency_encoder, blend_input) = match config.model {
-            ModelKind::Glassnet => (Some(PlainCnn::new(TRANSPARENT_CHANNELS * e + sigma, &config.transparency_encoder, device)), sigma + tau),
+            ModelKind::Glassnet => (Some(PlainCnn::new(config.encoded_buffer_width(TRANSPARENT_CHANNELS) + sigma, &config.transparency_encoder, device)), sigma + tau),
             ModelKind::Concat => (
                 Some(PlainCnn::new(config.transparent_objects * TRANSPARENT_CHANNELS * e + sigma, &config.transparency_encoder, device)),
                 sigma + tau,
@@ -88,7 +97,8 @@ impl GlassNet {
             ModelKind::Naive | ModelKind::Pixelgen => (None, sigma),
         };
         let blending = UNet::new(blend_input, &config.blending, device);
-        let (glass_direct, renderer_outputs) = if config.model.reads_transparency_buffers() { (GLASS_DIRECT_CHANNELS, 9) } else { (0, 3) };
+        let glass_direct = if config.model.reads_transparency_buffers() { GLASS_DIRECT_CHANNELS } else { 0 };
+        let renderer_outputs = config.renderer_outputs();
         let renderer = Renderer::new(config.blending.out_channels + 3 + glass_direct, &config.renderer, renderer_outputs, device);
         let net = GlassNet {
             scene_encoder: Some(scene_encoder),
@@ -96,9 +106,17 @@ impl GlassNet {
             blending: Some(blending),
             renderer: Some(renderer),
             pixel_generator: None,
+            scene_grid: config.position_grid.as_ref().map(|g| HashGrid::new(g, seed, device)),
+            object_grid: config.position_grid.as_ref().filter(|_| config.model == ModelKind::Glassnet).map(|g| HashGrid::new(g, seed, device)),
             config: config.clone(),
         };
         let mut net = crate::init::initialize(net, seed);
+        // The grids start near zero as instant-ngp's, not as convolution weights.
+        for (k, grid) in [net.scene_grid.as_mut(), net.object_grid.as_mut()].into_iter().enumerate() {
+            if let Some(grid) = grid {
+                grid.reinitialize(glassbake_core::seed::sample_seed(seed, 1 << 20 | k as u64));
+            }
+        }
         // T's last layer starts at zero, so tau = 0 and a new GlassNet is the naive network on
         // the opaque G-buffer; tau grows where it lowers the loss. With random weights tau
         // starts as noise B must first learn to ignore: on cornellbox (1,500 steps) GlassNet's
@@ -110,13 +128,14 @@ impl GlassNet {
             });
         }
         // Likewise R's weights on the glass light and transmittance (its last input channels)
-        // start at zero, and so do its two transmitted outputs (all but the first 3), so a new
-        // network still renders what the naive one would.
+        // start at zero, and so do its two transmitted outputs (all but the first term), so a
+        // new network still renders what the naive one would.
         if glass_direct > 0 {
+            let transmitted = renderer_outputs - config.renderer_term_channels();
             let r = net.renderer.as_mut().expect("built above");
             r.large.conv.weight = r.large.conv.weight.clone().map(|w| zero_last(w, 1, glass_direct));
-            r.head.weight = r.head.weight.clone().map(|w| zero_last(w, 0, renderer_outputs - 3));
-            r.head.bias = r.head.bias.take().map(|b| b.map(|b| zero_last(b, 0, renderer_outputs - 3)));
+            r.head.weight = r.head.weight.clone().map(|w| zero_last(w, 0, transmitted));
+            r.head.bias = r.head.bias.take().map(|b| b.map(|b| zero_last(b, 0, transmitted)));
         }
         Ok(net)
     }
@@ -148,18 +167,32 @@ impl GlassNet {
     /// (or the pixelgen MLP) reads.
     fn encoded_inputs(&self, gbuffer: Tensor<4>, values: Tensor<2>) -> Tensor<4> {
         let [n, _, h, w] = gbuffer.dims();
-        let mut inputs = vec![positional_encoding(gbuffer, self.config.encoding_frequencies)];
+        let mut inputs = vec![self.encode_buffer(gbuffer, self.scene_grid.as_ref(), layout::opaque::POSITION)];
         if self.config.variables > 0 {
             inputs.push(values.reshape([n, self.config.variables, 1, 1]).expand([n, self.config.variables, h, w]));
         }
         Tensor::cat(inputs, 1)
     }
 
+    /// A buffer's channels Fourier-encoded, or with a grid: the channels other than the
+    /// position (at `position`) Fourier-encoded, then the raw position, then its grid features.
+    fn encode_buffer(&self, buffer: Tensor<4>, grid: Option<&HashGrid>, position: usize) -> Tensor<4> {
+        let frequencies = self.config.encoding_frequencies;
+        let Some(grid) = grid else {
+            return positional_encoding(buffer, frequencies);
+        };
+        let channels = buffer.dims()[1];
+        let positions = buffer.clone().narrow(1, position, 3);
+        let others = Tensor::cat(vec![buffer.clone().narrow(1, 0, position), buffer.narrow(1, position + 3, channels - position - 3)], 1);
+        Tensor::cat(vec![positional_encoding(others, frequencies), positions.clone(), grid.forward(positions)], 1)
+    }
+
     /// F: the G-buffer and variable values -> sigma (and L_d kept for R).
     pub fn encode_scene(&self, gbuffer: Tensor<4>, values: Tensor<2>) -> SceneCode {
         let f = self.scene_encoder.as_ref().expect("pixelgen has no F: use forward_streaming");
         let direct_light = gbuffer.clone().narrow(1, layout::opaque::LD, 3);
-        SceneCode { sigma: f.forward(self.encoded_inputs(gbuffer, values)), direct_light }
+        let albedo = gbuffer.clone().narrow(1, layout::opaque::ALBEDO, 3);
+        SceneCode { sigma: f.forward(self.encoded_inputs(gbuffer, values)), direct_light, albedo }
     }
 
     /// h for one transparency buffer (times the buffer's coverage, see
@@ -170,7 +203,7 @@ impl GlassNet {
         let h = self.transparency_encoder.as_ref().expect("GlassNet has h");
         let coverage = buffer.clone().narrow(1, layout::transparent::COVERAGE, 1);
         let direct = glass_direct(&buffer);
-        let encoded = positional_encoding(buffer, self.config.encoding_frequencies);
+        let encoded = self.encode_buffer(buffer, self.object_grid.as_ref(), layout::transparent::POSITION);
         let term = h.forward(Tensor::cat(vec![encoded, scene.sigma.clone()], 1));
         let term = if self.config.terms_masked_by_coverage { term * coverage } else { term };
         snap_to_grid(Tensor::cat(vec![term, direct], 1))
@@ -194,19 +227,51 @@ impl GlassNet {
     /// transmittance, which go to R beside the G-buffer's L_d instead of through B; R then
     /// renders `a + t b1 + t^2 b2` from its 9 outputs (a, b1, b2), t the transmittance (1 where
     /// there is no glass; t^2 for solid glass, tinted where light enters and leaves).
+    ///
+    /// With [`NetConfig::demodulated`] each of R's terms is `free + albedo * light`, the
+    /// albedo the G-buffer's (for GlassNet that of the opaque surface, also behind glass), so
+    /// texture detail comes from the G-buffer instead of from the weights; the free part
+    /// carries emitters and what the albedo does not explain.
     pub fn decode(&self, scene: &SceneCode, tau: Option<Tensor<4>>) -> Tensor<4> {
         let (b, r) = (self.blending.as_ref().expect("pixelgen has no B"), self.renderer.as_ref().expect("pixelgen has no R"));
         let Some(tau) = tau else {
             let phi = b.forward(scene.sigma.clone());
-            return r.forward(Tensor::cat(vec![phi, scene.direct_light.clone()], 1));
+            let out = r.forward(Tensor::cat(vec![phi, scene.direct_light.clone()], 1));
+            return self.saturate(self.term(&out, scene, 0), scene.direct_light.clone());
         };
         let features = tau.dims()[1] - GLASS_DIRECT_CHANNELS;
         let light = tau.clone().narrow(1, features, GLASS_LIGHT_CHANNELS);
         let transmittance = tau.clone().narrow(1, features + GLASS_LIGHT_CHANNELS, 3).exp();
         let phi = b.forward(Tensor::cat(vec![scene.sigma.clone(), tau.narrow(1, 0, features)], 1));
         let out = r.forward(Tensor::cat(vec![phi, scene.direct_light.clone(), light, transmittance.clone()], 1));
-        let [a, b1, b2] = [0, 3, 6].map(|c| out.clone().narrow(1, c, 3));
-        a + (b1 + b2 * transmittance.clone()) * transmittance
+        let [a, b1, b2] = [0, 1, 2].map(|k| self.term(&out, scene, k));
+        let seen_direct_light = scene.direct_light.clone() * transmittance.clone();
+        self.saturate(a + (b1 + b2 * transmittance.clone()) * transmittance, seen_direct_light)
+    }
+
+    /// With [`NetConfig::saturate_direct_light`]: 1 wherever `direct_light` alone reaches 1 in
+    /// every channel (the clamp of the tone map makes the true image white there too), the
+    /// network's `image` elsewhere. No gradient reaches the network from those pixels.
+    fn saturate(&self, image: Tensor<4>, direct_light: Tensor<4>) -> Tensor<4> {
+        if !self.config.saturate_direct_light {
+            return image;
+        }
+        let saturated = direct_light.detach().min_dim(1).greater_equal_elem(1.0).float();
+        let [n, c, h, w] = image.dims();
+        let saturated = saturated.expand([n, c, h, w]);
+        image * saturated.clone().neg().add_scalar(1.0) + saturated
+    }
+
+    /// Term `k` of R's output `out`: its 3 channels, or with [`NetConfig::demodulated`] its
+    /// free 3 plus the albedo times the next 3.
+    fn term(&self, out: &Tensor<4>, scene: &SceneCode, k: usize) -> Tensor<4> {
+        let width = self.config.renderer_term_channels();
+        let free = out.clone().narrow(1, k * width, 3);
+        if self.config.demodulated {
+            free + scene.albedo.clone() * out.clone().narrow(1, k * width + 3, 3)
+        } else {
+            free
+        }
     }
 
     /// The whole network on a batch. GlassNet streams the buffers through h one at a time.

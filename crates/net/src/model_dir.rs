@@ -23,8 +23,11 @@ pub const CONFIG_FILE: &str = "config.json";
 /// transmittance (3 more input channels) and has 9 outputs, two of them multiplied by it.
 /// Older networks that read no transparency buffer (naive, pixelgen, the super-sampler) still
 /// load (a naive network's `Ld` input differs only on small highlights); GlassNet and concat
-/// ones must be retrained.
-pub const FORMAT_VERSION: u32 = 4;
+/// ones must be retrained. 5: the renderer may be demodulated (`NetConfig::demodulated`), the
+/// direct light may saturate the image (`saturate_direct_light`) and positions may go through
+/// a grid (`position_grid`); a format-4 config has none of these fields and loads as the
+/// network it was trained as.
+pub const FORMAT_VERSION: u32 = 5;
 
 /// The network a directory holds.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -120,7 +123,7 @@ fn read_config(path: &Path) -> Result<ModelConfig> {
     let config: ModelConfig = serde_json::from_str(&text).map_err(|e| Error::bad_input(path.display(), "config", e.to_string()))?;
     let reads_transparency_buffers = matches!(&config.network, Network::Glassnet(n) if n.model.reads_transparency_buffers());
     match config.format_version {
-        FORMAT_VERSION => Ok(config),
+        FORMAT_VERSION | 4 => Ok(config),
         1..=3 if !reads_transparency_buffers => Ok(config),
         old @ (1 | 2) => Err(Error::bad_input(
             path.display(),

@@ -126,9 +126,10 @@ fn a_new_glassnet_starts_as_the_naive_network_on_the_opaque_gbuffer_and_learns_t
     let gradient: Vec<f32> = r.grad(&grads).expect("R has a gradient").narrow(1, inputs - light, light).into_data().try_to_vec::<f32>().unwrap();
     assert!(gradient.iter().any(|g| g.abs() > 1e-6), "R's glass-light weights get no gradient");
     let head = &net.renderer.as_ref().unwrap().head.weight;
-    let transmitted: Vec<f32> = head.val().narrow(0, 3, 6).into_data().try_to_vec::<f32>().unwrap();
+    let term = net.config.renderer_term_channels();
+    let transmitted: Vec<f32> = head.val().narrow(0, term, 2 * term).into_data().try_to_vec::<f32>().unwrap();
     assert!(transmitted.iter().all(|&w| w == 0.0), "R's transmitted outputs start at {transmitted:?}");
-    let gradient: Vec<f32> = head.grad(&grads).expect("R's head has a gradient").narrow(0, 3, 6).into_data().try_to_vec::<f32>().unwrap();
+    let gradient: Vec<f32> = head.grad(&grads).expect("R's head has a gradient").narrow(0, term, 2 * term).into_data().try_to_vec::<f32>().unwrap();
     assert!(gradient.iter().any(|g| g.abs() > 1e-6), "R's transmitted outputs get no gradient");
 }
 
@@ -143,7 +144,9 @@ fn the_transmitted_outputs_are_multiplied_by_the_product_of_the_tints_in_front()
     let frames = vec![common::frame(61, size, objects, 1)];
     let batch = common::batch(&frames);
     let inputs = batch.inputs(&device);
-    let mut net = random_net(&NetConfig::preset("tiny", ModelKind::Glassnet, 1, objects).unwrap(), 7, &device);
+    // R predicting RGB directly (the demodulated path is tested by its own test below).
+    let config = NetConfig { demodulated: false, saturate_direct_light: false, ..NetConfig::preset("tiny", ModelKind::Glassnet, 1, objects).unwrap() };
+    let mut net = random_net(&config, 7, &device);
     for (power, bias) in [(1, [0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0]), (2, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0])] {
         let head = &mut net.renderer.as_mut().unwrap().head;
         head.weight = head.weight.clone().map(|w| w.zeros_like());
@@ -167,13 +170,22 @@ fn the_transmitted_outputs_are_multiplied_by_the_product_of_the_tints_in_front()
     }
 }
 
+/// A small position grid over the synthetic frames' positions, with hashed levels.
+fn test_grid() -> glassbake_net::hash_grid::HashGridConfig {
+    glassbake_net::hash_grid::HashGridConfig { levels: 3, features: 2, log2_table_size: 8, base_resolution: 2, finest_resolution: 12, bounds_min: [-1.0; 3], bounds_max: [2.0; 3] }
+}
+
 fn permutation_exactness(device: &Device, sizes: &[usize]) {
     device.seed(5);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
-    for &objects in sizes {
+    for (&objects, grid) in sizes.iter().flat_map(|s| [(s, None), (s, Some(test_grid()))]) {
         let frames = vec![common::frame(100 + objects as u64, 16, objects, 1)];
         let batch = common::batch(&frames);
-        let net = random_net(&NetConfig::preset("tiny", ModelKind::Glassnet, 1, objects).unwrap(), 5, device);
+        let config = NetConfig { position_grid: grid, ..NetConfig::preset("tiny", ModelKind::Glassnet, 1, objects).unwrap() };
+        let net = random_net(&config, 5, device);
+        if config.position_grid.is_some() {
+            assert!(net.scene_grid.is_some() && net.object_grid.is_some());
+        }
         let mut inputs = batch.inputs(device);
         let reference = bits(net.forward(&inputs));
         for _ in 0..4 {
@@ -325,6 +337,146 @@ fn a_model_of_the_previous_format_opens_only_if_it_reads_no_transparency_buffers
                 assert!(!opens, "{kind:?} of format {version} must open: {err}");
                 let err = err.to_string();
                 assert!(err.contains("format_version") && err.contains("retrain"), "{err}");
+            }
+        }
+    }
+}
+
+/// A demodulated R's output is `free + albedo * light` for each term: with F's code held fixed
+/// the image is affine in the G-buffer's albedo, and moves with it; without demodulation the
+/// albedo reaches the image only through F.
+#[test]
+fn demodulated_renderer_output_is_affine_in_the_albedo() {
+    let device = Device::flex();
+    device.seed(5);
+    let frames: Vec<_> = (0..1).map(|i| common::frame(i, 16, 2, 2)).collect();
+    let batch = common::batch(&frames);
+    let inputs = batch.inputs(&device);
+    for kind in [ModelKind::Glassnet, ModelKind::Naive] {
+        for demodulated in [true, false] {
+            let config = NetConfig { demodulated, ..NetConfig::preset("tiny", kind, 2, 2).unwrap() };
+            assert_eq!(config.renderer_outputs(), if kind == ModelKind::Glassnet { 9 } else { 3 } * if demodulated { 2 } else { 1 });
+            let mut net = GlassNet::new(&config, 9, &device).unwrap();
+            // Wake the transmitted terms, which start at zero, so they are tested too.
+            let r = net.renderer.as_mut().unwrap();
+            r.head.weight = r.head.weight.clone().map(|w| w.clone().random_like(burn::tensor::Distribution::Normal(0.0, 0.3)));
+            let scene = net.encode_scene(inputs.gbuffer.clone(), inputs.values.clone());
+            let tau = (kind == ModelKind::Glassnet).then(|| {
+                let mut sum = glassbake_net::sum::TransparencySum::new();
+                for b in &inputs.transparent {
+                    sum.add(net.transparency_term(&scene, b.clone()));
+                }
+                let [n, _, h, w] = scene.sigma.dims();
+                sum.finish([n, config.transparency_encoder.out_channels + glassbake_net::model::GLASS_DIRECT_CHANNELS, h, w], &device)
+            });
+            let with_albedo = |scale: f32| {
+                let mut s = scene.clone();
+                s.albedo = s.albedo.clone().mul_scalar(scale);
+                values(net.decode(&s, tau.clone()))
+            };
+            let (zero, one, two) = (with_albedo(0.0), with_albedo(1.0), with_albedo(2.0));
+            let largest_step = zero.iter().zip(&one).map(|(a, b)| (b - a).abs()).fold(0.0f32, f32::max);
+            let curvature = zero.iter().zip(&one).zip(&two).map(|((a, b), c)| (c - 2.0 * b + a).abs()).fold(0.0f32, f32::max);
+            if demodulated {
+                assert!(largest_step > 1e-3, "{kind:?}: the albedo must reach the image ({largest_step})");
+                assert!(curvature < 1e-5 * (1.0 + largest_step), "{kind:?}: not affine in the albedo ({curvature})");
+            } else {
+                assert_eq!(largest_step, 0.0, "{kind:?}: without demodulation R does not read the albedo");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_format_4_model_opens_with_the_direct_rgb_renderer_it_was_trained_with() {
+    // Format 4 had no `demodulated` field: such a config must load as a renderer that
+    // predicts RGB directly, whatever today's presets choose.
+    let dir = tempfile::tempdir().unwrap();
+    let config = ModelConfig {
+        format_version: 4,
+        network: Network::Glassnet(NetConfig { demodulated: true, ..NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap() }),
+        train: TrainConfig::preset("tiny").unwrap(),
+        data: DataSource { dataset: "synthetic".into(), scene: "none".into(), scene_hash: "0".into(), resolution: 16 },
+    };
+    let mut json: serde_json::Value = serde_json::to_value(&config).unwrap();
+    let network = json["network"].as_object_mut().unwrap();
+    assert_eq!(network.remove("demodulated"), Some(serde_json::Value::Bool(true)));
+    std::fs::write(dir.path().join("config.json"), serde_json::to_vec(&json).unwrap()).unwrap();
+    std::fs::write(dir.path().join(config.network.weights_file()), b"").unwrap();
+    let opened = ModelFiles::open(dir.path()).unwrap();
+    match opened.config.network {
+        Network::Glassnet(net) => assert!(!net.demodulated),
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn position_grids_replace_the_positions_fourier_features_and_learn() {
+    let device = Device::flex().autodiff();
+    device.seed(6);
+    let frames = vec![common::frame(70, 16, 2, 1)];
+    let batch = common::batch(&frames);
+    let fourier = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap();
+    let config = NetConfig { position_grid: Some(test_grid()), ..fourier.clone() };
+    // F's input: 14 Fourier-encoded channels, the raw position, the grid's 6 features, 1 variable.
+    assert_eq!(config.encoded_buffer_width(glassbake_core::layout::OPAQUE_CHANNELS), 14 * fourier.encoded_width() + 3 + 6);
+    let net = random_net(&config, 2, &device);
+    let grads = net.forward(&batch.inputs(&device)).sum().backward();
+    for (name, grid) in [("scene", &net.scene_grid), ("object", &net.object_grid)] {
+        let table = &grid.as_ref().unwrap().table;
+        let gradient: Vec<f32> = table.grad(&grads).unwrap_or_else(|| panic!("{name} grid has no gradient")).into_data().try_to_vec::<f32>().unwrap();
+        assert!(gradient.iter().filter(|g| g.abs() > 1e-7).count() >= 8, "{name} grid: too few entries get a gradient");
+    }
+    // The naive network has F's grid only; pixelgen refuses one.
+    let naive = GlassNet::new(&NetConfig { position_grid: Some(test_grid()), ..NetConfig::preset("tiny", ModelKind::Naive, 1, 2).unwrap() }, 2, &device).unwrap();
+    assert!(naive.scene_grid.is_some() && naive.object_grid.is_none());
+    let pixelgen = NetConfig { position_grid: Some(test_grid()), ..NetConfig::preset("tiny", ModelKind::Pixelgen, 1, 2).unwrap() };
+    assert!(pixelgen.check("test").unwrap_err().to_string().contains("position_grid"));
+}
+
+/// Where the G-buffer's direct light (times the glass transmittance in front) reaches 1 in
+/// every channel the image is exactly 1; everywhere else it is what the network predicts.
+#[test]
+fn pixels_whose_direct_light_saturates_are_white_and_the_rest_untouched() {
+    use glassbake_core::layout::opaque::LD;
+    use glassbake_core::layout::transparent::COVERAGE;
+    let device = Device::flex();
+    device.seed(12);
+    let size = 16;
+    for kind in [ModelKind::Glassnet, ModelKind::Naive] {
+        let frames = vec![common::frame(80, size, 2, 1)];
+        let batch = common::batch(&frames);
+        let mut inputs = batch.inputs(&device);
+        // An emitter: L_d of 5 in a 4x3 block, of 5 in two channels only at one more pixel.
+        let mut gbuffer = values(inputs.gbuffer.clone());
+        let at = |c: usize, y: usize, x: usize| (LD + c) * size * size + y * size + x;
+        for (y, x) in (2..5).flat_map(|y| (6..10).map(move |x| (y, x))) {
+            for c in 0..3 {
+                gbuffer[at(c, y, x)] = 5.0;
+            }
+        }
+        gbuffer[at(0, 8, 8)] = 5.0;
+        gbuffer[at(1, 8, 8)] = 5.0;
+        inputs.gbuffer = Tensor::from_data(TensorData::new(gbuffer, inputs.gbuffer.dims()), &device);
+        // No glass in front of the emitter (GlassNet's test: glass elsewhere keeps its tint).
+        for buffer in inputs.transparent.iter_mut() {
+            let [n, _, h, _] = buffer.dims();
+            *buffer = buffer.clone().slice_assign([0..n, COVERAGE..COVERAGE + 1, 0..h, 6..10], Tensor::zeros([n, 1, h, 4], &device));
+        }
+        let plain_config = NetConfig { saturate_direct_light: false, ..NetConfig::preset("tiny", kind, 1, 2).unwrap() };
+        let plain = values(random_net(&plain_config, 4, &device).forward(&inputs));
+        let saturating = values(random_net(&NetConfig { saturate_direct_light: true, ..plain_config }, 4, &device).forward(&inputs));
+        for c in 0..3 {
+            for y in 0..size {
+                for x in 0..size {
+                    let i = c * size * size + y * size + x;
+                    if (2..5).contains(&y) && (6..10).contains(&x) {
+                        assert_eq!(saturating[i], 1.0, "{kind:?}: emitter pixel ({x}, {y})");
+                        assert_ne!(plain[i], 1.0, "{kind:?}: the network alone must not already draw it white");
+                    } else {
+                        assert_eq!(saturating[i].to_bits(), plain[i].to_bits(), "{kind:?}: pixel ({x}, {y}) channel {c}");
+                    }
+                }
             }
         }
     }

@@ -208,6 +208,8 @@ pub fn run(args: BakeArgs) -> Result<()> {
             encoding_frequencies: None,
             ssim_weight: None,
             ablation: ablation.map(|a| a.name().to_string()),
+            renderer_output: None,
+            position_encoding: None,
         };
         stage(format!("train {name}"), &mut || train_model(&train, &bar))?;
     }

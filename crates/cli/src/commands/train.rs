@@ -67,6 +67,14 @@ pub struct TrainArgs {
     /// One of the paper's ablations (Table 2): no-encoding (no positional encoding) or l1-only.
     #[arg(long)]
     pub ablation: Option<String>,
+    /// What the renderer R predicts: `demodulated` (light that multiplies the G-buffer's
+    /// albedo, plus a free RGB term; the default) or `rgb` (the image directly, as the paper).
+    #[arg(long)]
+    pub renderer_output: Option<String>,
+    /// How world positions enter F and h: `fourier` (the paper's sinusoids, as every other
+    /// channel) or `hash-grid` (a trainable multiresolution grid over the scene's bounds).
+    #[arg(long)]
+    pub position_encoding: Option<String>,
 }
 
 /// The paper's ablations (Table 2) as changes to a preset.
@@ -123,6 +131,24 @@ fn train_config(args: &CommonTrainArgs) -> Result<TrainConfig> {
     config.warmup_steps = config.warmup_steps.min(config.steps / 10);
     config.check("command line")?;
     Ok(config)
+}
+
+/// The default hash grid over `scene`'s bounds, widened by a tenth on each side for variables
+/// that move objects: 8 levels of 2 features, 4 to 64 cells across, 2^15 entries a level
+/// (levels up to 31 cells are dense).
+fn position_grid(scene: &str) -> Result<glassbake_net::hash_grid::HashGridConfig> {
+    let scene = load_scene(scene)?;
+    let (lo, hi) = scene.bounds().ok_or_else(|| Error::bad_input(scene.name.clone(), "objects", "an empty scene has no bounds for a position grid"))?;
+    let margin = (hi - lo).max(glam::Vec3::splat(1e-3)) * 0.1;
+    Ok(glassbake_net::hash_grid::HashGridConfig {
+        levels: 8,
+        features: 2,
+        log2_table_size: 15,
+        base_resolution: 4,
+        finest_resolution: 64,
+        bounds_min: (lo - margin).to_array(),
+        bounds_max: (hi + margin).to_array(),
+    })
 }
 
 fn open_dataset(dir: &Path) -> Result<(DatasetStore, Option<glassbake_scene::Scene>)> {
@@ -289,6 +315,19 @@ pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<bool> {
     if let Some(f) = args.encoding_frequencies {
         net_config.encoding_frequencies = f;
         net_config.check("--encoding-frequencies")?;
+    }
+    match args.position_encoding.as_deref() {
+        None => {}
+        Some("fourier") => net_config.position_grid = None,
+        Some("hash-grid") => net_config.position_grid = Some(position_grid(&store.manifest.spec.scene)?),
+        Some(other) => return Err(Error::bad_input("--position-encoding", "position_encoding", format!("{other:?} is not fourier or hash-grid")).into()),
+    }
+    net_config.check("command line")?;
+    match args.renderer_output.as_deref() {
+        None => {}
+        Some("demodulated") => net_config.demodulated = true,
+        Some("rgb") => net_config.demodulated = false,
+        Some(other) => return Err(Error::bad_input("--renderer-output", "renderer_output", format!("{other:?} is not demodulated or rgb")).into()),
     }
     let side = train_config.crop.unwrap_or(info.resolution) as usize;
     if !side.is_multiple_of(net_config.size_multiple()) {
