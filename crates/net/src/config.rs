@@ -209,7 +209,9 @@ impl NetConfig {
             transparency_encoder: h,
             terms_masked_by_coverage: true,
             position_grid: None,
-            demodulated: true,
+            // Demodulated lost 0.4 dB against RGB on the default cornellbox bake, with or
+            // without the saturation (docs/benchmarks.md, 2026-11-25).
+            demodulated: false,
             saturate_direct_light: true,
             blending: b,
             renderer: r,

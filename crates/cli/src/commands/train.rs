@@ -67,8 +67,8 @@ pub struct TrainArgs {
     /// One of the paper's ablations (Table 2): no-encoding (no positional encoding) or l1-only.
     #[arg(long)]
     pub ablation: Option<String>,
-    /// What the renderer R predicts: `demodulated` (light that multiplies the G-buffer's
-    /// albedo, plus a free RGB term; the default) or `rgb` (the image directly, as the paper).
+    /// What the renderer R predicts: `rgb` (the image directly, as the paper; the default) or
+    /// `demodulated` (light that multiplies the G-buffer's albedo, plus a free RGB term).
     #[arg(long)]
     pub renderer_output: Option<String>,
     /// How world positions enter F and h: `fourier` (the paper's sinusoids, as every other
