@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Build what the GPU measurement needs and pack it for the device machine (tools/gpu/README.md):
+# Build what the GPU measurement needs and pack it for a GPU machine without a Rust toolchain (tools/gpu/README.md):
 # the stripped release binaries, xz-compressed into .gpu/, and the Vulkan loader packages in
-# .gl/. Both folders are git-ignored locally and travel with `carry: [".gpu", ".gl"]`.
+# .gl/. Both folders are git-ignored; copy them to the GPU machine with tools/gpu/.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 
@@ -14,12 +14,12 @@ for dir in .gpu .gl; do
   mkdir -p "$dir"
   grep -qx "/$dir/" "$exclude" 2>/dev/null || echo "/$dir/" >> "$exclude"
 done
-# The release profile strips symbols; xz because the device decompresses with Python's lzma.
+# The release profile strips symbols; xz because the GPU machine decompresses with Python's lzma.
 xz -T0 -6 -c target/release/glassbake > .gpu/glassbake.xz
 xz -T0 -6 -c target/release/examples/gpu_trace_bench > .gpu/gpu_trace_bench.xz
 
-# The Vulkan loader (the NVIDIA driver's ICD is on the device, the loader is not), amd64
-# packages whatever this machine's architecture, as the device README describes.
+# The Vulkan loader (the NVIDIA driver's ICD is on the GPU machine, the loader may not be), amd64
+# packages whatever this machine's architecture.
 if ! ls .gl/libvulkan1_*.deb >/dev/null 2>&1; then
   mkdir -p /tmp/amd64/partial
   o='-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/amd64'

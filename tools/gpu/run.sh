@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The GPU tracer's figures in one device call (tools/gpu/README.md). Run from the repo root on
-# the device machine with `.gpu` and `.gl` carried; results go to $OUT (or ./gpu-out).
+# The GPU tracer's figures in one run (tools/gpu/README.md). Run on the GPU machine from the folder
+# holding tools/gpu, .gpu and .gl; results go to $OUT (or ./gpu-out).
 #   bash tools/gpu/run.sh [RES] [SPP]
 set -uo pipefail
 res="${1:-256}"

@@ -9,7 +9,8 @@ the wall time, samples per second and image statistics of both.
 (make_scenes.py beside this file writes two glTF test scenes with manifests).
 
 Both renderers use all cores unless --threads is given, max depth 64 unless --max-depth, Russian roulette from
-depth 5. The scene goes to Mitsuba through `glassbake scene mitsuba` (docs/design.md §7).
+depth 5. The scene goes to Mitsuba through `glassbake scene mitsuba` (docs/design.md,
+"Decisions made in the repo": Mitsuba export).
 Lambertian surfaces and glass map one to one; glassbake's default opaque material goes out
 as a blend that is 1-3% brighter in Mitsuba (docs/trace.md), metals as `principled` (Disney
 diffuse), so image means differ by design there.

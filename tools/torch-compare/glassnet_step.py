@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """GlassNet's `quick` network re-built in PyTorch, to time one training step on the same CPU as
-glassbake's burn/flex training (issue 14, part 3). Only speed is compared: the weights are
+glassbake's burn/flex training. Only speed is compared: the weights are
 random and the data synthetic, as in `cargo run --release -p glassbake-net --example train_step`.
 
 The layer list mirrors crates/net/src/{blocks,model,config}.rs (quick preset): a 1x1 stem then
