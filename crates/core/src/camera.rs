@@ -1,4 +1,4 @@
-//! The pinhole camera convention shared by the rasterizer and the path tracer (DESIGN.md §2).
+//! The pinhole camera convention shared by the rasterizer and the path tracer (docs/design.md §2).
 //!
 //! Pixel (x, y) has its centre at (x + 0.5, y + 0.5); row 0 is the top; image width maps to
 //! the camera's right vector; `fov_x_deg` is the horizontal field of view. Both renderers

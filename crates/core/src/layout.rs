@@ -1,4 +1,4 @@
-//! The buffer channel layout of DESIGN.md §3 — the only place where channel names and
+//! The buffer channel layout of docs/design.md §3 — the only place where channel names and
 //! offsets are spelled. The rasterizer writes these planes in this order, the dataset stores
 //! them under these EXR names, and the network reads them by these offsets.
 //!
@@ -37,13 +37,13 @@ pub const OPAQUE_ATTRIBUTES: [Attribute; 7] = [
 /// baseline reads L_d at the glass surface in its G-buffer; without it GlassNet had to
 /// infer highlights from normals alone and missed them: 34 highlight pixels of 40,370
 /// transparent pixels cost it 1.8 dB T.PSNR on the default cornellbox bake
-/// (docs/benchmarks.md, 2026-11-24).
+/// (docs/history/benchmarks-2026-11.md, 2026-11-24).
 ///
 /// `Ld_far` is the same light at the object's farthest surface in front of the opaque scene
 /// (a second depth pass, "greater"): a thin-walled globe or box reflects each light twice,
 /// in its near wall and in the inside of its far wall, which the camera sees through the
 /// near wall. Those second highlights were 41% of GlassNet's squared error on the transparent
-/// pixels of four cornellbox test frames (docs/benchmarks.md, 2026-11-24). For a single pane
+/// pixels of four cornellbox test frames (docs/history/benchmarks-2026-11.md, 2026-11-24). For a single pane
 /// (one surface) it equals `Ld`.
 pub const TRANSPARENT_ATTRIBUTES: [Attribute; 10] = [
     Attribute { name: "normal", components: XYZ },

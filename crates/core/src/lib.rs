@@ -1,7 +1,7 @@
 //! glassbake-core: the foundations every pipeline stage shares.
 //!
-//! It owns the camera convention (DESIGN.md §2), the planar float image type with named
-//! channels and its EXR/PNG I/O, the buffer channel layout of DESIGN.md §3 (the one place
+//! It owns the camera convention (docs/design.md §2), the planar float image type with named
+//! channels and its EXR/PNG I/O, the buffer channel layout of docs/design.md §3 (the one place
 //! where channel names are spelled), per-sample seed derivation, tone mapping, and the error
 //! type whose "bad input" variant the CLI turns into exit code 2.
 

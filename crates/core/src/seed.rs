@@ -1,5 +1,5 @@
 //! Per-sample seeds: sample `i` of a dataset with seed `s` gets its own 64-bit seed, so any
-//! subset of samples can be regenerated independently and bit-identically (DESIGN.md §2).
+//! subset of samples can be regenerated independently and bit-identically (docs/design.md §2).
 
 /// SplitMix64 finaliser (Steele, Lea & Flood 2014): a bijective avalanche mix of 64 bits.
 pub fn mix64(mut z: u64) -> u64 {

@@ -1,6 +1,6 @@
 //! glassbake-dataset: turning a scene into training data, and feeding it to training.
 //!
-//! It owns the dataset directory format of DESIGN.md §4 (`manifest.json`, `gt/NNNNNN.exr`,
+//! It owns the dataset directory format of docs/design.md §4 (`manifest.json`, `gt/NNNNNN.exr`,
 //! optional `buffers/NNNNNN.exr`), generation (a camera and variable values per frame, seeded
 //! per sample; ground truth path-traced on the CPU or, with `TraceDevice::Wgpu`, a GPU; optionally cached rasterized buffers) with resume after
 //! a kill, sharding across machines and the byte-identical merge of shards, the in-place

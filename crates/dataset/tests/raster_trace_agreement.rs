@@ -1,5 +1,5 @@
 //! The rasterizer and the path tracer agree to the pixel on the camera convention
-//! (DESIGN.md §2): the naive G-buffer (front-most surface of everything) at a pixel lies
+//! (docs/design.md §2): the naive G-buffer (front-most surface of everything) at a pixel lies
 //! where the tracer's primary ray through that pixel centre first hits.
 
 use glassbake_core::layout::opaque;

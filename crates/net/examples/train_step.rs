@@ -1,4 +1,4 @@
-//! Where one CPU training step of the `quick` networks goes (issue 14, part 3): the whole step
+//! Where one CPU training step of the `quick` networks goes: the whole step
 //! as the training loop runs it, then forward + loss, backward and the AdamW update apart, then
 //! each sub-network's forward pass and single convolutions at the shapes the step uses. Weights
 //! are random and the data synthetic, so only time is measured; `tools/torch-compare` times the

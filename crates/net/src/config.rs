@@ -210,7 +210,7 @@ impl NetConfig {
             terms_masked_by_coverage: true,
             position_grid: None,
             // Demodulated lost 0.4 dB against RGB on the default cornellbox bake, with or
-            // without the saturation (docs/benchmarks.md, 2026-11-25).
+            // without the saturation (docs/history/benchmarks-2026-11.md, 2026-11-25).
             demodulated: false,
             saturate_direct_light: true,
             blending: b,
@@ -333,7 +333,7 @@ impl TrainConfig {
         // the default cornellbox bake under 30 minutes on that box. Learning rate 1e-3, not
         // 2e-3: at 2e-3 the naive baseline on the default cornellbox dataset stalled at
         // validation loss 0.18 with seed 0 (drawing glass as flat dark blocks) and reached
-        // 0.118 with seed 1; at 1e-3 seed 0 trains normally (docs/benchmarks.md, 2026-11-24).
+        // 0.118 with seed 1; at 1e-3 seed 0 trains normally (docs/history/benchmarks-2026-11.md, 2026-11-24).
         let base = TrainConfig {
             steps: 2000,
             batch_size: 4,

@@ -1,4 +1,4 @@
-//! Picking a Vulkan adapter and opening a device on it (DESIGN.md §3: pin the Vulkan backend,
+//! Picking a Vulkan adapter and opening a device on it (docs/design.md §3: pin the Vulkan backend,
 //! request the adapter's own limits, choose by power preference or `WGPU_ADAPTER_NAME`).
 
 use glassbake_core::{Error, Result};

@@ -4,7 +4,7 @@
 //! only), the naive G-buffer (glass drawn over what is behind it, the paper's baseline input),
 //! and one transparency buffer per transparent object (that object alone, its front-most
 //! visible surface, with relative depth and coverage), in the channel layout of
-//! `glassbake_core::layout` (DESIGN.md §3); the direct light L_d from rectangle lights
+//! `glassbake_core::layout` (docs/design.md §3); the direct light L_d from rectangle lights
 //! (diffuse: exact polygon form factor; GGX specular: Linearly Transformed Cosines, fitted by
 //! [`ltc`]) with shadow maps, plus emission; Vulkan adapter selection (lavapipe on CPU-only
 //! machines); [`composition`], the share of glass pixels with textured detail behind them.

@@ -27,7 +27,7 @@ pub const FLOOR_SHARE: u32 = 4;
 /// No pixel gets more than this many times its budget.
 pub const MAX_FACTOR: u32 = 16;
 /// Share of a glass pixel's noise estimate taken from its whole object ([`pool_by_object`]).
-/// Chosen by measurement (docs/benchmarks.md, 2026-11-24): at 128 px, 256 spp, 0.4, 0.6 and
+/// Chosen by measurement (docs/history/benchmarks-2026-11.md, 2026-11-24): at 128 px, 256 spp, 0.4, 0.6 and
 /// 0.85 did about equally well; pooling opaque objects too made the Cornell boxes worse.
 pub const OBJECT_SHARE: f64 = 0.6;
 /// Below this budget the pilot (fewer than 16 samples a pixel, 144 a neighbourhood) is too

@@ -18,7 +18,7 @@ use crate::spherical_rect::SphericalRect;
 /// varies most over the light. Farther away the four `acos` per shadow ray cost more than
 /// they save: with the `caustic` estimator at 128 px, 256 spp, 1.5 and 0.75 lowered the
 /// desk's variance alike (-18%) but 1.5 cost it +20% time and 0.75 nothing measurable
-/// (docs/benchmarks.md, 2026-11-24).
+/// (docs/history/benchmarks-2026-11.md, 2026-11-24).
 const SOLID_ANGLE_RANGE: f32 = 0.75;
 
 /// Where an emitter's points lie.

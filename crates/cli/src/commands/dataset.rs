@@ -105,7 +105,7 @@ pub struct MakeArgs {
 }
 
 /// The test split's ground truth is traced at this many times the training spp by default:
-/// its own noise is then well below the error being measured (issue 14 asks at least 8x).
+/// its own noise is then well below the error being measured (at least 8x).
 const DEFAULT_TEST_SPP_FACTOR: u32 = 8;
 
 /// The test split's spp when `--test-spp` is not given.
