@@ -58,7 +58,15 @@ fn bake_runs_every_stage_then_skips_them_and_eval_scores_with_lpips() {
     // the flag, keeps it (a changed estimator would retrace every frame or be refused).
     let (code, stdout, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--estimator", "caustic-merged", "--out", path(&out)]);
     assert_eq!(code, 0, "{err}\n{stdout}");
-    for file in ["dataset/manifest.json", "glassnet/glassnet.safetensors", "naive/glassnet.safetensors", "eval/metrics.json", "eval/metrics.csv", "report/index.html", "report/report.md"] {
+    for file in [
+        "dataset/manifest.json",
+        "glassnet/glassnet.safetensors",
+        "naive/glassnet.safetensors",
+        "eval/metrics.json",
+        "eval/metrics.csv",
+        "report/index.html",
+        "report/report.md",
+    ] {
         assert!(out.join(file).is_file(), "{file} missing");
     }
     // The bake ends with the metrics table, GlassNet against Naive.
@@ -94,14 +102,23 @@ fn bake_runs_every_stage_then_skips_them_and_eval_scores_with_lpips() {
     let weights = dir.path().join("lpips.safetensors");
     write_lpips_weights(&weights);
     let eval = dir.path().join("eval");
-    let (code, stdout, err) = glassbake(&["eval", path(&out.join("glassnet")), path(&out.join("dataset")), "--out", path(&eval), "--lpips-weights", path(&weights)]);
+    let (code, stdout, err) =
+        glassbake(&["eval", path(&out.join("glassnet")), path(&out.join("dataset")), "--out", path(&eval), "--lpips-weights", path(&weights)]);
     assert_eq!(code, 0, "{err}");
     assert!(stdout.contains("LPIPS AlexNet weights from"), "{stdout}");
     let metrics: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(eval.join("metrics.json")).unwrap()).unwrap();
     assert!(metrics["models"][0]["lpips"].as_f64().unwrap() > 0.0);
 
     // Bad input: one line naming the culprit, exit code 2, nothing written.
-    let (code, _, err) = glassbake(&["eval", path(&out.join("glassnet")), path(&out.join("dataset")), "--out", path(&dir.path().join("e2")), "--lpips-weights", path(&dir.path().join("none.safetensors"))]);
+    let (code, _, err) = glassbake(&[
+        "eval",
+        path(&out.join("glassnet")),
+        path(&out.join("dataset")),
+        "--out",
+        path(&dir.path().join("e2")),
+        "--lpips-weights",
+        path(&dir.path().join("none.safetensors")),
+    ]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("none.safetensors") && !dir.path().join("e2").exists(), "{err}");
     let (code, _, err) = glassbake(&["bake", "cornell-glass", "--preset", "huge", "--out", path(&dir.path().join("b2"))]);
@@ -110,7 +127,8 @@ fn bake_runs_every_stage_then_skips_them_and_eval_scores_with_lpips() {
     let (code, _, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--estimator", "noisy", "--out", path(&dir.path().join("b3"))]);
     assert_eq!(code, 2);
     assert!(err.contains("--estimator") && err.contains("caustic-merged") && !dir.path().join("b3").exists(), "{err}");
-    let (code, _, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--device", "wgpu", "--estimator", "caustic-merged", "--out", path(&dir.path().join("b4"))]);
+    let (code, _, err) =
+        glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--device", "wgpu", "--estimator", "caustic-merged", "--out", path(&dir.path().join("b4"))]);
     assert_eq!(code, 2);
     assert!(err.contains("--estimator") && err.contains("CPU only") && !dir.path().join("b4").exists(), "{err}");
 }
@@ -122,7 +140,23 @@ fn eval_refuses_a_model_of_another_scene() {
     let (code, _, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--out", path(&out)]);
     assert_eq!(code, 0, "{err}");
     let other = dir.path().join("other");
-    let (code, _, err) = glassbake(&["dataset", "cornellbox", "--out", path(&other), "--train", "1", "--val", "1", "--test", "1", "--res", "32", "--spp", "2", "--cache-buffers"]);
+    let (code, _, err) = glassbake(&[
+        "dataset",
+        "cornellbox",
+        "--out",
+        path(&other),
+        "--train",
+        "1",
+        "--val",
+        "1",
+        "--test",
+        "1",
+        "--res",
+        "32",
+        "--spp",
+        "2",
+        "--cache-buffers",
+    ]);
     assert_eq!(code, 0, "{err}");
     let (code, _, err) = glassbake(&["eval", path(&out.join("glassnet")), path(&other), "--out", path(&dir.path().join("e"))]);
     assert_eq!(code, 2, "{err}");
@@ -182,7 +216,23 @@ fn baselines_pixelgen_and_path_tracing_plus_denoising() {
 
     // pixelgen trains and evaluates on its own, with a time per frame.
     let data = dir.path().join("data");
-    let (code, _, err) = glassbake(&["dataset", "cornell-glass", "--out", path(&data), "--train", "2", "--val", "1", "--test", "2", "--res", "32", "--spp", "2", "--cache-buffers"]);
+    let (code, _, err) = glassbake(&[
+        "dataset",
+        "cornell-glass",
+        "--out",
+        path(&data),
+        "--train",
+        "2",
+        "--val",
+        "1",
+        "--test",
+        "2",
+        "--res",
+        "32",
+        "--spp",
+        "2",
+        "--cache-buffers",
+    ]);
     assert_eq!(code, 0, "{err}");
     let model = dir.path().join("pixelgen");
     let (code, stdout, err) = glassbake(&["train", path(&data), "--model", "pixelgen", "--preset", "tiny", "--out", path(&model)]);

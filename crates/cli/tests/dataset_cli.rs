@@ -19,10 +19,28 @@ fn snapshot(dir: &Path) -> BTreeMap<String, Vec<u8>> {
 }
 
 fn dataset_args(out: &Path) -> Vec<String> {
-    ["dataset", "cornell-glass", "--out", out.to_str().unwrap(), "--train", "10", "--val", "2", "--test", "2", "--res", "48", "--spp", "48", "--cache-buffers", "--threads", "1"]
-        .iter()
-        .map(|s| s.to_string())
-        .collect()
+    [
+        "dataset",
+        "cornell-glass",
+        "--out",
+        out.to_str().unwrap(),
+        "--train",
+        "10",
+        "--val",
+        "2",
+        "--test",
+        "2",
+        "--res",
+        "48",
+        "--spp",
+        "48",
+        "--cache-buffers",
+        "--threads",
+        "1",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect()
 }
 
 #[test]
@@ -37,7 +55,8 @@ fn killed_and_rerun_equals_uninterrupted() {
     let start = Instant::now();
     // Kill it once some, but not all, frames are done.
     loop {
-        let done = std::fs::read_dir(resumed.join("gt")).map(|d| d.flatten().filter(|e| !e.file_name().to_string_lossy().starts_with('.')).count()).unwrap_or(0);
+        let done =
+            std::fs::read_dir(resumed.join("gt")).map(|d| d.flatten().filter(|e| !e.file_name().to_string_lossy().starts_with('.')).count()).unwrap_or(0);
         if done >= 3 || start.elapsed() > Duration::from_secs(120) {
             break;
         }
@@ -64,7 +83,25 @@ fn a_gpu_traced_dataset_resumes_stays_on_its_device_and_trains() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("gpu");
     let data_arg = data.to_str().unwrap();
-    let args = ["dataset", "cornell-glass", "--out", data_arg, "--train", "3", "--val", "1", "--test", "1", "--res", "16", "--spp", "8", "--cache-buffers", "--device", "wgpu"];
+    let args = [
+        "dataset",
+        "cornell-glass",
+        "--out",
+        data_arg,
+        "--train",
+        "3",
+        "--val",
+        "1",
+        "--test",
+        "1",
+        "--res",
+        "16",
+        "--spp",
+        "8",
+        "--cache-buffers",
+        "--device",
+        "wgpu",
+    ];
     let (code, _, err) = glassbake(&args);
     assert_eq!(code, 0, "{err}");
     let manifest: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(data.join("manifest.json")).unwrap()).unwrap();

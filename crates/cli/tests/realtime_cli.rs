@@ -42,10 +42,24 @@ fn render_and_bench() {
     let coverage = image::open(&coverage).unwrap().to_luma8();
     assert!(coverage.pixels().any(|p| p.0[0] > 250) && coverage.pixels().any(|p| p.0[0] < 5), "coverage is 0 and 1");
     let naive = dir.path().join("naive.png");
-    let (code, _, err) = glassbake(&["render", path(&model), "--naive", path(&bake.join("naive")), "--output", "naive", "--camera", "0,1,3.5,0,1,0", "--res", "32", "--out", path(&naive)]);
+    let (code, _, err) = glassbake(&[
+        "render",
+        path(&model),
+        "--naive",
+        path(&bake.join("naive")),
+        "--output",
+        "naive",
+        "--camera",
+        "0,1,3.5,0,1,0",
+        "--res",
+        "32",
+        "--out",
+        path(&naive),
+    ]);
     assert_eq!(code, 0, "{err}");
 
-    let (code, _, err) = glassbake(&["render", path(&model), "--sample", "0", "--output", "opaque.nothing", "--res", "32", "--out", path(&dir.path().join("x.png"))]);
+    let (code, _, err) =
+        glassbake(&["render", path(&model), "--sample", "0", "--output", "opaque.nothing", "--res", "32", "--out", path(&dir.path().join("x.png"))]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("nothing") && err.contains("albedo"), "{err}");
     let (code, _, err) = glassbake(&["render", path(&bake.join("naive")), "--sample", "0", "--out", path(&dir.path().join("y.png"))]);

@@ -17,7 +17,23 @@ fn path(p: &Path) -> &str {
 fn trains_resumes_super_samples_and_refuses_bad_input() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("data");
-    let (code, _, err) = glassbake(&["dataset", "cornell-glass", "--out", path(&data), "--train", "3", "--val", "1", "--test", "0", "--res", "16", "--spp", "4", "--cache-buffers"]);
+    let (code, _, err) = glassbake(&[
+        "dataset",
+        "cornell-glass",
+        "--out",
+        path(&data),
+        "--train",
+        "3",
+        "--val",
+        "1",
+        "--test",
+        "0",
+        "--res",
+        "16",
+        "--spp",
+        "4",
+        "--cache-buffers",
+    ]);
     assert_eq!(code, 0, "{err}");
 
     let model = dir.path().join("model");

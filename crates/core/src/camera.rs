@@ -119,14 +119,7 @@ mod tests {
 
     #[test]
     fn projection_inverts_the_pixel_ray() {
-        let cam = Camera {
-            position: Vec3::new(0.3, 1.2, 4.0),
-            target: Vec3::new(-0.2, 0.8, 0.0),
-            up: Vec3::Y,
-            fov_x_deg: 50.0,
-            near: 0.05,
-            far: 50.0,
-        };
+        let cam = Camera { position: Vec3::new(0.3, 1.2, 4.0), target: Vec3::new(-0.2, 0.8, 0.0), up: Vec3::Y, fov_x_deg: 50.0, near: 0.05, far: 50.0 };
         let (w, h) = (64, 48);
         for &(x, y) in &[(0u32, 0u32), (63, 47), (10, 30), (32, 24)] {
             let ray = cam.pixel_center_ray(x, y, w, h);

@@ -21,11 +21,7 @@ pub enum Error {
 }
 
 impl Error {
-    pub fn bad_input(
-        file: impl std::fmt::Display,
-        field: impl Into<String>,
-        message: impl Into<String>,
-    ) -> Self {
+    pub fn bad_input(file: impl std::fmt::Display, field: impl Into<String>, message: impl Into<String>) -> Self {
         Error::BadInput { file: file.to_string(), field: field.into(), message: message.into() }
     }
 

@@ -35,11 +35,7 @@ impl PlanarImage {
     pub fn from_planes(width: u32, height: u32, channels: Vec<String>, data: Vec<f32>) -> Result<Self> {
         let expected = width as usize * height as usize * channels.len();
         if data.len() != expected {
-            return Err(Error::Internal(format!(
-                "planar image {width}x{height}x{}: got {} samples, expected {expected}",
-                channels.len(),
-                data.len()
-            )));
+            return Err(Error::Internal(format!("planar image {width}x{height}x{}: got {} samples, expected {expected}", channels.len(), data.len())));
         }
         Ok(PlanarImage { width, height, channels, data })
     }
@@ -109,9 +105,7 @@ impl PlanarImage {
     pub fn select(&self, names: &[String]) -> Result<Self> {
         let mut data = Vec::with_capacity(names.len() * self.pixel_count());
         for name in names {
-            let c = self.channel_index(name).ok_or_else(|| {
-                Error::Internal(format!("image has no channel {name:?}"))
-            })?;
+            let c = self.channel_index(name).ok_or_else(|| Error::Internal(format!("image has no channel {name:?}")))?;
             data.extend_from_slice(self.plane(c));
         }
         PlanarImage::from_planes(self.width, self.height, names.to_vec(), data)
@@ -120,10 +114,7 @@ impl PlanarImage {
     /// The `width` x `height` window whose top-left pixel is (x, y), all channels.
     pub fn crop(&self, x: u32, y: u32, width: u32, height: u32) -> Result<Self> {
         if x + width > self.width || y + height > self.height {
-            return Err(Error::Internal(format!(
-                "crop {width}x{height}+{x}+{y} outside a {}x{} image",
-                self.width, self.height
-            )));
+            return Err(Error::Internal(format!("crop {width}x{height}+{x}+{y} outside a {}x{} image", self.width, self.height)));
         }
         let mut data = Vec::with_capacity(width as usize * height as usize * self.channels.len());
         for c in 0..self.channels.len() {
@@ -147,9 +138,7 @@ impl PlanarImage {
                 let plane = self.plane(c);
                 let samples = match precision {
                     ExrPrecision::F32 => FlatSamples::F32(plane.to_vec()),
-                    ExrPrecision::F16 => {
-                        FlatSamples::F16(plane.iter().map(|&v| half::f16::from_f32(v)).collect())
-                    }
+                    ExrPrecision::F16 => FlatSamples::F16(plane.iter().map(|&v| half::f16::from_f32(v)).collect()),
                 };
                 AnyChannel::new(name.as_str(), samples)
             })
@@ -164,12 +153,7 @@ impl PlanarImage {
             AnyChannels::sort(channels.into()),
         );
         let image = Image::from_layer(layer);
-        write_atomically(path, |tmp| {
-            image
-                .write()
-                .to_file(tmp)
-                .map_err(|e| CoreError::Internal(format!("{}: writing EXR: {e}", path.display())))
-        })
+        write_atomically(path, |tmp| image.write().to_file(tmp).map_err(|e| CoreError::Internal(format!("{}: writing EXR: {e}", path.display()))))
     }
 
     /// Read every channel of the first layer of an EXR file (channel order as stored, which
@@ -210,11 +194,9 @@ impl PlanarImage {
                 bytes.push(to_srgb8(self.data[c * n + i]));
             }
         }
-        let img = image::RgbImage::from_raw(self.width, self.height, bytes)
-            .ok_or_else(|| Error::Internal("PNG buffer size".into()))?;
+        let img = image::RgbImage::from_raw(self.width, self.height, bytes).ok_or_else(|| Error::Internal("PNG buffer size".into()))?;
         write_atomically(path, |tmp| {
-            img.save_with_format(tmp, image::ImageFormat::Png)
-                .map_err(|e| Error::Internal(format!("{}: writing PNG: {e}", path.display())))
+            img.save_with_format(tmp, image::ImageFormat::Png).map_err(|e| Error::Internal(format!("{}: writing PNG: {e}", path.display())))
         })
     }
 
@@ -222,16 +204,10 @@ impl PlanarImage {
     /// non-colour layers such as depth or normals, where sRGB would mislead).
     pub fn write_png_gray(&self, path: &Path, channel: usize, lo: f32, hi: f32) -> Result<()> {
         let scale = if hi > lo { 1.0 / (hi - lo) } else { 0.0 };
-        let bytes: Vec<u8> = self
-            .plane(channel)
-            .iter()
-            .map(|&v| (((v - lo) * scale).clamp(0.0, 1.0) * 255.0 + 0.5) as u8)
-            .collect();
-        let img = image::GrayImage::from_raw(self.width, self.height, bytes)
-            .ok_or_else(|| Error::Internal("PNG buffer size".into()))?;
+        let bytes: Vec<u8> = self.plane(channel).iter().map(|&v| (((v - lo) * scale).clamp(0.0, 1.0) * 255.0 + 0.5) as u8).collect();
+        let img = image::GrayImage::from_raw(self.width, self.height, bytes).ok_or_else(|| Error::Internal("PNG buffer size".into()))?;
         write_atomically(path, |tmp| {
-            img.save_with_format(tmp, image::ImageFormat::Png)
-                .map_err(|e| Error::Internal(format!("{}: writing PNG: {e}", path.display())))
+            img.save_with_format(tmp, image::ImageFormat::Png).map_err(|e| Error::Internal(format!("{}: writing PNG: {e}", path.display())))
         })
     }
 }

@@ -99,10 +99,7 @@ pub fn transparent_layer(k: usize) -> String {
 }
 
 fn channel_names(layer: &str, attributes: &[Attribute]) -> Vec<String> {
-    attributes
-        .iter()
-        .flat_map(|a| a.components.iter().map(move |c| format!("{layer}.{}.{c}", a.name)))
-        .collect()
+    attributes.iter().flat_map(|a| a.components.iter().map(move |c| format!("{layer}.{}.{c}", a.name))).collect()
 }
 
 pub fn opaque_channel_names() -> Vec<String> {

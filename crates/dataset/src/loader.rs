@@ -5,11 +5,11 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::sync::mpsc::{channel, sync_channel, Receiver, Sender, SyncSender};
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{channel, sync_channel, Receiver, Sender, SyncSender};
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
 use std::thread::JoinHandle;
+use std::time::Duration;
 
 use glassbake_core::layout::{self, transparent};
 use glassbake_core::seed::{mix64, sample_seed};
@@ -150,12 +150,7 @@ fn load_example(shared: &Shared, rasterizer: &mut Option<Rasterizer>, job: Job) 
         transparent: transparent_buffers.into_iter().map(crop).collect::<Result<_>>()?,
         ground_truth: crop(ground_truth)?,
         mask: crop(mask)?,
-        values: sample
-            .values
-            .iter()
-            .zip(&manifest.scene.variables)
-            .map(|(&v, var)| (v - var.min) / (var.max - var.min))
-            .collect(),
+        values: sample.values.iter().zip(&manifest.scene.variables).map(|(&v, var)| (v - var.min) / (var.max - var.min)).collect(),
     })
 }
 
@@ -172,11 +167,10 @@ fn worker(shared: Arc<Shared>, jobs: Arc<Mutex<Receiver<Job>>>, results: SyncSen
         }
         // A panic (say, in the GPU driver) must reach the consumer as an error, not leave it
         // waiting forever for this frame.
-        let example = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load_example(&shared, &mut rasterizer, job)))
-            .unwrap_or_else(|_| {
-                rasterizer = None;
-                Err(Error::Internal(format!("loading frame {} panicked", job.index)))
-            });
+        let example = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load_example(&shared, &mut rasterizer, job))).unwrap_or_else(|_| {
+            rasterizer = None;
+            Err(Error::Internal(format!("loading frame {} panicked", job.index)))
+        });
         if results.send((job.sequence, example)).is_err() {
             return;
         }
@@ -193,7 +187,11 @@ impl Loader {
         }
         if !store.manifest.reads_cached_buffers() {
             let scene = scene.as_ref().ok_or_else(|| {
-                Error::bad_input(dir.display(), "scene", "the dataset has no cached buffers (or, made by an older glassbake, none with transparent Ld), so its scene is needed to rasterize them")
+                Error::bad_input(
+                    dir.display(),
+                    "scene",
+                    "the dataset has no cached buffers (or, made by an older glassbake, none with transparent Ld), so its scene is needed to rasterize them",
+                )
             })?;
             if scene.content_hash() != store.manifest.scene.hash {
                 return Err(Error::bad_input(dir.display(), "scene", format!("scene {} is not the one this dataset was made from", scene.name)));

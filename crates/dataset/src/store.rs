@@ -31,11 +31,9 @@ fn lock_for_writing(dir: &Path) -> Result<std::fs::File> {
     let file = std::fs::OpenOptions::new().create(true).truncate(false).write(true).open(&path).map_err(|e| Error::io(&path, e))?;
     match file.try_lock() {
         Ok(()) => Ok(file),
-        Err(std::fs::TryLockError::WouldBlock) => Err(Error::bad_input(
-            dir.display(),
-            "--out",
-            "another glassbake process is writing into this dataset; wait for it or choose another --out",
-        )),
+        Err(std::fs::TryLockError::WouldBlock) => {
+            Err(Error::bad_input(dir.display(), "--out", "another glassbake process is writing into this dataset; wait for it or choose another --out"))
+        }
         Err(std::fs::TryLockError::Error(e)) => Err(Error::io(&path, e)),
     }
 }
@@ -193,9 +191,7 @@ impl DatasetStore {
         for name in channels {
             match image.plane_by_name(name) {
                 None => return FrameStatus::Corrupt(format!("no channel {name}")),
-                Some(plane) if plane.iter().any(|v| !v.is_finite()) => {
-                    return FrameStatus::Corrupt(format!("channel {name} holds NaN or infinity"))
-                }
+                Some(plane) if plane.iter().any(|v| !v.is_finite()) => return FrameStatus::Corrupt(format!("channel {name} holds NaN or infinity")),
                 Some(_) => {}
             }
         }

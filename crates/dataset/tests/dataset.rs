@@ -8,7 +8,8 @@ use std::path::Path;
 use glassbake_core::layout::transparent;
 use glassbake_core::Error;
 use glassbake_dataset::{
-    generate, merge, upgrade, DatasetSpec, DatasetStore, GenerateOptions, GenerateProgress, GroundTruthEstimator, Loader, LoaderOptions, ShardSpec, Split, TraceDevice,
+    generate, merge, upgrade, DatasetSpec, DatasetStore, GenerateOptions, GenerateProgress, GroundTruthEstimator, Loader, LoaderOptions, ShardSpec, Split,
+    TraceDevice,
 };
 use glassbake_scene::builtin::builtin;
 
@@ -275,7 +276,20 @@ fn a_different_command_on_an_existing_dataset_is_refused() {
 #[test]
 fn splits_are_disjoint_and_cover_the_set() {
     let scene = builtin("cornellbox").unwrap();
-    let s = DatasetSpec { scene: "cornellbox".into(), resolution: 8, spp: 1, seed: 0, train: 7, val: 3, test: 5, cache_buffers: false, device: TraceDevice::Cpu, test_spp: None, test_glass_spp: None, estimator: GroundTruthEstimator::Caustic };
+    let s = DatasetSpec {
+        scene: "cornellbox".into(),
+        resolution: 8,
+        spp: 1,
+        seed: 0,
+        train: 7,
+        val: 3,
+        test: 5,
+        cache_buffers: false,
+        device: TraceDevice::Cpu,
+        test_spp: None,
+        test_glass_spp: None,
+        estimator: GroundTruthEstimator::Caustic,
+    };
     let manifest = glassbake_dataset::DatasetManifest::plan(&s, &scene);
     let train = manifest.indices_of(Split::Train);
     let val = manifest.indices_of(Split::Val);

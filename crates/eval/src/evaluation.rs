@@ -12,7 +12,8 @@ use crate::lpips::Lpips;
 use crate::metrics::{frame_metrics, FrameMetrics};
 use crate::rgb::RgbImage;
 
-pub const TONE_MAP: &str = "clamp linear RGB to [0, 1]; MAE, PSNR, DSSIM, T.MAE, T.PSNR on the clamped linear values; FLIP (8-bit) and LPIPS on their sRGB encoding";
+pub const TONE_MAP: &str =
+    "clamp linear RGB to [0, 1]; MAE, PSNR, DSSIM, T.MAE, T.PSNR on the clamped linear values; FLIP (8-bit) and LPIPS on their sRGB encoding";
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct FrameRecord {
@@ -259,7 +260,8 @@ impl EvaluationSummary {
 
     /// The averaged metrics as a Markdown table (arrows say which way is better).
     pub fn markdown_table(&self) -> String {
-        let mut out = String::from("| model | MAE ↓ | PSNR ↑ | DSSIM ↓ | T.MAE ↓ | T.PSNR ↑ | FLIP ↓ | LPIPS ↓ | s/frame |\n|---|---|---|---|---|---|---|---|---|\n");
+        let mut out =
+            String::from("| model | MAE ↓ | PSNR ↑ | DSSIM ↓ | T.MAE ↓ | T.PSNR ↑ | FLIP ↓ | LPIPS ↓ | s/frame |\n|---|---|---|---|---|---|---|---|---|\n");
         for row in self.table_cells() {
             let _ = writeln!(out, "| {} |", row.join(" | "));
         }

@@ -14,11 +14,7 @@ const GAP: usize = 4;
 fn magma() -> &'static [[f32; 3]] {
     static LUT: OnceLock<Vec<[f32; 3]>> = OnceLock::new();
     LUT.get_or_init(|| {
-        nv_flip::magma_lut()
-            .to_vec()
-            .chunks_exact(3)
-            .map(|c| [c[0], c[1], c[2]].map(|v| glassbake_core::color::srgb_to_linear(v as f32 / 255.0)))
-            .collect()
+        nv_flip::magma_lut().to_vec().chunks_exact(3).map(|c| [c[0], c[1], c[2]].map(|v| glassbake_core::color::srgb_to_linear(v as f32 / 255.0))).collect()
     })
 }
 

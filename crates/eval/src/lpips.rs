@@ -215,7 +215,10 @@ impl Lpips {
 
     pub fn distance(&self, a: &RgbImage, b: &RgbImage) -> Result<f64> {
         if a.width < MIN_SIDE || a.height < MIN_SIDE || (a.width, a.height) != (b.width, b.height) {
-            return Err(Error::Internal(format!("LPIPS needs two frames of the same size, at least {MIN_SIDE} px: {}x{} and {}x{}", a.width, a.height, b.width, b.height)));
+            return Err(Error::Internal(format!(
+                "LPIPS needs two frames of the same size, at least {MIN_SIDE} px: {}x{} and {}x{}",
+                a.width, a.height, b.width, b.height
+            )));
         }
         let (fa, fb) = (self.features(a), self.features(b));
         Ok(fa.iter().zip(&fb).zip(&self.linear).map(|((x, y), w)| layer_distance(x, y, w)).sum())

@@ -17,7 +17,8 @@ const FONT_CANDIDATES: [&str; 5] = [
     "/usr/share/fonts/liberation-sans/LiberationSans-Regular.ttf",
     "/System/Library/Fonts/Supplemental/Arial.ttf",
 ];
-const COLOURS: [RGBColor; 6] = [RGBColor(31, 119, 180), RGBColor(214, 39, 40), RGBColor(44, 160, 44), RGBColor(255, 127, 14), RGBColor(148, 103, 189), RGBColor(140, 86, 75)];
+const COLOURS: [RGBColor; 6] =
+    [RGBColor(31, 119, 180), RGBColor(214, 39, 40), RGBColor(44, 160, 44), RGBColor(255, 127, 14), RGBColor(148, 103, 189), RGBColor(140, 86, 75)];
 
 /// Registers a system font for plot text once; false when none was found.
 pub fn font_available() -> bool {
@@ -54,7 +55,10 @@ fn plot_error(e: impl std::fmt::Display) -> Error {
     Error::Internal(format!("drawing a plot: {e}"))
 }
 
-fn render(draw: impl Fn(&DrawingArea<SVGBackend, Shift>) -> Result<()>, draw_png: impl Fn(&DrawingArea<BitMapBackend, Shift>) -> Result<()>) -> Result<Option<Plot>> {
+fn render(
+    draw: impl Fn(&DrawingArea<SVGBackend, Shift>) -> Result<()>,
+    draw_png: impl Fn(&DrawingArea<BitMapBackend, Shift>) -> Result<()>,
+) -> Result<Option<Plot>> {
     if !font_available() {
         return Ok(None);
     }
@@ -150,9 +154,7 @@ fn draw_bars<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, y_l
         .map_err(plot_error)?;
     chart.configure_mesh().y_desc(y_label).x_labels(0).disable_x_mesh().light_line_style(WHITE.mix(0.0)).draw().map_err(plot_error)?;
     // Group i spans [i, i + 1); its name is written at its top left.
-    chart
-        .draw_series(groups.iter().enumerate().map(|(i, g)| Text::new(g.clone(), (i as f64 + 0.1, top * 0.99), ("sans-serif", 15))))
-        .map_err(plot_error)?;
+    chart.draw_series(groups.iter().enumerate().map(|(i, g)| Text::new(g.clone(), (i as f64 + 0.1, top * 0.99), ("sans-serif", 15)))).map_err(plot_error)?;
     let width = 0.8 / bars.len() as f64;
     for (b, (name, values)) in bars.iter().enumerate() {
         let colour = COLOURS[b % COLOURS.len()];
@@ -160,11 +162,7 @@ fn draw_bars<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, y_l
             let x0 = g as f64 + 0.1 + b as f64 * width;
             Rectangle::new([(x0, bottom), (x0 + width, v)], colour.filled())
         });
-        chart
-            .draw_series(rects)
-            .map_err(plot_error)?
-            .label(name)
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], colour.filled()));
+        chart.draw_series(rects).map_err(plot_error)?.label(name).legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], colour.filled()));
     }
     chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(plot_error)?;
     Ok(())

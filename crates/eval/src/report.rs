@@ -149,7 +149,16 @@ fn bench_table(bench: &BenchFile) -> String {
     let mut out = String::from("| resolution | transparent objects | ms / frame | FPS | peak RAM (MiB) | peak GPU (MiB) |\n|---|---|---|---|---|---|\n");
     let mib = |v: Option<f64>| v.map(|v| format!("{v:.1}")).unwrap_or_else(|| "-".into());
     for r in &bench.rows {
-        let _ = writeln!(out, "| {0}x{0} | {1} | {2:.2} | {3:.1} | {4} | {5} |", r.resolution, r.objects, r.ms_per_frame, r.fps, mib(r.peak_ram_mib), mib(r.peak_gpu_mib));
+        let _ = writeln!(
+            out,
+            "| {0}x{0} | {1} | {2:.2} | {3:.1} | {4} | {5} |",
+            r.resolution,
+            r.objects,
+            r.ms_per_frame,
+            r.fps,
+            mib(r.peak_ram_mib),
+            mib(r.peak_gpu_mib)
+        );
     }
     out
 }
@@ -197,7 +206,8 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
             ("PSNR".to_string(), summary.models.iter().map(|m| m.psnr).collect()),
             ("T.PSNR".to_string(), summary.models.iter().map(|m| m.t_psnr.unwrap_or(f64::NAN)).collect()),
         ];
-        let figures = figure("PSNR and T.PSNR (dB, higher is better)", "metrics.png", bar_chart("PSNR and T.PSNR", "dB", &groups, &bars)?).into_iter().collect();
+        let figures =
+            figure("PSNR and T.PSNR (dB, higher is better)", "metrics.png", bar_chart("PSNR and T.PSNR", "dB", &groups, &bars)?).into_iter().collect();
         sections.push(("Metrics".into(), text, figures));
 
         let eval_dir = inputs.eval_dir.as_ref().expect("summary read from it");
@@ -240,10 +250,15 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
         }
     }
     if !curves.is_empty() {
-        let mut figures: Vec<Figure> = figure("Training curves", "training_curves.png", line_chart("Training curves", "step", "loss (L1 + SSIM term)", &curves)?).into_iter().collect();
+        let mut figures: Vec<Figure> =
+            figure("Training curves", "training_curves.png", line_chart("Training curves", "step", "loss (L1 + SSIM term)", &curves)?).into_iter().collect();
         let mut text = String::from("Loss per step (solid: training batches, dashed: validation frames).\n");
         if !psnr_curves.is_empty() {
-            figures.extend(figure("Validation PSNR over training time", "validation_psnr.png", line_chart("Validation PSNR over training time", "training seconds", "PSNR (dB)", &psnr_curves)?));
+            figures.extend(figure(
+                "Validation PSNR over training time",
+                "validation_psnr.png",
+                line_chart("Validation PSNR over training time", "training seconds", "PSNR (dB)", &psnr_curves)?,
+            ));
             text.push_str("\nValidation PSNR (whole frames, clamped to [0, 1]) against training wall time: a curve still rising at its end says more training time would help.\n");
         }
         sections.push(("Training".into(), text, figures));
@@ -265,7 +280,11 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
                 .collect()
         };
         let mut figures = Vec::new();
-        figures.extend(figure("Time per frame", "speed.png", line_chart(&format!("Time per frame ({})", bench.device), "transparent objects", "ms / frame", &per_res(&|r| Some(r.ms_per_frame)))?));
+        figures.extend(figure(
+            "Time per frame",
+            "speed.png",
+            line_chart(&format!("Time per frame ({})", bench.device), "transparent objects", "ms / frame", &per_res(&|r| Some(r.ms_per_frame)))?,
+        ));
         let memory = per_res(&|r| r.peak_gpu_mib.or(r.peak_ram_mib));
         figures.extend(figure("Peak memory", "memory.png", line_chart("Peak memory", "transparent objects", "MiB", &memory)?));
         sections.push(("Speed and memory".into(), format!("{} on {}.\n\n{}", path.display(), bench.device, bench_table(&bench)), figures));
@@ -332,7 +351,11 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
         for f in figures {
             let body = match &f.svg {
                 Some(svg) => svg.clone(),
-                None => format!("<img alt=\"{}\" src=\"data:image/png;base64,{}\">", html_escape(&f.title), base64::engine::general_purpose::STANDARD.encode(&f.png)),
+                None => format!(
+                    "<img alt=\"{}\" src=\"data:image/png;base64,{}\">",
+                    html_escape(&f.title),
+                    base64::engine::general_purpose::STANDARD.encode(&f.png)
+                ),
             };
             let _ = writeln!(html, "<figure>{body}<figcaption>{}</figcaption></figure>", html_escape(&f.title));
         }

@@ -52,7 +52,14 @@ fn metrics_files_grids_and_report() {
     assert_eq!(read.models.len(), summary.models.len());
     for (r, m) in read.models.iter().zip(&summary.models) {
         assert_eq!((&r.model, r.frames, r.t_frames, r.lpips, r.seconds_per_frame), (&m.model, m.frames, m.t_frames, m.lpips, m.seconds_per_frame));
-        for (a, b) in [(r.mae, m.mae), (r.psnr, m.psnr), (r.dssim, m.dssim), (r.flip, m.flip), (r.t_mae.unwrap(), m.t_mae.unwrap()), (r.t_psnr.unwrap(), m.t_psnr.unwrap())] {
+        for (a, b) in [
+            (r.mae, m.mae),
+            (r.psnr, m.psnr),
+            (r.dssim, m.dssim),
+            (r.flip, m.flip),
+            (r.t_mae.unwrap(), m.t_mae.unwrap()),
+            (r.t_psnr.unwrap(), m.t_psnr.unwrap()),
+        ] {
             assert!(close(a, b), "{a} vs {b}");
         }
     }
@@ -77,12 +84,27 @@ fn metrics_files_grids_and_report() {
     let old_log = dir.path().join("old_train_log.csv");
     std::fs::write(&old_log, "step,epoch,learning_rate,train_loss,validation_loss,elapsed_s\n1,0,1e-3,0.5,,0.1\n2,0,1e-3,0.4,0.45,0.2\n").unwrap();
     let bench = dir.path().join("bench.json");
-    let rows = (1..=4).map(|t| BenchRow { resolution: 64, objects: t, ms_per_frame: 10.0 + t as f64, fps: 1000.0 / (10.0 + t as f64), peak_ram_mib: Some(50.0), peak_gpu_mib: None }).collect();
+    let rows = (1..=4)
+        .map(|t| BenchRow {
+            resolution: 64,
+            objects: t,
+            ms_per_frame: 10.0 + t as f64,
+            fps: 1000.0 / (10.0 + t as f64),
+            peak_ram_mib: Some(50.0),
+            peak_gpu_mib: None,
+        })
+        .collect();
     std::fs::write(&bench, serde_json::to_string(&BenchFile { device: "cpu".into(), rows }).unwrap()).unwrap();
     let report_dir = dir.path().join("report");
     let index = write_report(
         &report_dir,
-        &ReportInputs { title: "test <bake>".into(), facts: vec!["a fact".into()], eval_dir: Some(eval_dir.clone()), training_logs: vec![TrainingLog { name: "glassnet".into(), path: log }, TrainingLog { name: "naive".into(), path: old_log }], bench: Some(bench) },
+        &ReportInputs {
+            title: "test <bake>".into(),
+            facts: vec!["a fact".into()],
+            eval_dir: Some(eval_dir.clone()),
+            training_logs: vec![TrainingLog { name: "glassnet".into(), path: log }, TrainingLog { name: "naive".into(), path: old_log }],
+            bench: Some(bench),
+        },
     )
     .unwrap();
     let html = std::fs::read_to_string(&index).unwrap();

@@ -37,7 +37,8 @@ fn tensors(slice_names: bool) -> Vec<(String, Vec<usize>, Vec<f32>)> {
 }
 
 fn write(path: &std::path::Path, tensors: &[(String, Vec<usize>, Vec<f32>)]) {
-    let bytes: Vec<(String, Vec<usize>, Vec<u8>)> = tensors.iter().map(|(n, s, d)| (n.clone(), s.clone(), d.iter().flat_map(|v| v.to_le_bytes()).collect())).collect();
+    let bytes: Vec<(String, Vec<usize>, Vec<u8>)> =
+        tensors.iter().map(|(n, s, d)| (n.clone(), s.clone(), d.iter().flat_map(|v| v.to_le_bytes()).collect())).collect();
     let views: Vec<(String, TensorView)> = bytes.iter().map(|(n, s, b)| (n.clone(), TensorView::new(Dtype::F32, s.clone(), b).unwrap())).collect();
     std::fs::write(path, safetensors::serialize(views, None).unwrap()).unwrap();
 }
@@ -83,14 +84,26 @@ fn reference_lpips(tensors: &[(String, Vec<usize>, Vec<f32>)], a: &RgbImage, b: 
     let features = |img: &RgbImage| {
         let srgb = |v: f32| glassbake_core::color::linear_to_srgb(v) as f64;
         let mut x: Vec<Vec<Vec<f64>>> = (0..3)
-            .map(|c| (0..img.height).map(|y| (0..img.width).map(|px| (2.0 * srgb(img.get(px, y)[c]) - 1.0 - INPUT_SHIFT[c] as f64) / INPUT_SCALE[c] as f64).collect()).collect())
+            .map(|c| {
+                (0..img.height)
+                    .map(|y| (0..img.width).map(|px| (2.0 * srgb(img.get(px, y)[c]) - 1.0 - INPUT_SHIFT[c] as f64) / INPUT_SCALE[c] as f64).collect())
+                    .collect()
+            })
             .collect();
         let mut outs = Vec::new();
         for s in 0..5 {
             if s == 1 || s == 2 {
                 x = reference_pool(&x);
             }
-            x = reference_conv(&x, get(&format!("features.{}.weight", INDEX[s])), get(&format!("features.{}.bias", INDEX[s])), CHANNELS[s], KERNELS[s], CONV_STRIDE[s], CONV_PADDING[s]);
+            x = reference_conv(
+                &x,
+                get(&format!("features.{}.weight", INDEX[s])),
+                get(&format!("features.{}.bias", INDEX[s])),
+                CHANNELS[s],
+                KERNELS[s],
+                CONV_STRIDE[s],
+                CONV_PADDING[s],
+            );
             outs.push(x.clone());
         }
         outs
@@ -116,10 +129,17 @@ fn reference_lpips(tensors: &[(String, Vec<usize>, Vec<f32>)], a: &RgbImage, b: 
 }
 
 fn test_image(w: usize, h: usize, phase: f32) -> RgbImage {
-    RgbImage::new(w, h, (0..w * h).map(|i| {
-        let (x, y) = ((i % w) as f32, (i / w) as f32);
-        [0.5 + 0.4 * (0.3 * x + phase).sin(), 0.5 + 0.4 * (0.2 * y - phase).cos(), ((x + y) / (w + h) as f32).powi(2)]
-    }).collect()).unwrap()
+    RgbImage::new(
+        w,
+        h,
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                [0.5 + 0.4 * (0.3 * x + phase).sin(), 0.5 + 0.4 * (0.2 * y - phase).cos(), ((x + y) / (w + h) as f32).powi(2)]
+            })
+            .collect(),
+    )
+    .unwrap()
 }
 
 #[test]

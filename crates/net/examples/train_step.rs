@@ -114,7 +114,15 @@ fn main() {
     device.seed(2);
     let x = |c: usize, s: usize| Tensor::<4>::random([n, c, s, s], Distribution::Uniform(-1.0, 1.0), &device);
     let w = |o: usize, i: usize, k: usize| Tensor::<4>::random([o, i, k, k], Distribution::Uniform(-0.1, 0.1), &device);
-    let shapes = [(12usize, 12usize, 3usize, side), (24, 12, 3, side), (24, 24, 3, side / 2), (48, 48, 3, side / 4), (157, 12, 1, side), (156, 12, 1, side), (15, 16, 5, side)];
+    let shapes = [
+        (12usize, 12usize, 3usize, side),
+        (24, 12, 3, side),
+        (24, 24, 3, side / 2),
+        (48, 48, 3, side / 4),
+        (157, 12, 1, side),
+        (156, 12, 1, side),
+        (15, 16, 5, side),
+    ];
     for (cin, cout, k, s) in shapes {
         let (input, weight) = (x(cin, s), w(cout, cin, k));
         let padding = k / 2;

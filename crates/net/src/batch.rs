@@ -124,6 +124,7 @@ pub fn image_from_tensor(prediction: &Tensor<4>, index: usize) -> Result<PlanarI
     let [_, channels, h, w] = prediction.dims();
     let frame = prediction.clone().narrow(0, index, 1);
     let data = frame.into_data().try_to_vec::<f32>().map_err(|e| Error::Internal(format!("reading the prediction back: {e:?}")))?;
-    let names = if channels == 3 { layout::GROUND_TRUTH_CHANNELS.iter().map(|s| s.to_string()).collect() } else { (0..channels).map(|c| format!("c{c}")).collect() };
+    let names =
+        if channels == 3 { layout::GROUND_TRUTH_CHANNELS.iter().map(|s| s.to_string()).collect() } else { (0..channels).map(|c| format!("c{c}")).collect() };
     PlanarImage::from_planes(w as u32, h as u32, names, data)
 }

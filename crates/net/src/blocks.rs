@@ -13,9 +13,7 @@ use crate::config::{CnnConfig, PixelGeneratorConfig, RendererConfig, UNetConfig}
 const LEAK: f64 = 0.1;
 
 fn conv(in_channels: usize, out_channels: usize, kernel: usize, device: &Device) -> Conv2d {
-    Conv2dConfig::new([in_channels, out_channels], [kernel, kernel])
-        .with_padding(PaddingConfig2d::Same)
-        .init(device)
+    Conv2dConfig::new([in_channels, out_channels], [kernel, kernel]).with_padding(PaddingConfig2d::Same).init(device)
 }
 
 /// `conv` applied to `x`, as matrix products where burn's flex backend is slow. burn takes a
@@ -164,7 +162,9 @@ pub struct PlainCnn {
 
 impl PlainCnn {
     pub fn new(in_channels: usize, config: &CnnConfig, device: &Device) -> Self {
-        let layers = (0..config.layers).map(|i| if i == 0 { ConvAct::new(in_channels, config.width, 1, device) } else { ConvAct::new(config.width, config.width, 3, device) }).collect();
+        let layers = (0..config.layers)
+            .map(|i| if i == 0 { ConvAct::new(in_channels, config.width, 1, device) } else { ConvAct::new(config.width, config.width, 3, device) })
+            .collect();
         let last = if config.layers == 0 { in_channels } else { config.width };
         PlainCnn { layers, head: conv(last, config.out_channels, 1, device) }
     }

@@ -195,9 +195,7 @@ impl NetConfig {
                 // Active Exploration's PixelGenerator: 8 layers of 512, input re-fed midway.
                 PixelGeneratorConfig { width: 512, layers: 8, skip_at: 4 },
             ),
-            other => {
-                return Err(Error::bad_input("--preset", "preset", format!("unknown preset {other:?}; the presets are {}", Self::PRESETS.join(", "))))
-            }
+            other => return Err(Error::bad_input("--preset", "preset", format!("unknown preset {other:?}; the presets are {}", Self::PRESETS.join(", ")))),
         };
         let config = NetConfig {
             model,
@@ -245,7 +243,9 @@ impl NetConfig {
         }
         match (&self.pixel_generator, self.model) {
             (None, ModelKind::Pixelgen) => return bad("pixel_generator", "the pixelgen baseline needs its MLP's widths".into()),
-            (Some(_), kind) if kind != ModelKind::Pixelgen => return bad("pixel_generator", format!("only the pixelgen baseline has one, not {}", kind.name())),
+            (Some(_), kind) if kind != ModelKind::Pixelgen => {
+                return bad("pixel_generator", format!("only the pixelgen baseline has one, not {}", kind.name()))
+            }
             (Some(p), _) if p.width == 0 || p.skip_at == 0 || p.skip_at >= p.layers => {
                 return bad("pixel_generator", "width must be at least 1 and skip_at in 1..layers".into())
             }
@@ -349,7 +349,16 @@ impl TrainConfig {
             seed: 0,
         };
         Ok(match name {
-            "tiny" => TrainConfig { steps: 40, batch_size: 2, crop: None, warmup_steps: 5, validate_every: 10, checkpoint_every: 10, validation_frames: Some(2), ..base },
+            "tiny" => TrainConfig {
+                steps: 40,
+                batch_size: 2,
+                crop: None,
+                warmup_steps: 5,
+                validate_every: 10,
+                checkpoint_every: 10,
+                validation_frames: Some(2),
+                ..base
+            },
             "quick" => base,
             // The paper: Adam, lr 1e-4, weight decay 1e-4 (Appendix table), 256x256.
             "paper" => TrainConfig {
@@ -363,7 +372,9 @@ impl TrainConfig {
                 validation_frames: None,
                 ..base
             },
-            other => return Err(Error::bad_input("--preset", "preset", format!("unknown preset {other:?}; the presets are {}", NetConfig::PRESETS.join(", ")))),
+            other => {
+                return Err(Error::bad_input("--preset", "preset", format!("unknown preset {other:?}; the presets are {}", NetConfig::PRESETS.join(", "))))
+            }
         })
     }
 

@@ -178,7 +178,15 @@ mod tests {
     use super::*;
 
     fn config(log2_table_size: u32) -> HashGridConfig {
-        HashGridConfig { levels: 3, features: 2, log2_table_size, base_resolution: 2, finest_resolution: 8, bounds_min: [-1.0, 0.0, -2.0], bounds_max: [1.0, 2.0, 2.0] }
+        HashGridConfig {
+            levels: 3,
+            features: 2,
+            log2_table_size,
+            base_resolution: 2,
+            finest_resolution: 8,
+            bounds_min: [-1.0, 0.0, -2.0],
+            bounds_max: [1.0, 2.0, 2.0],
+        }
     }
 
     fn values<const D: usize>(t: Tensor<D>) -> Vec<f32> {

@@ -89,11 +89,12 @@ impl GlassNet {
         let tau = config.transparency_encoder.out_channels;
         let scene_encoder = UNet::new(input_channels, &config.scene_encoder, device);
         let (transparency_encoder, blend_input) = match config.model {
-            ModelKind::Glassnet => (Some(PlainCnn::new(config.encoded_buffer_width(TRANSPARENT_CHANNELS) + sigma, &config.transparency_encoder, device)), sigma + tau),
-            ModelKind::Concat => (
-                Some(PlainCnn::new(config.transparent_objects * TRANSPARENT_CHANNELS * e + sigma, &config.transparency_encoder, device)),
-                sigma + tau,
-            ),
+            ModelKind::Glassnet => {
+                (Some(PlainCnn::new(config.encoded_buffer_width(TRANSPARENT_CHANNELS) + sigma, &config.transparency_encoder, device)), sigma + tau)
+            }
+            ModelKind::Concat => {
+                (Some(PlainCnn::new(config.transparent_objects * TRANSPARENT_CHANNELS * e + sigma, &config.transparency_encoder, device)), sigma + tau)
+            }
             ModelKind::Naive | ModelKind::Pixelgen => (None, sigma),
         };
         let blending = UNet::new(blend_input, &config.blending, device);
@@ -148,7 +149,11 @@ impl GlassNet {
     pub fn check_inputs(&self, width: usize, height: usize, objects: usize) -> Result<()> {
         let m = self.config.size_multiple();
         if !width.is_multiple_of(m) || !height.is_multiple_of(m) || width == 0 || height == 0 {
-            return Err(Error::bad_input("inputs", "resolution", format!("{width}x{height} is not a multiple of {m} (the U-Nets halve it {} times)", m.trailing_zeros())));
+            return Err(Error::bad_input(
+                "inputs",
+                "resolution",
+                format!("{width}x{height} is not a multiple of {m} (the U-Nets halve it {} times)", m.trailing_zeros()),
+            ));
         }
         match self.config.model {
             ModelKind::Concat if objects != self.config.transparent_objects => Err(Error::bad_input(
@@ -156,9 +161,11 @@ impl GlassNet {
                 "transparent",
                 format!("the concat baseline was built for {} transparency buffers, got {objects}", self.config.transparent_objects),
             )),
-            ModelKind::Glassnet if objects > crate::config::MAX_EXACT_OBJECTS => {
-                Err(Error::bad_input("inputs", "transparent", format!("{objects} transparency buffers; at most {} sum exactly", crate::config::MAX_EXACT_OBJECTS)))
-            }
+            ModelKind::Glassnet if objects > crate::config::MAX_EXACT_OBJECTS => Err(Error::bad_input(
+                "inputs",
+                "transparent",
+                format!("{objects} transparency buffers; at most {} sum exactly", crate::config::MAX_EXACT_OBJECTS),
+            )),
             _ => Ok(()),
         }
     }
@@ -348,4 +355,3 @@ fn zero_last<const D: usize>(w: Tensor<D>, dim: usize, count: usize) -> Tensor<D
         zeroed
     }
 }
-

@@ -112,7 +112,11 @@ impl ModelFiles {
         let config = read_config(&path)?;
         let files = ModelFiles { dir: dir.to_path_buf(), config };
         if !files.weights_path().is_file() {
-            return Err(Error::bad_input(dir.display(), files.config.network.weights_file(), "missing: the model has not been trained to its first checkpoint yet"));
+            return Err(Error::bad_input(
+                dir.display(),
+                files.config.network.weights_file(),
+                "missing: the model has not been trained to its first checkpoint yet",
+            ));
         }
         Ok(files)
     }
@@ -158,11 +162,21 @@ pub fn read_weights<M: Module + ModuleSnapshot>(model: &mut M, path: &Path) -> R
     let mut store = SafetensorsStore::from_file(path).with_from_adapter(PyTorchToBurnAdapter);
     let result = model.load_from(&mut store).map_err(|e| Error::bad_input(path.display(), "weights", e.to_string()))?;
     if !result.missing.is_empty() || !result.errors.is_empty() || !result.unused.is_empty() {
-        let first = result.missing.first().map(|(name, _)| name.clone()).or_else(|| result.unused.first().cloned()).unwrap_or_else(|| format!("{:?}", result.errors.first()));
+        let first = result
+            .missing
+            .first()
+            .map(|(name, _)| name.clone())
+            .or_else(|| result.unused.first().cloned())
+            .unwrap_or_else(|| format!("{:?}", result.errors.first()));
         return Err(Error::bad_input(
             path.display(),
             "weights",
-            format!("do not fit the network in config.json ({} missing, {} unused, {} errors; first: {first})", result.missing.len(), result.unused.len(), result.errors.len()),
+            format!(
+                "do not fit the network in config.json ({} missing, {} unused, {} errors; first: {first})",
+                result.missing.len(),
+                result.unused.len(),
+                result.errors.len()
+            ),
         ));
     }
     Ok(())

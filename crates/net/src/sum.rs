@@ -81,9 +81,8 @@ mod tests {
         device.seed(7);
         // Wide-ranging magnitudes (including values beyond the bound) make plain f32 sums
         // order-dependent; the test below checks that they really are, so it can fail.
-        let terms: Vec<Tensor<4>> = (0..MAX_EXACT_OBJECTS)
-            .map(|i| Tensor::<4>::random([1, 4, 8, 8], Distribution::Normal(0.0, 10f64.powi(i as i32 % 4 - 1)), &device))
-            .collect();
+        let terms: Vec<Tensor<4>> =
+            (0..MAX_EXACT_OBJECTS).map(|i| Tensor::<4>::random([1, 4, 8, 8], Distribution::Normal(0.0, 10f64.powi(i as i32 % 4 - 1)), &device)).collect();
         let plain = |order: &[usize]| bits(order.iter().map(|&i| terms[i].clone()).reduce(|a, b| a + b).unwrap());
         let exact = |order: &[usize]| {
             let mut sum = TransparencySum::new();

@@ -123,7 +123,13 @@ where
         None
     };
     if state.step >= config.steps {
-        return Ok(TrainSummary { steps: state.step, resumed_from, final_validation_loss: state.last_validation_loss, elapsed_seconds: state.elapsed_seconds, already_done: true });
+        return Ok(TrainSummary {
+            steps: state.step,
+            resumed_from,
+            final_validation_loss: state.last_validation_loss,
+            elapsed_seconds: state.elapsed_seconds,
+            already_done: true,
+        });
     }
 
     let validation = data.validation()?;
@@ -273,9 +279,14 @@ fn load_checkpoint<M: Module + ModuleSnapshot>(mut model: M, optimizer: ModuleOp
     let mut store = BurnpackStore::from_file(dir.join("model.bpk"));
     let applied = model.load_from(&mut store).map_err(|e| Error::bad_input(dir.join("model.bpk").display(), "weights", e.to_string()))?;
     if !applied.missing.is_empty() || !applied.errors.is_empty() {
-        return Err(Error::bad_input(dir.join("model.bpk").display(), "weights", format!("does not fit this network ({} missing, {} errors)", applied.missing.len(), applied.errors.len())));
+        return Err(Error::bad_input(
+            dir.join("model.bpk").display(),
+            "weights",
+            format!("does not fit this network ({} missing, {} errors)", applied.missing.len(), applied.errors.len()),
+        ));
     }
-    let optimizer = optimizer.load(dir.join("optimizer.bpk")).map_err(|e| Error::bad_input(dir.join("optimizer.bpk").display(), "optimizer", format!("{e:?}")))?;
+    let optimizer =
+        optimizer.load(dir.join("optimizer.bpk")).map_err(|e| Error::bad_input(dir.join("optimizer.bpk").display(), "optimizer", format!("{e:?}")))?;
     Ok((model, optimizer, state))
 }
 

@@ -59,4 +59,3 @@ fn backward_passes_of_every_layer_type_match_finite_differences() {
         training_loss(t, target.clone(), 1.0).reshape([1, 1, 1, 1])
     });
 }
-

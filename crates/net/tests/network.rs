@@ -155,11 +155,8 @@ fn the_transmitted_outputs_are_multiplied_by_the_product_of_the_tints_in_front()
         let mut checked_below_one = 0;
         for c in 0..3 {
             for i in 0..size * size {
-                let log_t: f64 = frames[0]
-                    .transparent
-                    .iter()
-                    .map(|b| b.plane(COVERAGE)[i] as f64 * (b.plane(ALBEDO + c)[i] as f64).clamp(1.0 / 256.0, 1.0).ln())
-                    .sum();
+                let log_t: f64 =
+                    frames[0].transparent.iter().map(|b| b.plane(COVERAGE)[i] as f64 * (b.plane(ALBEDO + c)[i] as f64).clamp(1.0 / 256.0, 1.0).ln()).sum();
                 let expected = (log_t * power as f64).exp();
                 let got = out[c * size * size + i] as f64;
                 assert!((got - expected).abs() <= 1e-4 * expected, "t^{power}, channel {c}, pixel {i}: {got} vs {expected}");
@@ -172,7 +169,15 @@ fn the_transmitted_outputs_are_multiplied_by_the_product_of_the_tints_in_front()
 
 /// A small position grid over the synthetic frames' positions, with hashed levels.
 fn test_grid() -> glassbake_net::hash_grid::HashGridConfig {
-    glassbake_net::hash_grid::HashGridConfig { levels: 3, features: 2, log2_table_size: 8, base_resolution: 2, finest_resolution: 12, bounds_min: [-1.0; 3], bounds_max: [2.0; 3] }
+    glassbake_net::hash_grid::HashGridConfig {
+        levels: 3,
+        features: 2,
+        log2_table_size: 8,
+        base_resolution: 2,
+        finest_resolution: 12,
+        bounds_min: [-1.0; 3],
+        bounds_max: [2.0; 3],
+    }
 }
 
 fn permutation_exactness(device: &Device, sizes: &[usize]) {
@@ -428,7 +433,8 @@ fn position_grids_replace_the_positions_fourier_features_and_learn() {
         assert!(gradient.iter().filter(|g| g.abs() > 1e-7).count() >= 8, "{name} grid: too few entries get a gradient");
     }
     // The naive network has F's grid only; pixelgen refuses one.
-    let naive = GlassNet::new(&NetConfig { position_grid: Some(test_grid()), ..NetConfig::preset("tiny", ModelKind::Naive, 1, 2).unwrap() }, 2, &device).unwrap();
+    let naive =
+        GlassNet::new(&NetConfig { position_grid: Some(test_grid()), ..NetConfig::preset("tiny", ModelKind::Naive, 1, 2).unwrap() }, 2, &device).unwrap();
     assert!(naive.scene_grid.is_some() && naive.object_grid.is_none());
     let pixelgen = NetConfig { position_grid: Some(test_grid()), ..NetConfig::preset("tiny", ModelKind::Pixelgen, 1, 2).unwrap() };
     assert!(pixelgen.check("test").unwrap_err().to_string().contains("position_grid"));

@@ -31,7 +31,15 @@ fn model(net: &NetConfig, seed: u64) -> (GlassNet, Device) {
 /// the last ten.
 fn overfit_one_frame(kind: ModelKind, objects: usize) -> (f64, f64) {
     let net = NetConfig::preset("tiny", kind, 1, objects).unwrap();
-    let config = TrainConfig { steps: 500, batch_size: 1, learning_rate: 1e-2, warmup_steps: 10, validate_every: 500, checkpoint_every: 500, ..TrainConfig::preset("tiny").unwrap() };
+    let config = TrainConfig {
+        steps: 500,
+        batch_size: 1,
+        learning_rate: 1e-2,
+        warmup_steps: 10,
+        validate_every: 500,
+        checkpoint_every: 500,
+        ..TrainConfig::preset("tiny").unwrap()
+    };
     let mut data = common::SyntheticData { frames: vec![common::frame(42, 16, objects, 1)], batch_size: 1, seed: 0, poison_from_epoch: None };
     let dir = tempfile::tempdir().unwrap();
     let files = files(dir.path(), &net, &config);
@@ -116,7 +124,12 @@ fn a_directory_holding_a_different_run_is_refused() {
     let other = TrainConfig { learning_rate: 0.5, ..config };
     let err = ModelFiles::prepare(
         dir.path(),
-        ModelConfig { format_version: FORMAT_VERSION, network: Network::Glassnet(net), train: other, data: DataSource { dataset: "synthetic".into(), scene: "none".into(), scene_hash: "0".into(), resolution: 16 } },
+        ModelConfig {
+            format_version: FORMAT_VERSION,
+            network: Network::Glassnet(net),
+            train: other,
+            data: DataSource { dataset: "synthetic".into(), scene: "none".into(), scene_hash: "0".into(), resolution: 16 },
+        },
     )
     .unwrap_err();
     assert!(err.to_string().contains("config.json") && err.to_string().contains("train"), "{err}");

@@ -12,13 +12,8 @@ use glassbake_raster::ltc;
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let samples: usize = args.first().map_or(32, |s| s.parse().expect("SAMPLES is a number"));
-    let threads: usize = args
-        .get(1)
-        .map_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()), |s| s.parse().expect("THREADS is a number"));
-    let out = args
-        .get(2)
-        .cloned()
-        .unwrap_or_else(|| concat!(env!("CARGO_MANIFEST_DIR"), "/data/ltc_ggx.txt").to_string());
+    let threads: usize = args.get(1).map_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()), |s| s.parse().expect("THREADS is a number"));
+    let out = args.get(2).cloned().unwrap_or_else(|| concat!(env!("CARGO_MANIFEST_DIR"), "/data/ltc_ggx.txt").to_string());
     let start = Instant::now();
     let done = std::sync::atomic::AtomicUsize::new(0);
     let cells = ltc::fit_table(samples, threads, |_| {

@@ -3,9 +3,9 @@
 //! contrast. The paper's claim is about exactly those pixels (text, taps, wood seen through
 //! glass), so a scene whose glass stands in front of plain walls cannot show it.
 
-use glassbake_core::layout::{opaque, transparent};
 use glam::Vec3;
 use glassbake_core::color::luminance;
+use glassbake_core::layout::{opaque, transparent};
 use glassbake_core::PlanarImage;
 
 use crate::FrameBuffers;

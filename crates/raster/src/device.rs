@@ -83,10 +83,7 @@ fn usable(adapter: &wgpu::Adapter) -> bool {
 /// Open a device on the chosen Vulkan adapter, with the adapter's own limits.
 /// Opens the Vulkan device the options choose: (instance, adapter, device, queue).
 pub fn open(options: &RasterizerOptions) -> Result<(wgpu::Instance, wgpu::Adapter, wgpu::Device, wgpu::Queue)> {
-    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
-        backends: wgpu::Backends::VULKAN,
-        ..wgpu::InstanceDescriptor::new_without_display_handle()
-    });
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor { backends: wgpu::Backends::VULKAN, ..wgpu::InstanceDescriptor::new_without_display_handle() });
     let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
     let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
     if names.is_empty() {
@@ -105,17 +102,10 @@ pub fn open(options: &RasterizerOptions) -> Result<(wgpu::Instance, wgpu::Adapte
         }
     }
     candidates.sort_by_key(|a| rank(a.get_info().device_type, options.power_preference));
-    let adapter = candidates
-        .into_iter()
-        .next()
-        .ok_or_else(|| Error::Internal(format!("{NO_ADAPTER_HELP} (Vulkan adapters found: {})", names.join(", "))))?;
+    let adapter = candidates.into_iter().next().ok_or_else(|| Error::Internal(format!("{NO_ADAPTER_HELP} (Vulkan adapters found: {})", names.join(", "))))?;
     let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
         label: Some("glassbake-raster"),
-        required_features: if options.all_adapter_features {
-            adapter.features() - wgpu::Features::MAPPABLE_PRIMARY_BUFFERS
-        } else {
-            wgpu::Features::empty()
-        },
+        required_features: if options.all_adapter_features { adapter.features() - wgpu::Features::MAPPABLE_PRIMARY_BUFFERS } else { wgpu::Features::empty() },
         required_limits: adapter.limits(),
         ..Default::default()
     }))

@@ -53,10 +53,7 @@ pub fn parse_table(text: &str) -> Result<Vec<LtcCell>, String> {
         if line.is_empty() || line.starts_with('#') {
             continue;
         }
-        let v: Vec<f32> = line
-            .split_whitespace()
-            .map(|t| t.parse::<f32>().map_err(|e| format!("line {}: {e}", n + 1)))
-            .collect::<Result<_, _>>()?;
+        let v: Vec<f32> = line.split_whitespace().map(|t| t.parse::<f32>().map_err(|e| format!("line {}: {e}", n + 1))).collect::<Result<_, _>>()?;
         if v.len() != 6 {
             return Err(format!("line {}: expected 6 numbers, got {}", n + 1, v.len()));
         }
@@ -77,10 +74,7 @@ pub fn format_table(cells: &[LtcCell], header: &str) -> String {
         s.push('\n');
     }
     for c in cells {
-        s.push_str(&format!(
-            "{:e} {:e} {:e} {:e} {:e} {:e}\n",
-            c.minv[0], c.minv[1], c.minv[2], c.minv[3], c.amplitude[0], c.amplitude[1]
-        ));
+        s.push_str(&format!("{:e} {:e} {:e} {:e} {:e} {:e}\n", c.minv[0], c.minv[1], c.minv[2], c.minv[3], c.amplitude[0], c.amplitude[1]));
     }
     s
 }
@@ -280,11 +274,7 @@ fn nelder_mead<const D: usize>(f: impl Fn(&[f32; D]) -> f32, start: [f32; D], st
         } else if fr < simplex[D - 1].1 {
             simplex[D] = (reflected, fr);
         } else {
-            let contracted = if fr < worst {
-                combine(&centroid, &reflected, 0.5)
-            } else {
-                combine(&centroid, &worst_p, 0.5)
-            };
+            let contracted = if fr < worst { combine(&centroid, &reflected, 0.5) } else { combine(&centroid, &worst_p, 0.5) };
             let fc = f(&contracted);
             if fc < worst.min(fr) {
                 simplex[D] = (contracted, fc);

@@ -98,9 +98,7 @@ impl TargetSet {
                     sample_count: 1,
                     dimension: wgpu::TextureDimension::D2,
                     format: TARGET_FORMAT,
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                        | wgpu::TextureUsages::COPY_SRC
-                        | wgpu::TextureUsages::TEXTURE_BINDING,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::TEXTURE_BINDING,
                     view_formats: &[],
                 })
             })
@@ -132,25 +130,12 @@ impl TargetSet {
     }
 
     /// Copy the targets to the host and scatter their components into `out`'s planes.
-    fn read_into(
-        &self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        map: &ChannelMap,
-        width: u32,
-        height: u32,
-        data: &mut [f32],
-    ) -> Result<()> {
+    fn read_into(&self, device: &wgpu::Device, queue: &wgpu::Queue, map: &ChannelMap, width: u32, height: u32, data: &mut [f32]) -> Result<()> {
         let plane_bytes = self.padded_row * height as u64;
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
         for (t, texture) in self.textures.iter().enumerate() {
             encoder.copy_texture_to_buffer(
-                wgpu::TexelCopyTextureInfo {
-                    texture,
-                    mip_level: 0,
-                    origin: wgpu::Origin3d::ZERO,
-                    aspect: wgpu::TextureAspect::All,
-                },
+                wgpu::TexelCopyTextureInfo { texture, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
                 wgpu::TexelCopyBufferInfo {
                     buffer: &self.readback,
                     layout: wgpu::TexelCopyBufferLayout {
@@ -167,9 +152,7 @@ impl TargetSet {
         self.readback.map_async(wgpu::MapMode::Read, .., move |r| {
             let _ = tx.send(r);
         });
-        device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| Error::Internal(format!("waiting for the GPU: {e}")))?;
+        device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| Error::Internal(format!("waiting for the GPU: {e}")))?;
         rx.recv()
             .map_err(|_| Error::Internal("readback callback dropped".into()))?
             .map_err(|e| Error::Internal(format!("mapping the readback buffer: {e}")))?;
@@ -192,8 +175,7 @@ impl TargetSet {
                         let row = base as usize + y * self.padded_row as usize;
                         for x in 0..width as usize {
                             let at = row + x * 16 + (component as usize + c) * 4;
-                            plane[y * width as usize + x] =
-                                f32::from_le_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]);
+                            plane[y * width as usize + x] = f32::from_le_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]);
                         }
                     }
                 }
@@ -239,10 +221,7 @@ impl ShadowMaps {
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
             view_formats: &[],
         });
-        let array_view = texture.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
+        let array_view = texture.create_view(&wgpu::TextureViewDescriptor { dimension: Some(wgpu::TextureViewDimension::D2Array), ..Default::default() });
         let layer_views = (0..layers)
             .map(|l| {
                 texture.create_view(&wgpu::TextureViewDescriptor {
@@ -404,10 +383,7 @@ impl Rasterizer {
             source: wgpu::ShaderSource::Wgsl(include_str!("../shaders/gbuffer.wgsl").into()),
         });
         let both = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
-        let view_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("view"),
-            entries: &[uniform_entry(0, both)],
-        });
+        let view_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("view"), entries: &[uniform_entry(0, both)] });
         let float_filterable = wgpu::TextureSampleType::Float { filterable: true };
         let float_plain = wgpu::TextureSampleType::Float { filterable: false };
         let d2 = wgpu::TextureViewDimension::D2;
@@ -452,11 +428,7 @@ impl Rasterizer {
             bind_group_layouts: &[Some(&view_layout), Some(&object_layout)],
             immediate_size: 0,
         });
-        let primitive = wgpu::PrimitiveState {
-            topology: wgpu::PrimitiveTopology::TriangleList,
-            cull_mode: None,
-            ..Default::default()
-        };
+        let primitive = wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::TriangleList, cull_mode: None, ..Default::default() };
         let depth_state = |compare: wgpu::CompareFunction, bias: wgpu::DepthBiasState| wgpu::DepthStencilState {
             format: DEPTH_FORMAT,
             depth_write_enabled: Some(true),
@@ -473,21 +445,11 @@ impl Rasterizer {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
                 layout: Some(&shading_pipeline_layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &vertex_layouts,
-                },
+                vertex: wgpu::VertexState { module: &module, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &vertex_layouts },
                 primitive,
                 depth_stencil: Some(depth_state(compare, wgpu::DepthBiasState::default())),
                 multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some(fragment),
-                    compilation_options: Default::default(),
-                    targets,
-                }),
+                fragment: Some(wgpu::FragmentState { module: &module, entry_point: Some(fragment), compilation_options: Default::default(), targets }),
                 multiview_mask: None,
                 cache: None,
             })
@@ -499,12 +461,7 @@ impl Rasterizer {
         let shadow_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("shadow"),
             layout: Some(&shadow_pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_shadow"),
-                compilation_options: Default::default(),
-                buffers: &vertex_layouts,
-            },
+            vertex: wgpu::VertexState { module: &module, entry_point: Some("vs_shadow"), compilation_options: Default::default(), buffers: &vertex_layouts },
             primitive,
             depth_stencil: Some(depth_state(wgpu::CompareFunction::Less, wgpu::DepthBiasState { constant: 2, slope_scale: 2.0, clamp: 0.0 })),
             multisample: wgpu::MultisampleState::default(),
@@ -848,19 +805,16 @@ impl Rasterizer {
             contents: &object_bytes,
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let object_groups: Vec<wgpu::BindGroup> = (0..uniforms.len())
-            .map(|i| self.object_bind_group(&object_buffer, i as u64, &textures[i].0, &textures[i].1))
-            .collect();
+        let object_groups: Vec<wgpu::BindGroup> =
+            (0..uniforms.len()).map(|i| self.object_bind_group(&object_buffer, i as u64, &textures[i].0, &textures[i].1)).collect();
 
         let view = self.view_bind_group(&ViewUniform {
             view_proj: mat4_cols(camera.view_projection(width, height)),
             camera_pos: camera.position.extend(1.0).to_array(),
             params: [light_count, u32::from(self.options.shadows), 0, 0],
         });
-        let shadow_view_groups: Vec<wgpu::BindGroup> = shadow_views
-            .iter()
-            .map(|m| self.view_bind_group(&ViewUniform { view_proj: mat4_cols(*m), camera_pos: [0.0; 4], params: [0; 4] }))
-            .collect();
+        let shadow_view_groups: Vec<wgpu::BindGroup> =
+            shadow_views.iter().map(|m| self.view_bind_group(&ViewUniform { view_proj: mat4_cols(*m), camera_pos: [0.0; 4], params: [0; 4] })).collect();
         let targets = self.targets.as_ref().expect("ensured");
         let shading_opaque = self.shading_bind_group(&lights, &shadow_matrices, &self.no_opaque);
         let shading_transparency = self.shading_bind_group(&lights, &shadow_matrices, &targets.opaque.views[1]);
@@ -1116,8 +1070,11 @@ impl Frame<'_> {
             r.unpacker = Some(crate::unpack::Unpacker::new(&r.device));
         }
         let targets = r.targets.as_ref().expect("targets");
-        let (set, map, channels): (&TargetSet, &ChannelMap, usize) =
-            if transparency { (&targets.transparency, &TRANSPARENT_MAP, layout::TRANSPARENT_CHANNELS) } else { (&targets.opaque, &OPAQUE_MAP, layout::OPAQUE_CHANNELS) };
+        let (set, map, channels): (&TargetSet, &ChannelMap, usize) = if transparency {
+            (&targets.transparency, &TRANSPARENT_MAP, layout::TRANSPARENT_CHANNELS)
+        } else {
+            (&targets.opaque, &OPAQUE_MAP, layout::OPAQUE_CHANNELS)
+        };
         r.unpacker.as_ref().expect("made above").encode(&r.device, encoder, &set.views, map, channels, self.width, self.height, out, byte_offset)
     }
 
@@ -1130,11 +1087,7 @@ impl Frame<'_> {
 
     /// Block until the GPU has finished all submitted work (for timing).
     pub fn wait(&self) -> Result<()> {
-        self.rasterizer
-            .device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map(|_| ())
-            .map_err(|e| Error::Internal(format!("waiting for the GPU: {e}")))
+        self.rasterizer.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| Error::Internal(format!("waiting for the GPU: {e}")))
     }
 
     /// The opaque G-buffer's render targets (see `shaders/gbuffer.wgsl` for their packing).

@@ -18,15 +18,10 @@ pub(crate) struct Vertex {
     pub uv: [f32; 2],
 }
 
-pub(crate) const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 3] =
-    wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2];
+pub(crate) const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 3] = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2];
 
 pub(crate) fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
-    wgpu::VertexBufferLayout {
-        array_stride: std::mem::size_of::<Vertex>() as u64,
-        step_mode: wgpu::VertexStepMode::Vertex,
-        attributes: &VERTEX_ATTRIBUTES,
-    }
+    wgpu::VertexBufferLayout { array_stride: std::mem::size_of::<Vertex>() as u64, step_mode: wgpu::VertexStepMode::Vertex, attributes: &VERTEX_ATTRIBUTES }
 }
 
 pub(crate) struct GpuMesh {
@@ -128,11 +123,7 @@ pub(crate) struct Cache {
 impl Cache {
     pub fn mesh(&mut self, device: &wgpu::Device, mesh: &Arc<Mesh>) -> Option<&GpuMesh> {
         let key = Arc::as_ptr(mesh) as usize;
-        self.meshes
-            .entry(key)
-            .or_insert_with(|| (mesh.clone(), GpuMesh::upload(device, mesh, "mesh")))
-            .1
-            .as_ref()
+        self.meshes.entry(key).or_insert_with(|| (mesh.clone(), GpuMesh::upload(device, mesh, "mesh"))).1.as_ref()
     }
 
     pub fn texture(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, texture: &Arc<Texture>) -> wgpu::TextureView {

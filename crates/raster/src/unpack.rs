@@ -66,7 +66,8 @@ impl Unpacker {
             count: None,
         });
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("unpack"), entries: &entries });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("unpack"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
+        let pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("unpack"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("unpack"),
             layout: Some(&pipeline_layout),
@@ -98,7 +99,10 @@ impl Unpacker {
         }
         let needed = byte_offset + (channels as u64) * (width as u64) * (height as u64) * 4;
         if !byte_offset.is_multiple_of(4) || needed > out.size() {
-            return Err(Error::Internal(format!("unpacking {channels} planes of {width}x{height} at byte {byte_offset} into a buffer of {} bytes", out.size())));
+            return Err(Error::Internal(format!(
+                "unpacking {channels} planes of {width}x{height} at byte {byte_offset} into a buffer of {} bytes",
+                out.size()
+            )));
         }
         if !out.usage().contains(wgpu::BufferUsages::STORAGE) {
             return Err(Error::Internal("the destination buffer has no STORAGE usage".into()));
@@ -112,10 +116,18 @@ impl Unpacker {
         for (slot, &(first, count, target, component)) in params.map.iter_mut().zip(map) {
             *slot = [first as u32, count as u32, target, component];
         }
-        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some("unpack params"), contents: bytemuck::bytes_of(&params), usage: wgpu::BufferUsages::UNIFORM });
-        let mut bindings: Vec<wgpu::BindGroupEntry> =
-            (0..BOUND_TARGETS).map(|i| wgpu::BindGroupEntry { binding: target_binding(i), resource: wgpu::BindingResource::TextureView(views.get(i).unwrap_or(&views[0])) }).collect();
-        bindings.push(wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding { buffer: out, offset: bind_offset, size: Some(bind_size) }) });
+        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("unpack params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let mut bindings: Vec<wgpu::BindGroupEntry> = (0..BOUND_TARGETS)
+            .map(|i| wgpu::BindGroupEntry { binding: target_binding(i), resource: wgpu::BindingResource::TextureView(views.get(i).unwrap_or(&views[0])) })
+            .collect();
+        bindings.push(wgpu::BindGroupEntry {
+            binding: 5,
+            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding { buffer: out, offset: bind_offset, size: Some(bind_size) }),
+        });
         bindings.push(wgpu::BindGroupEntry { binding: 6, resource: uniform.as_entire_binding() });
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("unpack"), layout: &self.layout, entries: &bindings });
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("unpack"), timestamp_writes: None });

@@ -34,12 +34,7 @@ fn known_scene() -> (Scene, Vec<Quad>, Camera) {
 
 /// Nearest hit among the quads selected by `keep`: (quad index, t).
 fn nearest(quads: &[Quad], origin: Vec3, dir: Vec3, keep: impl Fn(usize) -> bool) -> Option<(usize, f32)> {
-    quads
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| keep(*i))
-        .filter_map(|(i, q)| q.hit(origin, dir).map(|t| (i, t)))
-        .min_by(|a, b| a.1.total_cmp(&b.1))
+    quads.iter().enumerate().filter(|(i, _)| keep(*i)).filter_map(|(i, q)| q.hit(origin, dir).map(|t| (i, t))).min_by(|a, b| a.1.total_cmp(&b.1))
 }
 
 /// What each buffer sees along a ray: (opaque hit, naive hit, hit of transparent quad k if
@@ -113,10 +108,7 @@ fn every_channel_of_every_buffer_matches_a_ray_cast() {
             let opaque_hit = nearest(&quads, ray.origin, ray.direction, |i| !quads[i].transparent);
 
             // Opaque and naive G-buffers.
-            for (im, hit) in [
-                (&b.opaque, opaque_hit),
-                (&b.naive, nearest(&quads, ray.origin, ray.direction, |_| true)),
-            ] {
+            for (im, hit) in [(&b.opaque, opaque_hit), (&b.naive, nearest(&quads, ray.origin, ray.direction, |_| true))] {
                 match hit {
                     None => {
                         for c in 0..layout::OPAQUE_CHANNELS {
@@ -253,10 +245,7 @@ fn g_buffer_position_lies_on_the_pixel_centre_ray() {
         let mut hits = 0;
         for y in 0..h {
             for x in 0..w {
-                for (im, depth_c, pos_c) in [
-                    (&b.opaque, opaque::DEPTH, opaque::POSITION),
-                    (&b.transparent[0], transparent::DEPTH, transparent::POSITION),
-                ] {
+                for (im, depth_c, pos_c) in [(&b.opaque, opaque::DEPTH, opaque::POSITION), (&b.transparent[0], transparent::DEPTH, transparent::POSITION)] {
                     let depth = im.get(depth_c, x, y);
                     if depth == 0.0 {
                         continue;
@@ -325,12 +314,7 @@ fn textures_are_sampled_with_mipmaps() {
         glam::Vec4::new(c as f32, c as f32, c as f32, 1.0)
     });
     scene.textures.push(Arc::new(checker));
-    scene.meshes[0] = Arc::new(glassbake_scene::shapes::rect(
-        Vec3::new(0.0, 0.0, -1.0),
-        Vec3::X * 4.0,
-        Vec3::Y * 4.0,
-        glam::Vec2::splat(64.0),
-    ));
+    scene.meshes[0] = Arc::new(glassbake_scene::shapes::rect(Vec3::new(0.0, 0.0, -1.0), Vec3::X * 4.0, Vec3::Y * 4.0, glam::Vec2::splat(64.0)));
     scene.materials[0].base_color = Vec3::ONE;
     scene.materials[0].base_color_texture = Some(0);
     let cam = camera(Vec3::new(0.0, 0.0, 3.0), Vec3::new(0.0, 0.0, -1.0), 60.0);
@@ -354,8 +338,7 @@ fn a_device_with_default_limits_is_refused_and_a_shared_one_renders() {
     let r = rasterizer();
     let (instance, adapter) = (r.instance().clone(), r.adapter().clone());
     let open = |limits: glassbake_raster::wgpu::Limits| {
-        pollster::block_on(adapter.request_device(&glassbake_raster::wgpu::DeviceDescriptor { required_limits: limits, ..Default::default() }))
-            .unwrap()
+        pollster::block_on(adapter.request_device(&glassbake_raster::wgpu::DeviceDescriptor { required_limits: limits, ..Default::default() })).unwrap()
     };
     let (device, queue) = open(glassbake_raster::wgpu::Limits::default());
     let err = glassbake_raster::Rasterizer::from_device(instance.clone(), adapter.clone(), device, queue, Default::default());
@@ -412,7 +395,10 @@ fn the_far_pass_holds_the_light_reflected_by_the_far_wall() {
     // buffer of that wall alone. A light above, between camera and walls, shows in both, unalike.
     let wall_scene = |walls: &[(Vec3, f32)]| {
         let mut scene = empty_scene("walls");
-        add_quads(&mut scene, &[Quad { centre: Vec3::new(0.0, 0.0, -1.0), u: Vec3::X * 4.0, v: Vec3::Y * 4.0, albedo: Vec3::splat(0.5), roughness: 0.8, transparent: false }]);
+        add_quads(
+            &mut scene,
+            &[Quad { centre: Vec3::new(0.0, 0.0, -1.0), u: Vec3::X * 4.0, v: Vec3::Y * 4.0, albedo: Vec3::splat(0.5), roughness: 0.8, transparent: false }],
+        );
         let mut mesh = glassbake_scene::Mesh::default();
         for &(centre, tilt) in walls {
             let v = Vec3::new(0.0, tilt.cos(), tilt.sin());

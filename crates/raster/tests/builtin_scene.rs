@@ -70,10 +70,7 @@ fn coverage_and_depth_match_a_ray_cast_on_cornellbox8() {
     let seen = |px: f32, py: f32| -> (Option<f32>, Vec<bool>) {
         let ray = cam.ray(px, py, w, h);
         let o = nearest_hit(&occluders, ray.origin, ray.direction);
-        let cover = glass
-            .iter()
-            .map(|tris| nearest_hit(tris, ray.origin, ray.direction).is_some_and(|t| o.is_none_or(|o| t < o)))
-            .collect();
+        let cover = glass.iter().map(|tris| nearest_hit(tris, ray.origin, ray.direction).is_some_and(|t| o.is_none_or(|o| t < o))).collect();
         (o, cover)
     };
     let (mut compared, mut covered) = (0, 0);

@@ -14,17 +14,7 @@ const RES: u32 = 64;
 
 fn floor_scene(albedo: f32, roughness: f32, metallic: f32) -> Scene {
     let mut scene = empty_scene("floor");
-    add_quads(
-        &mut scene,
-        &[Quad {
-            centre: Vec3::ZERO,
-            u: Vec3::X * 20.0,
-            v: Vec3::NEG_Z * 20.0,
-            albedo: Vec3::splat(albedo),
-            roughness,
-            transparent: false,
-        }],
-    );
+    add_quads(&mut scene, &[Quad { centre: Vec3::ZERO, u: Vec3::X * 20.0, v: Vec3::NEG_Z * 20.0, albedo: Vec3::splat(albedo), roughness, transparent: false }]);
     scene.materials[0].metallic = metallic;
     // Emits downwards (edge_u x edge_v = x x z = -y).
     scene.rect_lights.push(light(Vec3::new(-0.5, 1.0, -0.3), Vec3::X, Vec3::Z * 0.6, Vec3::splat(4.0)));
@@ -45,9 +35,7 @@ fn reference(light: &RectLight, p: Vec3, n: Vec3, wo: Vec3, diffuse: f32, f0: f3
     let mut sum = 0.0f64;
     for i in 0..samples {
         for j in 0..samples {
-            let x = light.corner
-                + light.edge_u * ((i as f32 + 0.5) / samples as f32)
-                + light.edge_v * ((j as f32 + 0.5) / samples as f32);
+            let x = light.corner + light.edge_u * ((i as f32 + 0.5) / samples as f32) + light.edge_v * ((j as f32 + 0.5) / samples as f32);
             let d = x - p;
             let dist2 = d.length_squared();
             let l = d / dist2.sqrt();
@@ -103,14 +91,15 @@ fn compare_on(
         }
     }
     let max_ref = rows.iter().map(|r| r.0).fold(0.0, f32::max);
-    if let Some((i, r)) = rows.iter().enumerate().filter(|(_, r)| r.0 > 0.1 * max_ref).max_by(|a, b| {
-        ((a.1 .1 - a.1 .0).abs() / a.1 .0).total_cmp(&((b.1 .1 - b.1 .0).abs() / b.1 .0))
-    }) {
+    if let Some((i, r)) = rows
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.0 > 0.1 * max_ref)
+        .max_by(|a, b| ((a.1 .1 - a.1 .0).abs() / a.1 .0).total_cmp(&((b.1 .1 - b.1 .0).abs() / b.1 .0)))
+    {
         eprintln!("  worst pixel at {}: L_d {} vs Monte Carlo {} (max {max_ref})", points[i], r.1, r.0);
     }
-    let max_rel = |floor: f32| {
-        rows.iter().filter(|r| r.0 > floor * max_ref).map(|r| (r.1 - r.0).abs() / r.0).fold(0.0, f32::max)
-    };
+    let max_rel = |floor: f32| rows.iter().filter(|r| r.0 > floor * max_ref).map(|r| (r.1 - r.0).abs() / r.0).fold(0.0, f32::max);
     let rms = (rows.iter().map(|r| (r.1 - r.0).powi(2)).sum::<f32>() / rows.len() as f32).sqrt() / max_ref;
     (rows.len(), max_rel(0.1), max_rel(0.5), rms)
 }
@@ -151,14 +140,7 @@ fn diffuse_wall_with_the_light_across_its_horizon_matches_monte_carlo() {
     let mut scene = floor_scene(0.8, 1.0, 0.0);
     add_quads(
         &mut scene,
-        &[Quad {
-            centre: Vec3::new(0.2, 1.0, -0.3),
-            u: Vec3::Z * 6.0,
-            v: Vec3::Y * 2.0,
-            albedo: Vec3::splat(0.8),
-            roughness: 1.0,
-            transparent: false,
-        }],
+        &[Quad { centre: Vec3::new(0.2, 1.0, -0.3), u: Vec3::Z * 6.0, v: Vec3::Y * 2.0, albedo: Vec3::splat(0.8), roughness: 1.0, transparent: false }],
     );
     let cam = camera(Vec3::new(-1.6, 0.7, 1.6), Vec3::new(0.2, 0.6, -0.4), 60.0);
     // Points within 5 cm of the light's plane are left out: there the 1/r^2 integrand is

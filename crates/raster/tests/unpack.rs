@@ -5,7 +5,12 @@ use glassbake_core::layout::{OPAQUE_CHANNELS, TRANSPARENT_CHANNELS};
 use glassbake_raster::{wgpu, Rasterizer, RasterizerOptions};
 
 fn read_buffer(r: &Rasterizer, buffer: &wgpu::Buffer) -> Vec<f32> {
-    let staging = r.device().create_buffer(&wgpu::BufferDescriptor { label: None, size: buffer.size(), usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ, mapped_at_creation: false });
+    let staging = r.device().create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size: buffer.size(),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
     let mut encoder = r.device().create_command_encoder(&Default::default());
     encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, buffer.size());
     r.queue().submit([encoder.finish()]);

@@ -173,7 +173,18 @@ mod tests {
     use super::*;
 
     fn row(res: u32, objects: usize, ms: f64) -> BenchRow {
-        BenchRow { resolution: res, objects, ms_per_frame: ms, fps: 1000.0 / ms, raster_ms: 1.0, network_ms: ms - 1.0, min_ms: ms, max_ms: ms, peak_ram_mib: Some(100.0), peak_gpu_mib: None }
+        BenchRow {
+            resolution: res,
+            objects,
+            ms_per_frame: ms,
+            fps: 1000.0 / ms,
+            raster_ms: 1.0,
+            network_ms: ms - 1.0,
+            min_ms: ms,
+            max_ms: ms,
+            peak_ram_mib: Some(100.0),
+            peak_gpu_mib: None,
+        }
     }
 
     #[test]
@@ -181,7 +192,14 @@ mod tests {
         assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
         assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), 2.5);
         // The paper's 512^2 frame times (20, 27, 31, 43 ms at t = 1, 2, 4, 8): slope 88.25 / 28.75 = 3.07 ms.
-        let report = BenchReport { device: "d".into(), model: "m".into(), super_sampler: false, warmup: 0, frames: 1, rows: vec![row(512, 1, 20.0), row(512, 2, 27.0), row(512, 4, 31.0), row(512, 8, 43.0)] };
+        let report = BenchReport {
+            device: "d".into(),
+            model: "m".into(),
+            super_sampler: false,
+            warmup: 0,
+            frames: 1,
+            rows: vec![row(512, 1, 20.0), row(512, 2, 27.0), row(512, 4, 31.0), row(512, 8, 43.0)],
+        };
         let slope = marginal_ms_per_object(&report, 512).unwrap();
         assert!((slope - 88.25 / 28.75).abs() < 1e-9, "{slope}");
         let text = table(&report);

@@ -28,7 +28,8 @@ pub fn open_shared(options: RasterizerOptions) -> Result<SharedDevice> {
     let (instance, adapter, device, queue) = glassbake_raster::device::open(&options)?;
     let backend = adapter.get_info().backend;
     let setup = WgpuSetup { instance: instance.clone(), adapter: adapter.clone(), device: device.clone(), queue: queue.clone(), backend };
-    let burn_device = Device::wgpu_options().setup(setup).init().map_err(|e| Error::Internal(format!("registering the rasterizer's device with burn: {e:?}")))?;
+    let burn_device =
+        Device::wgpu_options().setup(setup).init().map_err(|e| Error::Internal(format!("registering the rasterizer's device with burn: {e:?}")))?;
     let rasterizer = Rasterizer::from_device(instance, adapter, device, queue, options)?;
     Ok(SharedDevice { rasterizer, device: burn_device })
 }

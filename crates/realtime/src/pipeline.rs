@@ -59,13 +59,26 @@ fn ms(since: Instant) -> f64 {
 }
 
 impl FramePipeline {
-    pub fn new(scene: Scene, glassnet: TrainedModel, naive: Option<TrainedModel>, super_sampler: Option<TrainedSuperSampler>, raster: RasterizerOptions) -> Result<FramePipeline> {
+    pub fn new(
+        scene: Scene,
+        glassnet: TrainedModel,
+        naive: Option<TrainedModel>,
+        super_sampler: Option<TrainedSuperSampler>,
+        raster: RasterizerOptions,
+    ) -> Result<FramePipeline> {
         FramePipeline::with_rasterizer(scene, glassnet, naive, super_sampler, Rasterizer::new(raster)?, false)
     }
 
     /// A pipeline on a given rasterizer. `zero_copy`: the models live on burn's wgpu runtime
     /// registered on the rasterizer's own device (`gpu_handover::open_shared`).
-    pub fn with_rasterizer(scene: Scene, glassnet: TrainedModel, naive: Option<TrainedModel>, super_sampler: Option<TrainedSuperSampler>, rasterizer: Rasterizer, zero_copy: bool) -> Result<FramePipeline> {
+    pub fn with_rasterizer(
+        scene: Scene,
+        glassnet: TrainedModel,
+        naive: Option<TrainedModel>,
+        super_sampler: Option<TrainedSuperSampler>,
+        rasterizer: Rasterizer,
+        zero_copy: bool,
+    ) -> Result<FramePipeline> {
         if glassnet.kind().reads_naive_gbuffer() {
             return Err(Error::bad_input(
                 glassnet.files.dir.display(),
@@ -169,7 +182,9 @@ impl FramePipeline {
                     let mut full = self.rasterizer.begin_frame(&instance, camera, width, height)?;
                     let (fh, fw) = (height as usize, width as usize);
                     let gbuffer = if self.zero_copy {
-                        crate::gpu_handover::input_tensor(&sampler.device, layout::OPAQUE_CHANNELS, fh, fw, |buffer, offset| full.opaque_to_buffer(buffer, offset))?
+                        crate::gpu_handover::input_tensor(&sampler.device, layout::OPAQUE_CHANNELS, fh, fw, |buffer, offset| {
+                            full.opaque_to_buffer(buffer, offset)
+                        })?
                     } else {
                         Tensor::<4>::from_data(TensorData::new(full.opaque()?.data().to_vec(), [1, layout::OPAQUE_CHANNELS, fh, fw]), &sampler.device)
                     };
@@ -194,11 +209,10 @@ impl FramePipeline {
             "opaque" => (frame.opaque()?, &OPAQUE_ATTRIBUTES[..]),
             "naive" => (frame.naive()?, &OPAQUE_ATTRIBUTES[..]),
             other => {
-                let k = other
-                    .strip_prefix("transparent.")
-                    .and_then(|k| k.parse::<usize>().ok())
-                    .filter(|&k| k < frame.transparent_count())
-                    .ok_or_else(|| Error::bad_input("--layer", "layer", format!("{other:?} is not opaque, naive or transparent.K with K < {}", frame.transparent_count())))?;
+                let k =
+                    other.strip_prefix("transparent.").and_then(|k| k.parse::<usize>().ok()).filter(|&k| k < frame.transparent_count()).ok_or_else(|| {
+                        Error::bad_input("--layer", "layer", format!("{other:?} is not opaque, naive or transparent.K with K < {}", frame.transparent_count()))
+                    })?;
                 (frame.transparent(k)?, &TRANSPARENT_ATTRIBUTES[..])
             }
         };
@@ -212,7 +226,11 @@ impl FramePipeline {
             hit
         });
         let attr = found.ok_or_else(|| {
-            Error::bad_input("--layer", "attribute", format!("{attribute:?} is not one of {}", attributes.iter().map(|a| a.name).collect::<Vec<_>>().join(", ")))
+            Error::bad_input(
+                "--layer",
+                "attribute",
+                format!("{attribute:?} is not one of {}", attributes.iter().map(|a| a.name).collect::<Vec<_>>().join(", ")),
+            )
         })?;
         let extent = instance.bounds().map(|(lo, hi)| (hi - lo).length()).unwrap_or(1.0).max(1e-6);
         let centre = instance.bounds().map(|(lo, hi)| 0.5 * (lo + hi)).unwrap_or(Vec3::ZERO);

@@ -32,7 +32,11 @@ pub fn scene_of_model(model: &TrainedModel, override_scene: Option<&str>) -> Res
     let scene = load_scene(&source)?;
     let hash = scene.content_hash();
     if hash != data.scene_hash {
-        return Err(Error::bad_input(config_path.display(), "data.scene_hash", format!("the model was trained on scene {} ({}), {source} is {hash}", data.scene, data.scene_hash)));
+        return Err(Error::bad_input(
+            config_path.display(),
+            "data.scene_hash",
+            format!("the model was trained on scene {} ({}), {source} is {hash}", data.scene, data.scene_hash),
+        ));
     }
     Ok(ModelScene { scene, dataset_seed, source })
 }

@@ -54,7 +54,12 @@ impl Orbit {
     fn from_camera(camera: &Camera) -> Orbit {
         let offset = camera.position - camera.target;
         let distance = offset.length().max(1e-3);
-        Orbit { target: camera.target, distance, azimuth: offset.x.atan2(offset.z).to_degrees(), elevation: (offset.y / distance).clamp(-1.0, 1.0).asin().to_degrees() }
+        Orbit {
+            target: camera.target,
+            distance,
+            azimuth: offset.x.atan2(offset.z).to_degrees(),
+            elevation: (offset.y / distance).clamp(-1.0, 1.0).asin().to_degrees(),
+        }
     }
 
     fn camera(&self, template: &Camera) -> Camera {
@@ -133,7 +138,9 @@ impl Viewer {
     fn controls(&mut self, ui: &mut egui::Ui) {
         ui.heading("glassbake");
         match self.frame_ms {
-            Some(ms) => ui.label(format!("{:.1} FPS ({ms:.1} ms/frame)\nraster {:.1} ms, network {:.1} ms", 1000.0 / ms, self.last.raster_ms, self.last.network_ms)),
+            Some(ms) => {
+                ui.label(format!("{:.1} FPS ({ms:.1} ms/frame)\nraster {:.1} ms, network {:.1} ms", 1000.0 / ms, self.last.raster_ms, self.last.network_ms))
+            }
             None => ui.label("first frame..."),
         };
         ui.separator();
@@ -173,7 +180,8 @@ impl eframe::App for Viewer {
             if let Some(texture) = &self.texture {
                 let available = ui.available_size();
                 let side = available.x.min(available.y).max(64.0);
-                let response = ui.add(egui::Image::from_texture(egui::load::SizedTexture::new(texture.id(), egui::vec2(side, side))).sense(egui::Sense::click_and_drag()));
+                let response =
+                    ui.add(egui::Image::from_texture(egui::load::SizedTexture::new(texture.id(), egui::vec2(side, side))).sense(egui::Sense::click_and_drag()));
                 if response.dragged() {
                     let d = response.drag_delta();
                     self.orbit.azimuth = (self.orbit.azimuth - 0.4 * d.x + 540.0).rem_euclid(360.0) - 180.0;
@@ -262,7 +270,11 @@ mod tests {
 
     #[test]
     fn orbit_round_trips_a_camera() {
-        let camera = Camera { position: Vec3::new(1.0, 2.0, 3.0), target: Vec3::new(0.0, 1.0, 0.0), ..glassbake_scene::builtin::builtin("cornellbox").unwrap().camera.middle() };
+        let camera = Camera {
+            position: Vec3::new(1.0, 2.0, 3.0),
+            target: Vec3::new(0.0, 1.0, 0.0),
+            ..glassbake_scene::builtin::builtin("cornellbox").unwrap().camera.middle()
+        };
         let back = Orbit::from_camera(&camera).camera(&camera);
         assert!((back.position - camera.position).length() < 1e-5, "{:?}", back.position);
     }

@@ -52,13 +52,7 @@ impl Builder {
     fn object(&mut self, name: &str, mesh: Mesh, material: usize, transform: Affine3A) -> usize {
         self.scene.meshes.push(Arc::new(mesh));
         let transparent = self.scene.materials[material].is_transmissive();
-        self.scene.objects.push(Object {
-            name: name.to_string(),
-            mesh: self.scene.meshes.len() - 1,
-            material,
-            transform,
-            transparent,
-        });
+        self.scene.objects.push(Object { name: name.to_string(), mesh: self.scene.meshes.len() - 1, material, transform, transparent });
         self.scene.objects.len() - 1
     }
 
@@ -216,12 +210,7 @@ fn cornellbox(eight: bool) -> Scene {
             Affine3A::from_scale_rotation_translation(Vec3::splat(0.7), Quat::from_rotation_y(-0.5), Vec3::new(0.35, 0.601, 0.0)),
         );
         let small = b.object("small_sphere", uv_sphere(0.1, 48, 24), smooth, at(-0.8, 0.1, 0.88));
-        let pane2 = b.object(
-            "glass_pane_2",
-            rect(Vec3::ZERO, Vec3::Z * 0.6, Vec3::Y * 0.7, Vec2::ONE),
-            pane,
-            at(0.86, 0.35, 0.25),
-        );
+        let pane2 = b.object("glass_pane_2", rect(Vec3::ZERO, Vec3::Z * 0.6, Vec3::Y * 0.7, Vec2::ONE), pane, at(0.86, 0.35, 0.25));
         b.object("frosted_block", cuboid(Vec3::new(0.15, 0.08, 0.1)), frosted, at_rotated_y(-0.35, 1.282, -0.35, 10.0));
         b.variable("bunny_x", -0.12, 0.12, 0.0, VariableTarget::Translation { object: bunny, axis: Vec3::X });
         b.variable("small_sphere_z", -0.08, 0.1, 0.0, VariableTarget::Translation { object: small, axis: Vec3::Z });
@@ -264,16 +253,21 @@ fn desk() -> Scene {
         b.object(&format!("desk_leg_{i}"), cuboid(Vec3::new(0.03, 0.35, 0.35)), desk_wood, at(x, 0.35, -0.15));
     }
     let top = 0.75;
-    b.object(
-        "page",
-        rect(Vec3::ZERO, Vec3::X * 0.42, Vec3::NEG_Z * 0.3, Vec2::ONE),
-        page,
-        at_rotated_y(-0.05, top + 0.001, 0.0, 8.0),
-    );
+    b.object("page", rect(Vec3::ZERO, Vec3::X * 0.42, Vec3::NEG_Z * 0.3, Vec2::ONE), page, at_rotated_y(-0.05, top + 0.001, 0.0, 8.0));
     b.object("book", cuboid(Vec3::new(0.12, 0.03, 0.17)), book, at_rotated_y(0.45, top + 0.03, -0.2, -20.0));
     b.object("mug", cylinder(0.045, 0.1, 48), mug, at(-0.45, top, -0.3));
-    b.object("figurine", blob_bunny(), figurine, Affine3A::from_scale_rotation_translation(Vec3::splat(0.35), Quat::from_rotation_y(0.5), Vec3::new(0.2, top, -0.35)));
-    b.object("pen", cylinder(0.006, 0.16, 16), brass, Affine3A::from_rotation_translation(Quat::from_rotation_z(PI / 2.0) * Quat::from_rotation_x(0.3), Vec3::new(0.1, top + 0.006, 0.2)));
+    b.object(
+        "figurine",
+        blob_bunny(),
+        figurine,
+        Affine3A::from_scale_rotation_translation(Vec3::splat(0.35), Quat::from_rotation_y(0.5), Vec3::new(0.2, top, -0.35)),
+    );
+    b.object(
+        "pen",
+        cylinder(0.006, 0.16, 16),
+        brass,
+        Affine3A::from_rotation_translation(Quat::from_rotation_z(PI / 2.0) * Quat::from_rotation_x(0.3), Vec3::new(0.1, top + 0.006, 0.2)),
+    );
 
     let tint = |name: &str| Material::glass(name, Vec3::new(0.6, 0.8, 0.95), 0.0, 1.5, false);
     let tumbler_glass = b.material(tint("tumbler_glass"));
@@ -345,12 +339,7 @@ fn bathroom() -> Scene {
     b.object("towel", cuboid(Vec3::new(0.25, 0.35, 0.02)), towel, at(1.0, 1.1, -1.48));
 
     let glass = b.material(Material::glass("partition_glass", Vec3::new(0.95, 0.97, 0.97), 0.1, 1.5, true));
-    b.object(
-        "partition",
-        rect(Vec3::new(-0.6, 1.0, -0.3), Vec3::X * 1.8, Vec3::Y * 2.0, Vec2::ONE),
-        glass,
-        Affine3A::IDENTITY,
-    );
+    b.object("partition", rect(Vec3::new(-0.6, 1.0, -0.3), Vec3::X * 1.8, Vec3::Y * 2.0, Vec2::ONE), glass, Affine3A::IDENTITY);
     b.variable("glass_roughness", 0.0, 0.4, 0.1, VariableTarget::Roughness { material: glass });
     // One light over the shower, so what is behind the glass is lit directly, one over the
     // room.
@@ -454,7 +443,12 @@ mod tests {
                         probes.push(0.5 * (corners[k] + corners[(k + 1) % corners.len()]));
                     }
                     for &b in &solids {
-                        assert!(!probes.iter().any(|&p| inside(&world[b], p)), "{name} {values:?}: {} cuts into {}", instance.objects[a].name, instance.objects[b].name);
+                        assert!(
+                            !probes.iter().any(|&p| inside(&world[b], p)),
+                            "{name} {values:?}: {} cuts into {}",
+                            instance.objects[a].name,
+                            instance.objects[b].name
+                        );
                     }
                 }
             }

@@ -47,26 +47,19 @@ pub enum CameraPosition {
 impl CameraPosition {
     pub fn sample(&self, rng: &mut impl Rng) -> Vec3 {
         match *self {
-            CameraPosition::Box { min, max } => Vec3::new(
-                Interval::new(min.x, max.x).sample(rng),
-                Interval::new(min.y, max.y).sample(rng),
-                Interval::new(min.z, max.z).sample(rng),
-            ),
-            CameraPosition::Orbit { center, radius, azimuth_deg, elevation_deg } => orbit_point(
-                center,
-                radius.sample(rng),
-                azimuth_deg.sample(rng),
-                elevation_deg.sample(rng),
-            ),
+            CameraPosition::Box { min, max } => {
+                Vec3::new(Interval::new(min.x, max.x).sample(rng), Interval::new(min.y, max.y).sample(rng), Interval::new(min.z, max.z).sample(rng))
+            }
+            CameraPosition::Orbit { center, radius, azimuth_deg, elevation_deg } => {
+                orbit_point(center, radius.sample(rng), azimuth_deg.sample(rng), elevation_deg.sample(rng))
+            }
         }
     }
 
     pub fn middle(&self) -> Vec3 {
         match *self {
             CameraPosition::Box { min, max } => 0.5 * (min + max),
-            CameraPosition::Orbit { center, radius, azimuth_deg, elevation_deg } => {
-                orbit_point(center, radius.mid(), azimuth_deg.mid(), elevation_deg.mid())
-            }
+            CameraPosition::Orbit { center, radius, azimuth_deg, elevation_deg } => orbit_point(center, radius.mid(), azimuth_deg.mid(), elevation_deg.mid()),
         }
     }
 }
@@ -93,31 +86,13 @@ impl CameraSpec {
     pub fn sample(&self, rng: &mut impl Rng) -> Camera {
         let position = self.position.sample(rng);
         let j = self.target_jitter;
-        let jitter = Vec3::new(
-            Interval::new(-j.x, j.x).sample(rng),
-            Interval::new(-j.y, j.y).sample(rng),
-            Interval::new(-j.z, j.z).sample(rng),
-        );
-        Camera {
-            position,
-            target: self.target + jitter,
-            up: self.up,
-            fov_x_deg: self.fov_x_deg.sample(rng),
-            near: self.near,
-            far: self.far,
-        }
+        let jitter = Vec3::new(Interval::new(-j.x, j.x).sample(rng), Interval::new(-j.y, j.y).sample(rng), Interval::new(-j.z, j.z).sample(rng));
+        Camera { position, target: self.target + jitter, up: self.up, fov_x_deg: self.fov_x_deg.sample(rng), near: self.near, far: self.far }
     }
 
     /// The camera at the middle of every range: a representative default view.
     pub fn middle(&self) -> Camera {
-        Camera {
-            position: self.position.middle(),
-            target: self.target,
-            up: self.up,
-            fov_x_deg: self.fov_x_deg.mid(),
-            near: self.near,
-            far: self.far,
-        }
+        Camera { position: self.position.middle(), target: self.target, up: self.up, fov_x_deg: self.fov_x_deg.mid(), near: self.near, far: self.far }
     }
 
     /// An orbit that frames the given bounds, for geometry loaded without a manifest.

@@ -10,9 +10,7 @@ use glassbake_core::{Error, Result};
 use serde_json::{json, Value};
 
 use crate::camera_spec::CameraPosition;
-use crate::manifest::{
-    CameraManifest, LightManifest, Manifest, NumberOrRange, ObjectOverride, PositionManifest, TargetManifest, VariableManifest,
-};
+use crate::manifest::{CameraManifest, LightManifest, Manifest, NumberOrRange, ObjectOverride, PositionManifest, TargetManifest, VariableManifest};
 use crate::model::{Scene, Texture};
 use crate::variables::VariableTarget;
 
@@ -70,13 +68,9 @@ pub fn texture_png(texture: &Texture) -> Result<Vec<u8>> {
         let v = if texture.is_color { linear_to_srgb(v) } else { v.clamp(0.0, 1.0) };
         (v * 255.0 + 0.5) as u8
     };
-    let bytes: Vec<u8> = texture
-        .texels
-        .iter()
-        .flat_map(|t: &Vec4| [encode(t.x), encode(t.y), encode(t.z), (t.w.clamp(0.0, 1.0) * 255.0 + 0.5) as u8])
-        .collect();
-    let img = image::RgbaImage::from_raw(texture.width, texture.height, bytes)
-        .ok_or_else(|| Error::Internal("texture size".into()))?;
+    let bytes: Vec<u8> =
+        texture.texels.iter().flat_map(|t: &Vec4| [encode(t.x), encode(t.y), encode(t.z), (t.w.clamp(0.0, 1.0) * 255.0 + 0.5) as u8]).collect();
+    let img = image::RgbaImage::from_raw(texture.width, texture.height, bytes).ok_or_else(|| Error::Internal("texture size".into()))?;
     let mut png = Vec::new();
     img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
         .map_err(|e| Error::Internal(format!("encoding texture {}: {e}", texture.name)))?;
@@ -171,8 +165,7 @@ fn gltf_document(scene: &Scene) -> (Value, Vec<u8>) {
             material
         })
         .collect();
-    let images: Vec<Value> =
-        scene.textures.iter().enumerate().map(|(i, t)| json!({"uri": texture_file_name(i, t), "name": t.name})).collect();
+    let images: Vec<Value> = scene.textures.iter().enumerate().map(|(i, t)| json!({"uri": texture_file_name(i, t), "name": t.name})).collect();
     let textures: Vec<Value> = (0..scene.textures.len()).map(|i| json!({"source": i, "sampler": 0})).collect();
     let mut doc = json!({
         "asset": {"version": "2.0", "generator": "glassbake scene export"},
@@ -198,7 +191,11 @@ fn gltf_document(scene: &Scene) -> (Value, Vec<u8>) {
 }
 
 fn range(min: f32, max: f32) -> NumberOrRange {
-    if min == max { NumberOrRange::Number(min) } else { NumberOrRange::Range(vec![min, max]) }
+    if min == max {
+        NumberOrRange::Number(min)
+    } else {
+        NumberOrRange::Range(vec![min, max])
+    }
 }
 
 /// The manifest describing what glTF cannot hold (camera ranges, rectangle lights, variables).
@@ -221,8 +218,12 @@ pub fn manifest_of(scene: &Scene, geometry: &str) -> Manifest {
             let target = match v.target {
                 VariableTarget::Roughness { material: m } => TargetManifest::Roughness { material: material(m) },
                 VariableTarget::Hue { material: m, saturation, brightness } => TargetManifest::Hue { material: material(m), saturation, brightness },
-                VariableTarget::Translation { object, axis } => TargetManifest::Translation { object: scene.objects[object].name.clone(), axis: axis.to_array() },
-                VariableTarget::LightTranslation { light, axis } => TargetManifest::LightTranslation { light: scene.rect_lights[light].name.clone(), axis: axis.to_array() },
+                VariableTarget::Translation { object, axis } => {
+                    TargetManifest::Translation { object: scene.objects[object].name.clone(), axis: axis.to_array() }
+                }
+                VariableTarget::LightTranslation { light, axis } => {
+                    TargetManifest::LightTranslation { light: scene.rect_lights[light].name.clone(), axis: axis.to_array() }
+                }
                 VariableTarget::LightIntensity { light } => TargetManifest::LightIntensity { light: scene.rect_lights[light].name.clone() },
                 VariableTarget::EmissionIntensity { material: m } => TargetManifest::EmissionIntensity { material: material(m) },
             };

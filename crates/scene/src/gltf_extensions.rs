@@ -44,13 +44,9 @@ pub fn declared_extensions(bytes: &[u8], label: &str) -> Result<(Vec<String>, Ve
     } else {
         bytes
     };
-    let root: serde_json::Value =
-        serde_json::from_slice(json).map_err(|e| Error::bad_input(label, "glTF JSON", e.to_string()))?;
+    let root: serde_json::Value = serde_json::from_slice(json).map_err(|e| Error::bad_input(label, "glTF JSON", e.to_string()))?;
     let list = |key: &str| -> Vec<String> {
-        root.get(key)
-            .and_then(|v| v.as_array())
-            .map(|a| a.iter().filter_map(|e| e.as_str().map(str::to_string)).collect())
-            .unwrap_or_default()
+        root.get(key).and_then(|v| v.as_array()).map(|a| a.iter().filter_map(|e| e.as_str().map(str::to_string)).collect()).unwrap_or_default()
     };
     Ok((list("extensionsUsed"), list("extensionsRequired")))
 }

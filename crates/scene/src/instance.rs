@@ -30,8 +30,7 @@ impl Scene {
         let mut camera_rng = ChaCha8Rng::seed_from_u64(purpose_seed(seed, "camera"));
         let camera = self.camera.sample(&mut camera_rng);
         let mut value_rng = ChaCha8Rng::seed_from_u64(purpose_seed(seed, "variables"));
-        let values =
-            self.variables.iter().map(|v| Interval::new(v.min, v.max).sample(&mut value_rng)).collect();
+        let values = self.variables.iter().map(|v| Interval::new(v.min, v.max).sample(&mut value_rng)).collect();
         Sample { index, seed, camera, values }
     }
 
@@ -43,11 +42,7 @@ impl Scene {
     /// untouched; meshes and textures are shared, so this costs a copy of the small tables.
     pub fn instantiate(&self, values: &[f32]) -> Result<Scene> {
         if values.len() != self.variables.len() {
-            return Err(Error::bad_input(
-                &self.name,
-                "variables",
-                format!("expected {} values, got {}", self.variables.len(), values.len()),
-            ));
+            return Err(Error::bad_input(&self.name, "variables", format!("expected {} values, got {}", self.variables.len(), values.len())));
         }
         let mut s = self.clone();
         for (var, &value) in self.variables.iter().zip(values) {
@@ -56,20 +51,14 @@ impl Scene {
             }
             match var.target {
                 VariableTarget::Roughness { material } => s.materials[material].roughness = value.clamp(0.0, 1.0),
-                VariableTarget::Hue { material, saturation, brightness } => {
-                    s.materials[material].base_color = hsv_to_rgb(value, saturation, brightness)
-                }
+                VariableTarget::Hue { material, saturation, brightness } => s.materials[material].base_color = hsv_to_rgb(value, saturation, brightness),
                 VariableTarget::Translation { object, axis } => {
                     let t = &mut s.objects[object].transform;
                     *t = Affine3A::from_translation(axis * value) * *t;
                 }
                 VariableTarget::LightTranslation { light, axis } => s.rect_lights[light].corner += axis * value,
-                VariableTarget::LightIntensity { light } => {
-                    s.rect_lights[light].radiance = self.rect_lights[light].radiance * value.max(0.0)
-                }
-                VariableTarget::EmissionIntensity { material } => {
-                    s.materials[material].emission = self.materials[material].emission * value.max(0.0)
-                }
+                VariableTarget::LightIntensity { light } => s.rect_lights[light].radiance = self.rect_lights[light].radiance * value.max(0.0),
+                VariableTarget::EmissionIntensity { material } => s.materials[material].emission = self.materials[material].emission * value.max(0.0),
             }
         }
         Ok(s)
@@ -79,28 +68,15 @@ impl Scene {
     pub fn values_from_assignments(&self, assignments: &[String]) -> Result<Vec<f32>> {
         let mut values = self.default_values();
         for a in assignments {
-            let (name, value) = a
-                .split_once('=')
-                .ok_or_else(|| Error::bad_input("--set", a.clone(), "expected NAME=VALUE"))?;
-            let i = self
-                .variables
-                .iter()
-                .position(|v| v.name == name.trim())
-                .ok_or_else(|| {
-                    let known: Vec<&str> = self.variables.iter().map(|v| v.name.as_str()).collect();
-                    Error::bad_input("--set", name, format!("no such variable (known: {})", known.join(", ")))
-                })?;
-            let v: f32 = value
-                .trim()
-                .parse()
-                .map_err(|_| Error::bad_input("--set", name, format!("{value:?} is not a number")))?;
+            let (name, value) = a.split_once('=').ok_or_else(|| Error::bad_input("--set", a.clone(), "expected NAME=VALUE"))?;
+            let i = self.variables.iter().position(|v| v.name == name.trim()).ok_or_else(|| {
+                let known: Vec<&str> = self.variables.iter().map(|v| v.name.as_str()).collect();
+                Error::bad_input("--set", name, format!("no such variable (known: {})", known.join(", ")))
+            })?;
+            let v: f32 = value.trim().parse().map_err(|_| Error::bad_input("--set", name, format!("{value:?} is not a number")))?;
             let var = &self.variables[i];
             if !(var.min..=var.max).contains(&v) {
-                return Err(Error::bad_input(
-                    "--set",
-                    name,
-                    format!("{v} is outside the range [{}, {}]", var.min, var.max),
-                ));
+                return Err(Error::bad_input("--set", name, format!("{v} is outside the range [{}, {}]", var.min, var.max)));
             }
             values[i] = v;
         }

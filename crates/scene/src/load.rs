@@ -33,19 +33,9 @@ pub fn load_scene(arg: &str) -> Result<Scene> {
             scene
         }
         _ if !path.exists() && !arg.contains(['/', '\\', '.']) => {
-            return Err(Error::bad_input(
-                arg,
-                "scene",
-                format!("no built-in scene of that name (built-ins: {})", BUILTIN_NAMES.join(", ")),
-            ))
+            return Err(Error::bad_input(arg, "scene", format!("no built-in scene of that name (built-ins: {})", BUILTIN_NAMES.join(", "))))
         }
-        _ => {
-            return Err(Error::bad_input(
-                path.display(),
-                "scene",
-                "expected a built-in name or a .toml manifest, .gltf, .glb or .obj file",
-            ))
-        }
+        _ => return Err(Error::bad_input(path.display(), "scene", "expected a built-in name or a .toml manifest, .gltf, .glb or .obj file")),
     };
     validate(&scene, arg)?;
     for w in &scene.load_warnings {
@@ -71,8 +61,7 @@ pub fn load_geometry(path: &Path) -> Result<Scene> {
         _ => return Err(Error::bad_input(path.display(), "geometry", "expected a .gltf, .glb or .obj file")),
     };
     // Objects left without triangles (all degenerate) have nothing to draw or export.
-    let empty: Vec<String> =
-        scene.objects.iter().filter(|o| scene.meshes[o.mesh].indices.is_empty()).map(|o| o.name.clone()).collect();
+    let empty: Vec<String> = scene.objects.iter().filter(|o| scene.meshes[o.mesh].indices.is_empty()).map(|o| o.name.clone()).collect();
     if !empty.is_empty() {
         scene.objects.retain(|o| !scene.meshes[o.mesh].indices.is_empty());
         scene.load_warnings.push(format!("objects without triangles are skipped: {}", empty.join(", ")));
@@ -138,13 +127,15 @@ fn gltf_texture(
         Format::R8G8 => 2,
         Format::R8G8B8 => 3,
         Format::R8G8B8A8 => 4,
-        other => {
-            return Err(Error::bad_input(label, format!("images[{image_index}]"), format!("unsupported pixel format {other:?} (8-bit textures only)")))
-        }
+        other => return Err(Error::bad_input(label, format!("images[{image_index}]"), format!("unsupported pixel format {other:?} (8-bit textures only)"))),
     };
     let decode = |v: u8| {
         let v = v as f32 / 255.0;
-        if is_color { srgb_to_linear(v) } else { v }
+        if is_color {
+            srgb_to_linear(v)
+        } else {
+            v
+        }
     };
     let texels = data
         .pixels
@@ -161,13 +152,7 @@ fn gltf_texture(
             }
         })
         .collect();
-    scene.textures.push(Arc::new(Texture {
-        name: format!("image{image_index}"),
-        width: data.width,
-        height: data.height,
-        texels,
-        is_color,
-    }));
+    scene.textures.push(Arc::new(Texture { name: format!("image{image_index}"), width: data.width, height: data.height, texels, is_color }));
     let index = scene.textures.len() - 1;
     cache.insert((image_index, is_color), index);
     Ok(index)
@@ -212,7 +197,8 @@ fn gltf_material(
         warnings.push(format!("material {name}: its textures have different KHR_texture_transforms; all use the first one's"));
     }
     scene.load_warnings.append(&mut warnings);
-    let mut texture = |slot: Option<(usize, Option<Affine2>)>, is_color: bool| slot.map(|(i, _)| gltf_texture(scene, cache, images, i, is_color, label)).transpose();
+    let mut texture =
+        |slot: Option<(usize, Option<Affine2>)>, is_color: bool| slot.map(|(i, _)| gltf_texture(scene, cache, images, i, is_color, label)).transpose();
     let base_color_texture = texture(base_slot, true)?;
     let roughness_texture = texture(rough_slot, false)?;
     // KHR_materials_specular: the factor's texture is read from its alpha channel (linear),
@@ -277,10 +263,8 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
     }
     let mut default_material = None;
     let mut names = HashMap::new();
-    let gltf_scene = document
-        .default_scene()
-        .or_else(|| document.scenes().next())
-        .ok_or_else(|| Error::bad_input(&label, "scenes", "the file has no scene"))?;
+    let gltf_scene =
+        document.default_scene().or_else(|| document.scenes().next()).ok_or_else(|| Error::bad_input(&label, "scenes", "the file has no scene"))?;
     // Depth-first in file order, so objects (and thus transparency buffers) keep a stable order.
     let mut stack: Vec<(gltf::Node, Mat4)> = gltf_scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
     stack.reverse();
@@ -300,11 +284,8 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
                 continue;
             }
             let reader = primitive.reader(|b| Some(&buffers[b.index()]));
-            let positions: Vec<Vec3> = reader
-                .read_positions()
-                .ok_or_else(|| Error::bad_input(&label, format!("{field}.attributes.POSITION"), "missing"))?
-                .map(Vec3::from)
-                .collect();
+            let positions: Vec<Vec3> =
+                reader.read_positions().ok_or_else(|| Error::bad_input(&label, format!("{field}.attributes.POSITION"), "missing"))?.map(Vec3::from).collect();
             let normals = reader.read_normals().map(|n| n.map(Vec3::from).collect()).unwrap_or_default();
             let uvs = reader.read_tex_coords(0).map(|t| t.into_f32().map(Vec2::from).collect()).unwrap_or_default();
             let flat: Vec<u32> = match reader.read_indices() {
@@ -348,9 +329,7 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
 }
 
 fn load_image_texture(path: &Path, name: &str, is_color: bool, label: &str, field: &str) -> Result<Texture> {
-    let img = image::open(path)
-        .map_err(|e| Error::bad_input(label, field, format!("{}: {e}", path.display())))?
-        .to_rgba32f();
+    let img = image::open(path).map_err(|e| Error::bad_input(label, field, format!("{}: {e}", path.display())))?.to_rgba32f();
     let texels = img
         .pixels()
         .map(|p| {
@@ -376,8 +355,7 @@ fn parse_floats3(s: &str) -> Option<Vec3> {
 pub fn load_obj(path: &Path) -> Result<Scene> {
     let label = path.display().to_string();
     let options = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
-    let (models, materials) =
-        tobj::load_obj(path, &options).map_err(|e| Error::bad_input(&label, "OBJ", e.to_string()))?;
+    let (models, materials) = tobj::load_obj(path, &options).map_err(|e| Error::bad_input(&label, "OBJ", e.to_string()))?;
     let mut scene = empty_scene(path);
     let dir = path.parent().unwrap_or(Path::new("."));
     let obj_materials = match materials {
@@ -431,11 +409,8 @@ pub fn load_obj(path: &Path) -> Result<Scene> {
         if glass {
             material.base_color = unknown("Tf").unwrap_or(Vec3::ONE);
             material.roughness = if ns >= 1000.0 || m.shininess.is_none() { 0.0 } else { material.roughness };
-            material.transmission = Some(Transmission {
-                weight: if dissolve < 1.0 { 1.0 - dissolve } else { 1.0 },
-                ior: m.optical_density.unwrap_or(1.5),
-                thin: false,
-            });
+            material.transmission =
+                Some(Transmission { weight: if dissolve < 1.0 { 1.0 - dissolve } else { 1.0 }, ior: m.optical_density.unwrap_or(1.5), thin: false });
         }
         scene.materials.push(material);
     }
@@ -486,7 +461,11 @@ fn interval(value: &NumberOrRange, file: &str, field: &str) -> Result<Interval> 
 
 fn name_list<'a>(names: impl Iterator<Item = &'a str>) -> String {
     let v: Vec<&str> = names.collect();
-    if v.is_empty() { "none".into() } else { v.join(", ") }
+    if v.is_empty() {
+        "none".into()
+    } else {
+        v.join(", ")
+    }
 }
 
 /// Load a manifest and the geometry it points to, and apply its declarations.
@@ -514,7 +493,11 @@ pub fn apply_manifest(scene: &mut Scene, manifest: &Manifest, file: &str) -> Res
     }
     for (name, o) in &manifest.objects {
         let i = scene.object_index(name).ok_or_else(|| {
-            Error::bad_input(file, format!("objects.{name}"), format!("no object of that name (objects: {})", name_list(scene.objects.iter().map(|o| o.name.as_str()))))
+            Error::bad_input(
+                file,
+                format!("objects.{name}"),
+                format!("no object of that name (objects: {})", name_list(scene.objects.iter().map(|o| o.name.as_str()))),
+            )
         })?;
         if let Some(thin) = o.thin {
             let field = format!("objects.{name}.thin");
@@ -581,29 +564,43 @@ pub fn apply_manifest(scene: &mut Scene, manifest: &Manifest, file: &str) -> Res
             [min, max] if min == max => {
                 return Err(Error::bad_input(file, format!("{field}.range"), format!("empty range [{min}, {max}]: a variable must vary")))
             }
-            [min, max] => {
-                return Err(Error::bad_input(file, format!("{field}.range"), format!("reversed range [{min}, {max}]: min must be below max")))
-            }
+            [min, max] => return Err(Error::bad_input(file, format!("{field}.range"), format!("reversed range [{min}, {max}]: min must be below max"))),
             r => return Err(Error::bad_input(file, format!("{field}.range"), format!("expected [min, max], got {} values", r.len()))),
         };
         let material = |name: &str| {
             scene.material_index(name).ok_or_else(|| {
-                Error::bad_input(file, format!("{field}.target.material"), format!("no material named {name:?} (materials: {})", name_list(scene.materials.iter().map(|m| m.name.as_str()))))
+                Error::bad_input(
+                    file,
+                    format!("{field}.target.material"),
+                    format!("no material named {name:?} (materials: {})", name_list(scene.materials.iter().map(|m| m.name.as_str()))),
+                )
             })
         };
         let object = |name: &str| {
             scene.object_index(name).ok_or_else(|| {
-                Error::bad_input(file, format!("{field}.target.object"), format!("no object named {name:?} (objects: {})", name_list(scene.objects.iter().map(|o| o.name.as_str()))))
+                Error::bad_input(
+                    file,
+                    format!("{field}.target.object"),
+                    format!("no object named {name:?} (objects: {})", name_list(scene.objects.iter().map(|o| o.name.as_str()))),
+                )
             })
         };
         let light = |name: &str| {
             scene.light_index(name).ok_or_else(|| {
-                Error::bad_input(file, format!("{field}.target.light"), format!("no rectangle light named {name:?} (lights: {})", name_list(scene.rect_lights.iter().map(|l| l.name.as_str()))))
+                Error::bad_input(
+                    file,
+                    format!("{field}.target.light"),
+                    format!("no rectangle light named {name:?} (lights: {})", name_list(scene.rect_lights.iter().map(|l| l.name.as_str()))),
+                )
             })
         };
         let axis = |a: [f32; 3]| {
             let a = Vec3::from(a);
-            if a.length_squared() > 0.0 && a.is_finite() { Ok(a) } else { Err(Error::bad_input(file, format!("{field}.target.axis"), "must be a nonzero finite vector")) }
+            if a.length_squared() > 0.0 && a.is_finite() {
+                Ok(a)
+            } else {
+                Err(Error::bad_input(file, format!("{field}.target.axis"), "must be a nonzero finite vector"))
+            }
         };
         let target = match &v.target {
             TargetManifest::Roughness { material: m } => VariableTarget::Roughness { material: material(m)? },

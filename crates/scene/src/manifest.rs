@@ -112,7 +112,9 @@ pub struct VariableManifest {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum TargetManifest {
-    Roughness { material: String },
+    Roughness {
+        material: String,
+    },
     Hue {
         material: String,
         #[serde(default = "default_saturation")]
@@ -120,10 +122,20 @@ pub enum TargetManifest {
         #[serde(default = "default_brightness")]
         brightness: f32,
     },
-    Translation { object: String, axis: [f32; 3] },
-    LightTranslation { light: String, axis: [f32; 3] },
-    LightIntensity { light: String },
-    EmissionIntensity { material: String },
+    Translation {
+        object: String,
+        axis: [f32; 3],
+    },
+    LightTranslation {
+        light: String,
+        axis: [f32; 3],
+    },
+    LightIntensity {
+        light: String,
+    },
+    EmissionIntensity {
+        material: String,
+    },
 }
 
 fn default_saturation() -> f32 {

@@ -69,10 +69,7 @@ fn bsdf_xml(m: &Material, texture_files: &[String]) -> String {
             let base = match m.base_color_texture {
                 // Mitsuba's bitmap texture cannot be scaled here, so the base colour factor
                 // is dropped (it is white in every built-in scene).
-                Some(t) => format!(
-                    "<texture type=\"bitmap\" name=\"base_color\"><string name=\"filename\" value=\"{}\"/></texture>",
-                    texture_files[t]
-                ),
+                Some(t) => format!("<texture type=\"bitmap\" name=\"base_color\"><string name=\"filename\" value=\"{}\"/></texture>", texture_files[t]),
                 None => format!("<rgb name=\"base_color\" value=\"{}\"/>", rgb(m.base_color)),
             };
             if m.specular <= 0.0 && m.metallic <= 0.0 {
@@ -176,11 +173,8 @@ pub fn write_mitsuba(scene: &Scene, camera: &Camera, out: &Path) -> Result<()> {
         let rel = format!("meshes/{i:03}.ply");
         write_bytes_atomically(&dir.join(&rel), &ply_bytes(&scene.world_mesh(i)))?;
         let m = &scene.materials[o.material];
-        let emitter = if m.is_emissive() {
-            format!("<emitter type=\"area\"><rgb name=\"radiance\" value=\"{}\"/></emitter>", rgb(m.emission))
-        } else {
-            String::new()
-        };
+        let emitter =
+            if m.is_emissive() { format!("<emitter type=\"area\"><rgb name=\"radiance\" value=\"{}\"/></emitter>", rgb(m.emission)) } else { String::new() };
         let _ = writeln!(
             xml,
             "  <!-- {} -->\n  <shape type=\"ply\"><string name=\"filename\" value=\"{rel}\"/>{}{emitter}</shape>",
@@ -191,12 +185,7 @@ pub fn write_mitsuba(scene: &Scene, camera: &Camera, out: &Path) -> Result<()> {
     for l in &scene.rect_lights {
         // Mitsuba's rectangle spans [-1, 1]^2 in its xy-plane and emits towards +z.
         let (hu, hv, n, c) = (0.5 * l.edge_u, 0.5 * l.edge_v, l.normal(), l.center());
-        let m = [
-            [hu.x, hv.x, n.x, c.x],
-            [hu.y, hv.y, n.y, c.y],
-            [hu.z, hv.z, n.z, c.z],
-            [0.0, 0.0, 0.0, 1.0],
-        ];
+        let m = [[hu.x, hv.x, n.x, c.x], [hu.y, hv.y, n.y, c.y], [hu.z, hv.z, n.z, c.z], [0.0, 0.0, 0.0, 1.0]];
         let matrix: Vec<String> = m.iter().flatten().map(|v| format!("{v}")).collect();
         let _ = writeln!(
             xml,

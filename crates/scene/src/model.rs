@@ -42,11 +42,7 @@ impl Mesh {
         let normal_matrix = transform.matrix3.inverse().transpose();
         Mesh {
             positions: self.positions.iter().map(|&p| transform.transform_point3(p)).collect(),
-            normals: self
-                .normals
-                .iter()
-                .map(|&n| Vec3::from(normal_matrix * glam::Vec3A::from(n)).normalize_or_zero())
-                .collect(),
+            normals: self.normals.iter().map(|&n| Vec3::from(normal_matrix * glam::Vec3A::from(n)).normalize_or_zero()).collect(),
             uvs: self.uvs.clone(),
             indices: self.indices.clone(),
         }
@@ -215,11 +211,7 @@ impl Material {
     }
 
     pub fn glass(name: &str, tint: Vec3, roughness: f32, ior: f32, thin: bool) -> Self {
-        Material {
-            roughness,
-            transmission: Some(Transmission { weight: 1.0, ior, thin }),
-            ..Material::diffuse(name, tint)
-        }
+        Material { roughness, transmission: Some(Transmission { weight: 1.0, ior, thin }), ..Material::diffuse(name, tint) }
     }
 
     pub fn is_transmissive(&self) -> bool {

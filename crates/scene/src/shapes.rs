@@ -12,12 +12,7 @@ use crate::model::Mesh;
 pub fn quad(width: f32, height: f32) -> Mesh {
     let (hw, hh) = (0.5 * width, 0.5 * height);
     Mesh {
-        positions: vec![
-            Vec3::new(-hw, -hh, 0.0),
-            Vec3::new(hw, -hh, 0.0),
-            Vec3::new(hw, hh, 0.0),
-            Vec3::new(-hw, hh, 0.0),
-        ],
+        positions: vec![Vec3::new(-hw, -hh, 0.0), Vec3::new(hw, -hh, 0.0), Vec3::new(hw, hh, 0.0), Vec3::new(-hw, hh, 0.0)],
         normals: vec![Vec3::Z; 4],
         // v = 0 is the top of a texture (glTF), so the top edge gets v = 0.
         uvs: vec![Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0), Vec2::new(1.0, 0.0), Vec2::new(0.0, 0.0)],
@@ -33,12 +28,7 @@ pub fn rect(origin: Vec3, u: Vec3, v: Vec3, uv_scale: Vec2) -> Mesh {
     Mesh {
         positions: vec![c, c + u, c + u + v, c + v],
         normals: vec![n; 4],
-        uvs: vec![
-            Vec2::new(0.0, uv_scale.y),
-            Vec2::new(uv_scale.x, uv_scale.y),
-            Vec2::new(uv_scale.x, 0.0),
-            Vec2::new(0.0, 0.0),
-        ],
+        uvs: vec![Vec2::new(0.0, uv_scale.y), Vec2::new(uv_scale.x, uv_scale.y), Vec2::new(uv_scale.x, 0.0), Vec2::new(0.0, 0.0)],
         indices: vec![[0, 1, 2], [0, 2, 3]],
     }
 }
@@ -148,11 +138,11 @@ pub fn cylinder(radius: f32, height: f32, segments: u32) -> Mesh {
 /// a sphere, about 0.5 units tall, resting on y = 0.
 pub fn blob_bunny() -> Mesh {
     let bumps: [(Vec3, f32, f32); 5] = [
-        (Vec3::new(0.0, 0.45, 0.55).normalize(), 0.55, 0.35), // head
+        (Vec3::new(0.0, 0.45, 0.55).normalize(), 0.55, 0.35),  // head
         (Vec3::new(-0.25, 1.0, 0.35).normalize(), 1.10, 0.10), // left ear
-        (Vec3::new(0.25, 1.0, 0.35).normalize(), 1.10, 0.10), // right ear
-        (Vec3::new(0.0, 0.1, -1.0).normalize(), 0.25, 0.12),  // tail
-        (Vec3::new(0.0, -1.0, 0.0), -0.35, 0.6),              // flattened base
+        (Vec3::new(0.25, 1.0, 0.35).normalize(), 1.10, 0.10),  // right ear
+        (Vec3::new(0.0, 0.1, -1.0).normalize(), 0.25, 0.12),   // tail
+        (Vec3::new(0.0, -1.0, 0.0), -0.35, 0.6),               // flattened base
     ];
     let mut mesh = radial_surface(64, 48, |theta, phi| {
         let dir = Vec3::new(theta.sin() * phi.sin(), theta.cos(), theta.sin() * phi.cos());

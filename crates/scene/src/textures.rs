@@ -161,9 +161,7 @@ mod tests {
         assert!(ink > 0.05 && ink < 0.5, "ink fraction {ink}");
         // Many ink/paper transitions along a text row: detail, not blocks.
         let row = (t.height as f32 * (0.06 + 0.88 * 0.5 / 8.0)) as u32;
-        let transitions = (1..t.width)
-            .filter(|&x| t.texel(x as i64, row as i64).x != t.texel(x as i64 - 1, row as i64).x)
-            .count();
+        let transitions = (1..t.width).filter(|&x| t.texel(x as i64, row as i64).x != t.texel(x as i64 - 1, row as i64).x).count();
         assert!(transitions > 12, "{transitions}");
     }
 

@@ -48,13 +48,11 @@ impl Variable {
     /// Name of what the variable acts on, for display.
     pub fn target_name<'a>(&self, scene: &'a Scene) -> &'a str {
         match self.target {
-            VariableTarget::Roughness { material }
-            | VariableTarget::Hue { material, .. }
-            | VariableTarget::EmissionIntensity { material } => &scene.materials[material].name,
-            VariableTarget::Translation { object, .. } => &scene.objects[object].name,
-            VariableTarget::LightTranslation { light, .. } | VariableTarget::LightIntensity { light } => {
-                &scene.rect_lights[light].name
+            VariableTarget::Roughness { material } | VariableTarget::Hue { material, .. } | VariableTarget::EmissionIntensity { material } => {
+                &scene.materials[material].name
             }
+            VariableTarget::Translation { object, .. } => &scene.objects[object].name,
+            VariableTarget::LightTranslation { light, .. } | VariableTarget::LightIntensity { light } => &scene.rect_lights[light].name,
         }
     }
 

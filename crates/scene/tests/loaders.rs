@@ -578,7 +578,8 @@ fn specular_gltf(dir: &Path, extra_used: &[&str], required: &[&str]) -> PathBuf 
         "specularTexture": {"index": 0, "extensions": transform.clone()},
         "specularColorTexture": {"index": 0, "extensions": transform},
     });
-    let mut used: Vec<&str> = vec!["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_emissive_strength", "KHR_materials_specular", "KHR_texture_transform"];
+    let mut used: Vec<&str> =
+        vec!["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_emissive_strength", "KHR_materials_specular", "KHR_texture_transform"];
     used.extend(extra_used);
     doc["extensionsUsed"] = json!(used);
     if !required.is_empty() {
@@ -664,10 +665,7 @@ fn obj_illumination_models_set_the_specular_layer() {
 
     // A manifest makes the OBJ pane thin, for that object only.
     let manifest = dir.path().join("m.toml");
-    write(
-        &manifest,
-        format!("{}\n[objects.pane]\nthin = true\n", manifest_text("m.obj", "")),
-    );
+    write(&manifest, format!("{}\n[objects.pane]\nthin = true\n", manifest_text("m.obj", "")));
     let scene = load_scene(manifest.to_str().unwrap()).unwrap();
     let pane = &scene.materials[scene.objects[scene.object_index("pane").unwrap()].material];
     assert_eq!(pane.dielectric_kind(), Some(DielectricKind::Thin));

@@ -127,10 +127,18 @@ impl GpuTracer {
             return Err(Error::bad_input("trace settings", "path_filter", "the GPU tracer renders every path; path filters run on the CPU only"));
         }
         if settings.stratified {
-            return Err(Error::bad_input("trace settings", "stratified", "the GPU tracer draws independent random numbers; stratified sampling runs on the CPU only"));
+            return Err(Error::bad_input(
+                "trace settings",
+                "stratified",
+                "the GPU tracer draws independent random numbers; stratified sampling runs on the CPU only",
+            ));
         }
         if settings.glass_spp.is_some_and(|glass_spp| glass_spp > settings.spp) {
-            return Err(Error::bad_input("trace settings", "glass_spp", "the GPU tracer renders every pixel at one spp: trace at the glass pixels' spp instead"));
+            return Err(Error::bad_input(
+                "trace settings",
+                "glass_spp",
+                "the GPU tracer renders every pixel at one spp: trace at the glass pixels' spp instead",
+            ));
         }
         let (width, height) = (settings.width, settings.height);
         let pixels = width as u64 * height as u64;
@@ -275,14 +283,26 @@ impl GpuTracer {
             tracing::warn!("{warning}");
             warnings.push(warning);
         }
-        Ok(TraceOutput { image, discarded_samples, samples, pilot_samples: 0, camera_rays: 0, light_paths: 0, light_pilot_paths: 0, photon_paths: 0, global_photon_paths: 0, photons: 0, merge_radius: 0.0, warnings, elapsed: start.elapsed(), learning_spp: 0 })
+        Ok(TraceOutput {
+            image,
+            discarded_samples,
+            samples,
+            pilot_samples: 0,
+            camera_rays: 0,
+            light_paths: 0,
+            light_pilot_paths: 0,
+            photon_paths: 0,
+            global_photon_paths: 0,
+            photons: 0,
+            merge_radius: 0.0,
+            warnings,
+            elapsed: start.elapsed(),
+            learning_spp: 0,
+        })
     }
 
     pub(crate) fn wait(&self) -> Result<()> {
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map(|_| ())
-            .map_err(|e| Error::Internal(format!("waiting for the GPU: {e}")))
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| Error::Internal(format!("waiting for the GPU: {e}")))
     }
 
     /// Copy `source` into `readback` and read its bytes.
@@ -295,9 +315,7 @@ impl GpuTracer {
             let _ = tx.send(r);
         });
         self.wait()?;
-        rx.recv()
-            .map_err(|_| Error::Internal("readback callback dropped".into()))?
-            .map_err(|e| Error::Internal(format!("reading GPU results: {e}")))?;
+        rx.recv().map_err(|_| Error::Internal("readback callback dropped".into()))?.map_err(|e| Error::Internal(format!("reading GPU results: {e}")))?;
         let values = match readback.get_mapped_range(..) {
             Ok(view) => {
                 let bytes: &[u8] = &view;
@@ -330,10 +348,7 @@ fn check_sizes(scene: &str, buffers: &SceneBuffers, pixel_slots: u64, binding_li
         return Err(Error::bad_input(
             "trace settings",
             "resolution",
-            format!(
-                "the image's sums need {} bytes, over the GPU's storage buffer limit of {binding_limit} bytes on {adapter}",
-                pixel_slots * 16
-            ),
+            format!("the image's sums need {} bytes, over the GPU's storage buffer limit of {binding_limit} bytes on {adapter}", pixel_slots * 16),
         ));
     }
     Ok(())

@@ -93,10 +93,8 @@ impl SceneBuffers {
         let mut bvh_depth = 0;
         if !attributes_cpu.is_empty() {
             let to_bvh = |v: Vec3| BvhVec3::new(v.x, v.y, v.z);
-            let bvh_triangles: Vec<BvhTriangle> = attributes_cpu
-                .iter()
-                .map(|a| BvhTriangle { v0: to_bvh(a.positions[0]), v1: to_bvh(a.positions[1]), v2: to_bvh(a.positions[2]) })
-                .collect();
+            let bvh_triangles: Vec<BvhTriangle> =
+                attributes_cpu.iter().map(|a| BvhTriangle { v0: to_bvh(a.positions[0]), v1: to_bvh(a.positions[1]), v2: to_bvh(a.positions[2]) }).collect();
             let bvh = build_bvh2_from_tris(&bvh_triangles, BvhBuildParams::medium_build(), &mut Duration::default());
             nodes.reserve(bvh.nodes.len() * NODE_VEC4S);
             triangles.reserve(bvh.primitive_indices.len() * TRIANGLE_VEC4S);

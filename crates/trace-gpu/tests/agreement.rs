@@ -33,9 +33,8 @@ fn unit(rng: &mut ChaCha8Rng) -> Vec3 {
 
 /// Every kind of surface the CPU BSDF distinguishes.
 fn materials() -> Vec<(&'static str, SurfaceMaterial)> {
-    let glass = |roughness: f32, thin: bool| {
-        SurfaceMaterial::new(Vec3::new(0.9, 0.95, 1.0), roughness, 0.0, Some(Transmission { weight: 1.0, ior: 1.5, thin }))
-    };
+    let glass =
+        |roughness: f32, thin: bool| SurfaceMaterial::new(Vec3::new(0.9, 0.95, 1.0), roughness, 0.0, Some(Transmission { weight: 1.0, ior: 1.5, thin }));
     let mut specular_tinted = SurfaceMaterial::new(Vec3::new(0.7, 0.3, 0.2), 0.4, 0.0, None);
     specular_tinted.specular = 0.6;
     specular_tinted.specular_color = Vec3::new(1.0, 0.5, 2.0);

@@ -178,10 +178,12 @@ fn masks(scene: &Scene, camera: &Camera, res: u32) -> (Vec<bool>, Vec<bool>, Vec
     let surfaces = (0..r * r)
         .map(|i| {
             let (x, y) = (i % r, i / r);
-            (-1..=1).all(|dy| (-1..=1).all(|dx| {
-                let (nx, ny) = ((x + dx).clamp(0, r - 1), (y + dy).clamp(0, r - 1));
-                sees_surface[(ny * r + nx) as usize]
-            }))
+            (-1..=1).all(|dy| {
+                (-1..=1).all(|dx| {
+                    let (nx, ny) = ((x + dx).clamp(0, r - 1), (y + dy).clamp(0, r - 1));
+                    sees_surface[(ny * r + nx) as usize]
+                })
+            })
         })
         .collect();
     (surfaces, transparent, through_glass)
@@ -240,11 +242,7 @@ fn squared_bias(images: &[PlanarImage], reference: &[PlanarImage]) -> Vec<f64> {
 }
 
 fn masked_mean(values: &[f64], mask: Option<&[bool]>) -> Option<f64> {
-    let (sum, count) = values
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| mask.is_none_or(|m| m[*i]))
-        .fold((0.0, 0usize), |(s, c), (_, v)| (s + v, c + 1));
+    let (sum, count) = values.iter().enumerate().filter(|(i, _)| mask.is_none_or(|m| m[*i])).fold((0.0, 0usize), |(s, c), (_, v)| (s + v, c + 1));
     (count > 0).then(|| sum / count as f64)
 }
 
@@ -306,7 +304,17 @@ fn main() {
             let mut images = Vec::new();
             let mut seconds = 0.0;
             for seed in 1..=args.seeds {
-                let settings = TraceSettings { integrator, adaptive, stratified, photon_merging: merge, max_depth: args.max_depth, rr_depth: args.rr_depth, path_filter: args.paths, glass_spp: args.glass_spp, ..TraceSettings::new(args.res, args.res, args.spp, seed) };
+                let settings = TraceSettings {
+                    integrator,
+                    adaptive,
+                    stratified,
+                    photon_merging: merge,
+                    max_depth: args.max_depth,
+                    rr_depth: args.rr_depth,
+                    path_filter: args.paths,
+                    glass_spp: args.glass_spp,
+                    ..TraceSettings::new(args.res, args.res, args.spp, seed)
+                };
                 let start = Instant::now();
                 let output = render(&instance, &sample.camera, &settings, None).expect("render");
                 seconds += start.elapsed().as_secs_f64() / args.seeds as f64;
@@ -326,7 +334,13 @@ fn main() {
             let variances = pixel_variances(&images, |v| v);
             let clamped = pixel_variances(&images, glassbake_core::color::tonemap_clamp);
             let mut cells = Vec::new();
-            let sets = [(&variances, Some(&surfaces[..])), (&variances, Some(&transparent[..])), (&variances, Some(&through_glass[..])), (&clamped, None), (&clamped, Some(&transparent[..]))];
+            let sets = [
+                (&variances, Some(&surfaces[..])),
+                (&variances, Some(&transparent[..])),
+                (&variances, Some(&through_glass[..])),
+                (&clamped, None),
+                (&clamped, Some(&transparent[..])),
+            ];
             for (k, (variances, mask)) in sets.into_iter().enumerate() {
                 let count = mask.map_or(variances.len(), |m| m.iter().filter(|&&b| b).count());
                 let variance = masked_mean(variances, mask);
@@ -342,11 +356,7 @@ fn main() {
                 cells.push(variance.map_or("n/a".into(), |v| format!("{v:.3e}")));
                 cells.push(relative);
             }
-            println!(
-                "| {name} | {label} | {seconds:.1} | {:.4} | {} |",
-                image_mean(&images),
-                cells.join(" | ")
-            );
+            println!("| {name} | {label} | {seconds:.1} | {:.4} | {} |", image_mean(&images), cells.join(" | "));
             if merge {
                 match &unbiased {
                     Some((reference, reference_images)) => {

@@ -420,8 +420,7 @@ impl Bsdf {
                         // the diffuse part keeps what the strongest channel leaves.
                         let diffuse_fresnel = self.specular_weight * schlick(self.specular_f0, o.z).max_element();
                         let specular_fresnel = schlick(self.specular_f0, cos_oh) * self.specular_weight;
-                        f += self.base_weight
-                            * ((1.0 - diffuse_fresnel) * self.base_color * FRAC_1_PI + specular_fresnel * specular);
+                        f += self.base_weight * ((1.0 - diffuse_fresnel) * self.base_color * FRAC_1_PI + specular_fresnel * specular);
                     }
                     if self.metal_weight > 0.0 {
                         f += self.metal_weight * schlick(self.base_color, cos_oh) * specular;

@@ -32,10 +32,7 @@ fn outgoing(bsdf: &Bsdf, cos_theta: f32) -> Vec3 {
 /// The non-delta BSDFs the chi-square test covers, named.
 fn non_delta_cases() -> Vec<(String, Bsdf)> {
     let n = test_normal();
-    let mut cases = vec![(
-        "lambertian".to_string(),
-        Bsdf::new(&opaque(Vec3::new(0.8, 0.5, 0.2), 1.0, 0.0), n, MaterialModel::Lambertian),
-    )];
+    let mut cases = vec![("lambertian".to_string(), Bsdf::new(&opaque(Vec3::new(0.8, 0.5, 0.2), 1.0, 0.0), n, MaterialModel::Lambertian))];
     for roughness in [0.3f32, 0.6, 1.0] {
         let r = roughness;
         cases.push((format!("gltf dielectric base r={r}"), Bsdf::new(&opaque(Vec3::new(0.7, 0.6, 0.5), r, 0.0), n, MaterialModel::Gltf)));
@@ -44,7 +41,10 @@ fn non_delta_cases() -> Vec<(String, Bsdf)> {
         cases.push((format!("rough dielectric r={r}"), Bsdf::new(&glass(r, false, 1.0), n, MaterialModel::Gltf)));
         cases.push((format!("rough thin dielectric r={r}"), Bsdf::new(&glass(r, true, 1.0), n, MaterialModel::Gltf)));
         cases.push((format!("half-transmissive rough dielectric r={r}"), Bsdf::new(&glass(r, false, 0.5), n, MaterialModel::Gltf)));
-        cases.push((format!("coloured specular layer r={r}"), Bsdf::new(&specular_layer(Vec3::new(0.3, 0.6, 0.5), r, 0.6, Vec3::new(8.0, 1.0, 0.2)), n, MaterialModel::Gltf)));
+        cases.push((
+            format!("coloured specular layer r={r}"),
+            Bsdf::new(&specular_layer(Vec3::new(0.3, 0.6, 0.5), r, 0.6, Vec3::new(8.0, 1.0, 0.2)), n, MaterialModel::Gltf),
+        ));
     }
     cases
 }
@@ -244,11 +244,7 @@ fn smooth_dielectrics_conserve_energy_exactly() {
             assert_eq!(bsdf.eval(wo, -wo), Vec3::ZERO, "delta lobes have no finite value");
             assert_eq!(bsdf.pdf(wo, -wo), 0.0);
             // Reflectance is Fresnel's (or the slab's) within Monte Carlo noise.
-            let exact = if thin {
-                crate::microfacet::thin_slab_reflectance(cos_o, 1.5)
-            } else {
-                crate::microfacet::fresnel_dielectric(cos_o, 1.5)
-            };
+            let exact = if thin { crate::microfacet::thin_slab_reflectance(cos_o, 1.5) } else { crate::microfacet::fresnel_dielectric(cos_o, 1.5) };
             let sigma = (exact * (1.0 - exact) / 20_000.0).sqrt();
             assert!((r.x - exact).abs() <= 5.0 * sigma + 1e-6, "thin={thin} cos_o={cos_o}: R {} vs {exact}", r.x);
         }
@@ -328,7 +324,10 @@ fn conductor_matches_an_independent_ggx_and_is_reciprocal() {
             let fresnel = f0 + (Vec3::ONE - f0) * (1.0 - wo.dot(h)).powi(5);
             let expected = fresnel * d * g2 / (4.0 * cos_o * cos_i);
             let got = bsdf.eval(wo, wi);
-            assert!((got - expected).abs().max_element() <= 1e-3 * expected.max_element(), "roughness {roughness}, cos_o {cos_o}, cos_i {cos_i}: {got} vs {expected}");
+            assert!(
+                (got - expected).abs().max_element() <= 1e-3 * expected.max_element(),
+                "roughness {roughness}, cos_o {cos_o}, cos_i {cos_i}: {got} vs {expected}"
+            );
             let back = bsdf.eval(wi, wo);
             assert!((got - back).abs().max_element() <= 1e-4 * got.max_element(), "not reciprocal: {got} vs {back}");
         }

@@ -108,14 +108,7 @@ impl SceneGeometry {
                 }
                 let normals = has_normals.then(|| [mesh.normals[a], mesh.normals[b], mesh.normals[c]]);
                 let uvs = if has_uvs { [mesh.uvs[a], mesh.uvs[b], mesh.uvs[c]] } else { [Vec2::ZERO; 3] };
-                attributes.push(TriangleAttributes {
-                    positions,
-                    normals,
-                    uvs,
-                    owner,
-                    emitter: emitter_of(owner, triangle_index),
-                    may_pass_through,
-                });
+                attributes.push(TriangleAttributes { positions, normals, uvs, owner, emitter: emitter_of(owner, triangle_index), may_pass_through });
             }
         }
         for (light_index, light) in scene.rect_lights.iter().enumerate() {

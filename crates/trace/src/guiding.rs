@@ -106,12 +106,7 @@ impl DirectionalTree {
         let right_top = partition(right_points, |p| p.0.y >= middle.y);
         let (q0, q2) = left_points.split_at_mut(left_top);
         let (q1, q3) = right_points.split_at_mut(right_top);
-        let quadrants: [(&mut [(Vec2, f32)], Vec2); 4] = [
-            (q0, origin),
-            (q1, Vec2::new(middle.x, origin.y)),
-            (q2, Vec2::new(origin.x, middle.y)),
-            (q3, middle),
-        ];
+        let quadrants: [(&mut [(Vec2, f32)], Vec2); 4] = [(q0, origin), (q1, Vec2::new(middle.x, origin.y)), (q2, Vec2::new(origin.x, middle.y)), (q3, middle)];
         for (k, (quadrant, child_origin)) in quadrants.into_iter().enumerate() {
             let energy: f32 = quadrant.iter().map(|p| p.1).sum();
             self.nodes[index].energy[k] = energy;
@@ -208,9 +203,13 @@ fn partition<T>(items: &mut [T], is_high: impl Fn(&T) -> bool) -> usize {
 
 #[derive(Clone, Copy, Debug)]
 enum SpatialNode {
-    Inner { children: [u32; 2] },
+    Inner {
+        children: [u32; 2],
+    },
     /// Index into `SdTree::directions`, or none where the leaf had too few records.
-    Leaf { directions: Option<u32> },
+    Leaf {
+        directions: Option<u32>,
+    },
 }
 
 /// The learned distribution: where in space, which directions light comes from.

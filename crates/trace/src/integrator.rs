@@ -258,15 +258,7 @@ impl<'a> PreparedScene<'a> {
             geometric_normal = -geometric_normal;
         }
         let [t0, t1, t2] = a.uvs;
-        SurfaceHit {
-            position,
-            distance: hit.t,
-            geometric_normal,
-            shading_normal,
-            uv: t0 * b0 + t1 * hit.b1 + t2 * hit.b2,
-            owner: a.owner,
-            emitter: a.emitter,
-        }
+        SurfaceHit { position, distance: hit.t, geometric_normal, shading_normal, uv: t0 * b0 + t1 * hit.b1 + t2 * hit.b2, owner: a.owner, emitter: a.emitter }
     }
 
     /// Whether object `object` is glass ([`Bsdf::is_glass`]) under `model`: its material
@@ -395,11 +387,7 @@ impl<'a> PreparedScene<'a> {
             if let Some(emitter) = hit.emitter {
                 let emitted = self.lights.emitters[emitter as usize].emitted(wo);
                 if emitted != Vec3::ZERO && !(split && class.light_traced()) && !(caustics_merged && class.merged()) {
-                    let weight = if specular {
-                        1.0
-                    } else {
-                        power_heuristic(mis_pdf, self.lights.pdf(emitter, mis_origin, hit.position))
-                    };
+                    let weight = if specular { 1.0 } else { power_heuristic(mis_pdf, self.lights.pdf(emitter, mis_origin, hit.position)) };
                     let light = throughput * emitted * weight;
                     radiance += light;
                     if filter.counts(class.view_bent(None)) {
@@ -492,14 +480,9 @@ impl<'a> PreparedScene<'a> {
                         let to_light = light.point - shadow_origin;
                         let shadow_distance = to_light.length();
                         let t_max = shadow_distance * (1.0 - 1e-4) - ray_epsilon(light.point);
-                        if let Some((transmittance, crossing_probability)) = self.transmittance(
-                            shadow_origin,
-                            to_light / shadow_distance,
-                            t_max,
-                            crossings_allowed,
-                            settings,
-                            &mut scratch.hits,
-                        ) {
+                        if let Some((transmittance, crossing_probability)) =
+                            self.transmittance(shadow_origin, to_light / shadow_distance, t_max, crossings_allowed, settings, &mut scratch.hits)
+                        {
                             let bsdf_pdf = guided_pdf(guided, pdf, wi) * crossing_probability;
                             let weight = power_heuristic(light.pdf, bsdf_pdf);
                             let cos = wi.dot(hit.shading_normal).abs();

@@ -25,8 +25,16 @@ const SOLID_ANGLE_RANGE: f32 = 0.75;
 #[derive(Clone, Copy, Debug)]
 pub enum Shape {
     /// corner + u * edge_u + v * edge_v, u, v in [0, 1].
-    Parallelogram { corner: Vec3, edge_u: Vec3, edge_v: Vec3 },
-    Triangle { v0: Vec3, edge1: Vec3, edge2: Vec3 },
+    Parallelogram {
+        corner: Vec3,
+        edge_u: Vec3,
+        edge_v: Vec3,
+    },
+    Triangle {
+        v0: Vec3,
+        edge1: Vec3,
+        edge2: Vec3,
+    },
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -413,7 +421,8 @@ mod tests {
             let probabilities = [0, 1].map(|i| sampler.selection_probability(i, from));
             assert!((probabilities.iter().sum::<f32>() - 1.0).abs() < 1e-5, "{probabilities:?}");
             let n = 4000;
-            let low_picked = (0..n).filter(|k| sampler.sample(from, (*k as f32 + 0.5) / n as f32, Vec2::splat(0.5)).is_some_and(|s| emitter_at(s.point) == 1)).count();
+            let low_picked =
+                (0..n).filter(|k| sampler.sample(from, (*k as f32 + 0.5) / n as f32, Vec2::splat(0.5)).is_some_and(|s| emitter_at(s.point) == 1)).count();
             assert!((low_picked as f32 / n as f32 - probabilities[1]).abs() < 1e-3, "{low_picked} of {n} vs {}", probabilities[1]);
             for s in [&sampler, &by_power] {
                 let sample = s.sample(from, next(), Vec2::new(next(), next())).expect("both lights face the point");

@@ -47,10 +47,8 @@ pub(crate) struct ObvhsCaster {
 
 impl ObvhsCaster {
     pub(crate) fn build(attributes: &[TriangleAttributes]) -> Self {
-        let bvh_triangles: Vec<BvhTriangle> = attributes
-            .iter()
-            .map(|a| BvhTriangle { v0: to_bvh(a.positions[0]), v1: to_bvh(a.positions[1]), v2: to_bvh(a.positions[2]) })
-            .collect();
+        let bvh_triangles: Vec<BvhTriangle> =
+            attributes.iter().map(|a| BvhTriangle { v0: to_bvh(a.positions[0]), v1: to_bvh(a.positions[1]), v2: to_bvh(a.positions[2]) }).collect();
         let bvh = build_cwbvh_from_tris(&bvh_triangles, BvhBuildParams::medium_build(), &mut Duration::default());
         let hot = bvh
             .primitive_indices

@@ -61,7 +61,10 @@ const SOBOL_SECOND_BY_BYTE: [[u32; 256]; 4] = {
 
 fn sobol_second(index: u32) -> u32 {
     let b = index.to_le_bytes();
-    SOBOL_SECOND_BY_BYTE[0][b[0] as usize] ^ SOBOL_SECOND_BY_BYTE[1][b[1] as usize] ^ SOBOL_SECOND_BY_BYTE[2][b[2] as usize] ^ SOBOL_SECOND_BY_BYTE[3][b[3] as usize]
+    SOBOL_SECOND_BY_BYTE[0][b[0] as usize]
+        ^ SOBOL_SECOND_BY_BYTE[1][b[1] as usize]
+        ^ SOBOL_SECOND_BY_BYTE[2][b[2] as usize]
+        ^ SOBOL_SECOND_BY_BYTE[3][b[3] as usize]
 }
 
 /// A permutation of u32 in which output bit j depends only on input bits 0..=j (Laine and

@@ -131,7 +131,11 @@ impl TraceSettings {
             return Err(Error::bad_input(SOURCE, "adaptive", "the guided estimator renders every pixel at one spp (its learning passes)"));
         }
         if self.photon_merging && self.integrator != Integrator::Caustic {
-            return Err(Error::bad_input(SOURCE, "photon_merging", format!("photon merging is part of the caustic estimator, not of {}", self.integrator.name())));
+            return Err(Error::bad_input(
+                SOURCE,
+                "photon_merging",
+                format!("photon merging is part of the caustic estimator, not of {}", self.integrator.name()),
+            ));
         }
         if self.max_depth == 0 {
             return Err(Error::bad_input(SOURCE, "max_depth", "must be at least 1 (1 = emitters seen directly)"));
@@ -234,10 +238,8 @@ pub fn render(scene: &Scene, camera: &Camera, settings: &TraceSettings, progress
     camera.check()?;
     match settings.threads {
         Some(threads) => {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .map_err(|e| Error::Internal(format!("cannot start {threads} threads: {e}")))?;
+            let pool =
+                rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| Error::Internal(format!("cannot start {threads} threads: {e}")))?;
             pool.install(|| render_in_pool(scene, camera, settings, progress))
         }
         None => render_in_pool(scene, camera, settings, progress),

@@ -50,11 +50,7 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
     if p == Vec2::ZERO {
         return Vec2::ZERO;
     }
-    let (r, theta) = if p.x.abs() > p.y.abs() {
-        (p.x, 0.25 * PI * (p.y / p.x))
-    } else {
-        (p.y, 0.5 * PI - 0.25 * PI * (p.x / p.y))
-    };
+    let (r, theta) = if p.x.abs() > p.y.abs() { (p.x, 0.25 * PI * (p.y / p.x)) } else { (p.y, 0.5 * PI - 0.25 * PI * (p.x / p.y)) };
     r * Vec2::new(theta.cos(), theta.sin())
 }
 

@@ -161,7 +161,10 @@ mod tests {
                 let s = p.dot(du) / du.length_squared();
                 let t = p.dot(dv) / dv.length_squared();
                 let off_plane = (p - s * du - t * dv).length();
-                assert!(off_plane < 1e-4 && (-1e-4..=1.0 + 1e-4).contains(&s) && (-1e-4..=1.0 + 1e-4).contains(&t), "sample off the rectangle: {s} {t} {off_plane}");
+                assert!(
+                    off_plane < 1e-4 && (-1e-4..=1.0 + 1e-4).contains(&s) && (-1e-4..=1.0 + 1e-4).contains(&t),
+                    "sample off the rectangle: {s} {t} {off_plane}"
+                );
                 let i = ((s * CELLS as f64) as usize).min(CELLS - 1);
                 let j = ((t * CELLS as f64) as usize).min(CELLS - 1);
                 counts[i * CELLS + j] += 1;

@@ -118,12 +118,7 @@ fn white_furnace_inside_an_emitting_sphere() {
         let mut scene = empty_scene("furnace");
         let material = Material { emission: Vec3::ONE, ..Material::diffuse("shell", Vec3::splat(albedo)) };
         add_object(&mut scene, "shell", inward_sphere(), material);
-        let settings = TraceSettings {
-            max_depth,
-            rr_depth,
-            material_model: MaterialModel::Lambertian,
-            ..TraceSettings::new(8, 8, 128, 3)
-        };
+        let settings = TraceSettings { max_depth, rr_depth, material_model: MaterialModel::Lambertian, ..TraceSettings::new(8, 8, 128, 3) };
         let out = render(&scene, &camera, &settings, None).unwrap();
         assert_eq!(out.discarded_samples, 0);
         for channel in 0..3 {
@@ -217,7 +212,8 @@ fn diffuse_plane_under_a_rectangle_light_matches_exact_irradiance() {
         ("emissive mesh", Integrator::Plain, false, true),
     ] {
         let mut scene = empty_scene(light_kind);
-        let plane = add_object(&mut scene, "plane", rect(Vec3::ZERO, Vec3::X * 20.0, Vec3::NEG_Z * 20.0, Vec2::ONE), Material::diffuse("plane", Vec3::splat(albedo)));
+        let plane =
+            add_object(&mut scene, "plane", rect(Vec3::ZERO, Vec3::X * 20.0, Vec3::NEG_Z * 20.0, Vec2::ONE), Material::diffuse("plane", Vec3::splat(albedo)));
         if light_kind == "rect light" {
             scene.rect_lights.push(RectLight {
                 name: "light".into(),
@@ -237,7 +233,8 @@ fn diffuse_plane_under_a_rectangle_light_matches_exact_irradiance() {
         assert_eq!(out.discarded_samples, 0);
         assert_eq!(out.pilot_samples > 0, adaptive);
         let prepared = PreparedScene::new(&scene);
-        let light_kind = format!("{light_kind}, {}{}{}", integrator.name(), if adaptive { " adaptive" } else { "" }, if stratified { " stratified" } else { "" });
+        let light_kind =
+            format!("{light_kind}, {}{}{}", integrator.name(), if adaptive { " adaptive" } else { "" }, if stratified { " stratified" } else { "" });
         let (mut relative_sum, mut count, mut worst) = (0.0f64, 0, 0.0f64);
         for (expected, rendered) in lit_pixels(&out.image, &prepared, &camera, plane, Vec3::Y, &corners, radiance, albedo) {
             let relative = rendered as f64 / expected - 1.0;
@@ -264,13 +261,22 @@ fn diffuse_plane_under_two_lights_matches_exact_irradiance() {
     let mut worst_pixels = Vec::new();
     let PlaneUnderLight { albedo, radiance, corners, camera } = PlaneUnderLight::new();
     let (small_corner, small_side, small_radiance) = (Vec3::new(0.6, 0.35, 0.2), 0.25f32, 16.0f32);
-    let small_corners = [small_corner, small_corner + Vec3::X * small_side, small_corner + (Vec3::X + Vec3::Z) * small_side, small_corner + Vec3::Z * small_side];
+    let small_corners =
+        [small_corner, small_corner + Vec3::X * small_side, small_corner + (Vec3::X + Vec3::Z) * small_side, small_corner + Vec3::Z * small_side];
     let (w, h) = (32u32, 32u32);
     for (integrator, adaptive) in [(Integrator::Plain, false), (Integrator::Caustic, true)] {
         let mut scene = empty_scene("two lights");
-        let plane = add_object(&mut scene, "plane", rect(Vec3::ZERO, Vec3::X * 20.0, Vec3::NEG_Z * 20.0, Vec2::ONE), Material::diffuse("plane", Vec3::splat(albedo)));
+        let plane =
+            add_object(&mut scene, "plane", rect(Vec3::ZERO, Vec3::X * 20.0, Vec3::NEG_Z * 20.0, Vec2::ONE), Material::diffuse("plane", Vec3::splat(albedo)));
         for (name, corner, side, radiance) in [("high", corners[0], 1.0, radiance), ("low", small_corner, small_side, small_radiance)] {
-            scene.rect_lights.push(RectLight { name: name.into(), corner, edge_u: Vec3::X * side, edge_v: Vec3::Z * side, radiance: Vec3::splat(radiance), two_sided: false });
+            scene.rect_lights.push(RectLight {
+                name: name.into(),
+                corner,
+                edge_u: Vec3::X * side,
+                edge_v: Vec3::Z * side,
+                radiance: Vec3::splat(radiance),
+                two_sided: false,
+            });
         }
         let settings = TraceSettings { material_model: MaterialModel::Lambertian, integrator, adaptive, stratified: true, ..TraceSettings::new(w, h, 256, 23) };
         let out = render(&scene, &camera, &settings, None).unwrap();
@@ -309,8 +315,16 @@ fn specular_factor_zero_plane_matches_exact_irradiance() {
     let PlaneUnderLight { albedo, radiance, corners, camera } = PlaneUnderLight::new();
     let (w, h) = (32u32, 32u32);
     let mut scene = empty_scene("lambertian plane");
-    let plane = add_object(&mut scene, "plane", rect(Vec3::ZERO, Vec3::X * 20.0, Vec3::NEG_Z * 20.0, Vec2::ONE), Material::lambertian("plane", Vec3::splat(albedo)));
-    scene.rect_lights.push(RectLight { name: "light".into(), corner: corners[0], edge_u: Vec3::X, edge_v: Vec3::Z, radiance: Vec3::splat(radiance), two_sided: false });
+    let plane =
+        add_object(&mut scene, "plane", rect(Vec3::ZERO, Vec3::X * 20.0, Vec3::NEG_Z * 20.0, Vec2::ONE), Material::lambertian("plane", Vec3::splat(albedo)));
+    scene.rect_lights.push(RectLight {
+        name: "light".into(),
+        corner: corners[0],
+        edge_u: Vec3::X,
+        edge_v: Vec3::Z,
+        radiance: Vec3::splat(radiance),
+        two_sided: false,
+    });
     // Direct light only: the plane sees nothing else but the black background.
     let settings = TraceSettings { max_depth: 2, ..TraceSettings::new(w, h, 1024, 23) };
     let out = render(&scene, &camera, &settings, None).unwrap();
@@ -359,10 +373,8 @@ fn primary_rays_follow_the_camera_convention() {
     for y in 0..h {
         for x in 0..w {
             let (fx, fy) = (x as f32, y as f32);
-            let corners_inside = [(fx, fy), (fx + 1.0, fy), (fx, fy + 1.0), (fx + 1.0, fy + 1.0)]
-                .iter()
-                .filter(|&&(px, py)| inside_light(on_light_plane(px, py)))
-                .count();
+            let corners_inside =
+                [(fx, fy), (fx + 1.0, fy), (fx, fy + 1.0), (fx + 1.0, fy + 1.0)].iter().filter(|&&(px, py)| inside_light(on_light_plane(px, py))).count();
             let light_corner_in_pixel = projected.iter().any(|&(px, py)| px >= fx && px <= fx + 1.0 && py >= fy && py <= fy + 1.0);
             let value = [out.image.get(0, x, y), out.image.get(1, x, y), out.image.get(2, x, y)];
             if corners_inside == 4 {
@@ -422,7 +434,8 @@ fn glass_pixels_get_glass_spp_and_match_a_uniform_render_at_it() {
     let scene = glassbake_scene::builtin::builtin("cornell-glass").unwrap();
     let camera = scene.sample(0, 0).camera;
     let (w, h) = (24, 20);
-    let render_at = |spp: u32, glass_spp: Option<u32>| render(&scene, &camera, &TraceSettings { glass_spp, ..TraceSettings::new(w, h, spp, 42) }, None).unwrap();
+    let render_at =
+        |spp: u32, glass_spp: Option<u32>| render(&scene, &camera, &TraceSettings { glass_spp, ..TraceSettings::new(w, h, spp, 42) }, None).unwrap();
     let (low, high, mixed) = (render_at(2, None), render_at(6, None), render_at(2, Some(6)));
     let glass = glassbake_trace::glass_pixels(&PreparedScene::new(&scene), &camera, w, h);
     let glass_count = glass.iter().filter(|&&g| g).count();
@@ -443,11 +456,13 @@ fn glass_pixels_get_glass_spp_and_match_a_uniform_render_at_it() {
     let hull = convex_hull(&corners);
     let signed_distance = |p: Vec2| -> f32 {
         // Negative inside: the largest signed distance to the hull's edges (counter-clockwise).
-        (0..hull.len()).map(|k| {
-            let (a, b) = (hull[k], hull[(k + 1) % hull.len()]);
-            let edge = (b - a).normalize();
-            -(edge.perp_dot(p - a))
-        }).fold(f32::MIN, f32::max)
+        (0..hull.len())
+            .map(|k| {
+                let (a, b) = (hull[k], hull[(k + 1) % hull.len()]);
+                let edge = (b - a).normalize();
+                -(edge.perp_dot(p - a))
+            })
+            .fold(f32::MIN, f32::max)
     };
     let (mut inside, mut outside) = (0, 0);
     for (i, &is_glass) in glass.iter().enumerate() {
@@ -550,7 +565,8 @@ fn merged_images_are_bit_identical_whatever_the_thread_count() {
     let sample = scene.sample(0, 0);
     let instance = scene.instantiate(&sample.values).unwrap();
     let base = TraceSettings { integrator: Integrator::Caustic, adaptive: true, stratified: true, photon_merging: true, ..TraceSettings::new(24, 20, 128, 5) };
-    let renders: Vec<_> = [1, 2, 3].map(|threads| render(&instance, &sample.camera, &TraceSettings { threads: Some(threads), ..base.clone() }, None).unwrap()).into();
+    let renders: Vec<_> =
+        [1, 2, 3].map(|threads| render(&instance, &sample.camera, &TraceSettings { threads: Some(threads), ..base.clone() }, None).unwrap()).into();
     // 0.1 light paths per camera sample (the pilot's samples included).
     assert_eq!(renders[0].photon_paths, (24 * 20 * 128u64).div_ceil(10));
     // The scene is lit by its lights alone, so a global map as large is traced too.
@@ -580,7 +596,9 @@ fn merged_images_are_bit_identical_whatever_the_thread_count() {
 /// the global photons at its second vertex.
 #[test]
 fn merging_quiets_what_is_seen_through_glass_and_keeps_its_light() {
-    for (name, path_filter, least_gain) in [("cornellbox", PathFilter::BentView, 1.5), ("bathroom", PathFilter::BentView, 2.0), ("bathroom", PathFilter::StraightView, 1.3)] {
+    for (name, path_filter, least_gain) in
+        [("cornellbox", PathFilter::BentView, 1.5), ("bathroom", PathFilter::BentView, 2.0), ("bathroom", PathFilter::StraightView, 1.3)]
+    {
         let scene = glassbake_scene::builtin::builtin(name).unwrap();
         let sample = scene.sample(0, 0);
         let instance = scene.instantiate(&sample.values).unwrap();
@@ -632,8 +650,8 @@ fn merging_quiets_what_is_seen_through_glass_and_keeps_its_light() {
 #[test]
 fn path_filters_split_the_image_exactly() {
     let base = TraceSettings { integrator: Integrator::Caustic, adaptive: true, stratified: true, ..TraceSettings::new(24, 20, 256, 3) };
-    let [all, bent, straight] =
-        [PathFilter::All, PathFilter::BentView, PathFilter::StraightView].map(|path_filter| render_sample("cornellbox", &TraceSettings { path_filter, ..base.clone() }).image);
+    let [all, bent, straight] = [PathFilter::All, PathFilter::BentView, PathFilter::StraightView]
+        .map(|path_filter| render_sample("cornellbox", &TraceSettings { path_filter, ..base.clone() }).image);
     let (mut bent_sum, mut straight_sum) = (0.0f64, 0.0f64);
     for c in 0..3 {
         for y in 0..20 {
@@ -677,7 +695,14 @@ fn stratified_sampling_lowers_the_variance_of_direct_light() {
     let PlaneUnderLight { albedo, radiance, corners, camera } = PlaneUnderLight::new();
     let mut scene = empty_scene("stratified");
     add_object(&mut scene, "plane", rect(Vec3::ZERO, Vec3::X * 20.0, Vec3::NEG_Z * 20.0, Vec2::ONE), Material::diffuse("plane", Vec3::splat(albedo)));
-    scene.rect_lights.push(RectLight { name: "light".into(), corner: corners[0], edge_u: Vec3::X, edge_v: Vec3::Z, radiance: Vec3::splat(radiance), two_sided: false });
+    scene.rect_lights.push(RectLight {
+        name: "light".into(),
+        corner: corners[0],
+        edge_u: Vec3::X,
+        edge_v: Vec3::Z,
+        radiance: Vec3::splat(radiance),
+        two_sided: false,
+    });
     let variance = |stratified: bool| {
         let [a, b] = [3u64, 4].map(|seed| {
             let settings = TraceSettings { material_model: MaterialModel::Lambertian, stratified, ..TraceSettings::new(32, 32, 64, seed) };
@@ -705,7 +730,8 @@ fn render_sample(scene: &str, settings: &TraceSettings) -> glassbake_trace::Trac
 #[test]
 fn adaptive_sampling_lowers_the_variance_of_an_uneven_image() {
     let clamped_variance = |adaptive: bool| {
-        let [a, b] = [11u64, 12].map(|seed| render_sample("desk", &TraceSettings { integrator: Integrator::Caustic, adaptive, ..TraceSettings::new(32, 32, 256, seed) }).image);
+        let [a, b] = [11u64, 12]
+            .map(|seed| render_sample("desk", &TraceSettings { integrator: Integrator::Caustic, adaptive, ..TraceSettings::new(32, 32, 256, seed) }).image);
         let clamp = |v: f32| v.clamp(0.0, 1.0) as f64;
         a.data().iter().zip(b.data()).map(|(&x, &y)| (clamp(x) - clamp(y)).powi(2) / 2.0).sum::<f64>() / a.data().len() as f64
     };
@@ -743,7 +769,11 @@ fn every_estimator_converges_to_the_same_image_in_every_region() {
         // Region of each pixel: 0 glass, 1-4 the image quadrants' other pixels.
         let region_of = |index: usize| {
             let (x, y) = (index as u32 % SIZE, index as u32 / SIZE);
-            if glass[index] { 0 } else { 1 + (x >= SIZE / 2) as usize + 2 * (y >= SIZE / 2) as usize }
+            if glass[index] {
+                0
+            } else {
+                1 + (x >= SIZE / 2) as usize + 2 * (y >= SIZE / 2) as usize
+            }
         };
         let labels = ["glass pixels", "top-left", "top-right", "bottom-left", "bottom-right", "whole image"];
         // Per region (and the whole image last) and channel: the mean over the renders of the
@@ -797,8 +827,19 @@ fn every_estimator_converges_to_the_same_image_in_every_region() {
                 for c in 0..3 {
                     let ((p, p_var, _), (o, o_var, _)) = (plain[r][c], other[r][c]);
                     let standard_error = (p_var + o_var).sqrt();
-                    let t = if standard_error > 0.0 { (o - p).abs() / standard_error } else if o == p { 0.0 } else { f64::INFINITY };
-                    let line = format!("{}, channel {c}: plain {p:.5}, {label} {o:.5} ({:+.2}%, standard error {:.2}%), t {t:.2}", labels[r], 100.0 * (o / p - 1.0), 100.0 * standard_error / p);
+                    let t = if standard_error > 0.0 {
+                        (o - p).abs() / standard_error
+                    } else if o == p {
+                        0.0
+                    } else {
+                        f64::INFINITY
+                    };
+                    let line = format!(
+                        "{}, channel {c}: plain {p:.5}, {label} {o:.5} ({:+.2}%, standard error {:.2}%), t {t:.2}",
+                        labels[r],
+                        100.0 * (o / p - 1.0),
+                        100.0 * standard_error / p
+                    );
                     if r == 5 && c == 1 {
                         eprintln!("{name}: {line}");
                     }
@@ -890,8 +931,20 @@ fn direct_light_through_a_thin_pane_matches_quadrature() {
     let mut scene = empty_scene("pane");
     let plane_material = Material { roughness: 0.6, ..Material::diffuse("plane", Vec3::splat(0.5)) };
     add_object(&mut scene, "plane", rect(Vec3::ZERO, Vec3::X * 20.0, Vec3::NEG_Z * 20.0, Vec2::ONE), plane_material.clone());
-    add_object(&mut scene, "pane", rect(Vec3::new(0.0, 0.8, 0.0), Vec3::X * 10.0, Vec3::NEG_Z * 10.0, Vec2::ONE), Material::glass("pane", tint, 0.0, 1.5, true));
-    let light = RectLight { name: "light".into(), corner: Vec3::new(-0.5, 1.5, -0.5), edge_u: Vec3::X, edge_v: Vec3::Z, radiance: Vec3::splat(radiance), two_sided: false };
+    add_object(
+        &mut scene,
+        "pane",
+        rect(Vec3::new(0.0, 0.8, 0.0), Vec3::X * 10.0, Vec3::NEG_Z * 10.0, Vec2::ONE),
+        Material::glass("pane", tint, 0.0, 1.5, true),
+    );
+    let light = RectLight {
+        name: "light".into(),
+        corner: Vec3::new(-0.5, 1.5, -0.5),
+        edge_u: Vec3::X,
+        edge_v: Vec3::Z,
+        radiance: Vec3::splat(radiance),
+        two_sided: false,
+    };
     scene.rect_lights.push(light.clone());
     // Below the pane, so camera rays reach the plane directly.
     let camera = Camera::look_at(Vec3::new(1.2, 0.6, 1.4), Vec3::new(0.0, 0.0, 0.0), 60.0);
@@ -976,7 +1029,12 @@ fn rectangle_lights_emit_from_their_back_only_when_two_sided() {
     for two_sided in [false, true] {
         let mut scene = empty_scene("ceiling");
         // rect() faces u x v = X x Z = -Y: down, towards the camera.
-        let ceiling = add_object(&mut scene, "ceiling", rect(Vec3::Y * 2.0, Vec3::X * 20.0, Vec3::Z * 20.0, Vec2::ONE), Material::diffuse("ceiling", Vec3::splat(albedo)));
+        let ceiling = add_object(
+            &mut scene,
+            "ceiling",
+            rect(Vec3::Y * 2.0, Vec3::X * 20.0, Vec3::Z * 20.0, Vec2::ONE),
+            Material::diffuse("ceiling", Vec3::splat(albedo)),
+        );
         scene.rect_lights.push(RectLight {
             name: "light".into(),
             corner: corners[0],
@@ -1030,7 +1088,14 @@ fn a_light_reflected_by_a_thin_pane_matches_quadrature() {
         Material::glass("pane", Vec3::new(0.9, 0.6, 0.3), 0.0, ETA, true),
     );
     // edge_u x edge_v = Z x X = +Y: the light faces the pane, its black back the floor.
-    let light = RectLight { name: "light".into(), corner: Vec3::new(-0.2, 1.0, -0.2), edge_u: Vec3::Z * 0.4, edge_v: Vec3::X * 0.4, radiance: Vec3::splat(radiance), two_sided: false };
+    let light = RectLight {
+        name: "light".into(),
+        corner: Vec3::new(-0.2, 1.0, -0.2),
+        edge_u: Vec3::Z * 0.4,
+        edge_v: Vec3::X * 0.4,
+        radiance: Vec3::splat(radiance),
+        two_sided: false,
+    };
     scene.rect_lights.push(light.clone());
     // Looking down and away from the shadow that the light casts on the floor in the reflection.
     let camera = Camera::look_at(Vec3::new(2.8, 1.3, 2.2), Vec3::new(2.0, 0.0, 1.5), 60.0);

@@ -13,8 +13,8 @@ use glassbake_core::Error;
 use glassbake_eval::EvaluationSummary;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 
-use super::dataset::{make_dataset, MakeArgs};
 use super::dataset::{default_test_glass_spp, default_test_spp};
+use super::dataset::{make_dataset, MakeArgs};
 use super::eval::{evaluate, noise_floor_row, path_traced_rows, EvalArgs};
 use super::train::{train_model, Ablation, CommonTrainArgs, TrainArgs};
 
@@ -118,7 +118,12 @@ pub fn run(args: BakeArgs) -> Result<()> {
     let trace_device = if args.device == "wgpu" { glassbake_dataset::TraceDevice::Wgpu } else { glassbake_dataset::TraceDevice::Cpu };
     if let Some(estimator) = args.estimator {
         if trace_device == glassbake_dataset::TraceDevice::Wgpu && estimator != glassbake_dataset::GroundTruthEstimator::Plain {
-            return Err(Error::bad_input("bake", "--estimator", format!("{} runs on the CPU only; a bake with --device wgpu traces its ground truth plain on the GPU", estimator.name())).into());
+            return Err(Error::bad_input(
+                "bake",
+                "--estimator",
+                format!("{} runs on the CPU only; a bake with --device wgpu traces its ground truth plain on the GPU", estimator.name()),
+            )
+            .into());
         }
     }
     glassbake_scene::load_scene(&args.scene)?;
@@ -250,7 +255,11 @@ pub fn run(args: BakeArgs) -> Result<()> {
             title: format!("glassbake bake: {}", args.scene),
             facts,
             eval_dir: Some(eval_dir.clone()),
-            training_logs: models.iter().zip(&model_dirs).map(|(m, d)| glassbake_eval::report::TrainingLog { name: m.0.clone(), path: d.join("train_log.csv") }).collect(),
+            training_logs: models
+                .iter()
+                .zip(&model_dirs)
+                .map(|(m, d)| glassbake_eval::report::TrainingLog { name: m.0.clone(), path: d.join("train_log.csv") })
+                .collect(),
             bench: Some(args.out.join("bench.json")),
         },
     )?;

@@ -3,9 +3,9 @@
 
 use std::path::{Path, PathBuf};
 
+use super::camera_arg::parse_camera;
 use anyhow::Result;
 use clap::{ArgGroup, Args};
-use super::camera_arg::parse_camera;
 use glassbake_core::image::ExrPrecision;
 use glassbake_core::{Error, PlanarImage};
 use glassbake_raster::{Rasterizer, RasterizerOptions};

@@ -22,7 +22,9 @@ pub fn parse_camera(text: &str, scene: &Scene) -> Result<Camera, Error> {
         ..scene.camera.middle()
     };
     // Finite, a look direction not parallel to up, 0 < fov < 180.
-    camera.check().map_err(|_| Error::bad_input("--camera", text, "not a usable camera: non-finite values, position = target, looking along the up vector, or fov outside (0, 180)"))?;
+    camera.check().map_err(|_| {
+        Error::bad_input("--camera", text, "not a usable camera: non-finite values, position = target, looking along the up vector, or fov outside (0, 180)")
+    })?;
     Ok(camera)
 }
 

@@ -181,7 +181,11 @@ pub fn run(args: DatasetArgs) -> Result<()> {
             let scene = load_scene(scene.as_deref().unwrap_or(&store.manifest.spec.scene))?;
             drop(store);
             let bar = ProgressBar::new(0);
-            bar.set_style(ProgressStyle::with_template("{spinner} rasterizing buffers [{elapsed_precise}] {wide_bar} {pos}/{len}").expect("static template").progress_chars("=> "));
+            bar.set_style(
+                ProgressStyle::with_template("{spinner} rasterizing buffers [{elapsed_precise}] {wide_bar} {pos}/{len}")
+                    .expect("static template")
+                    .progress_chars("=> "),
+            );
             let progress = |done: u64, total: u64| {
                 bar.set_length(total);
                 bar.set_position(done);
@@ -213,7 +217,12 @@ pub fn run(args: DatasetArgs) -> Result<()> {
             result?;
         }
         (None, None) => {
-            return Err(glassbake_core::Error::bad_input("glassbake dataset", "arguments", "give a scene and --out, or a subcommand (see glassbake dataset --help)").into())
+            return Err(glassbake_core::Error::bad_input(
+                "glassbake dataset",
+                "arguments",
+                "give a scene and --out, or a subcommand (see glassbake dataset --help)",
+            )
+            .into())
         }
     }
     Ok(())
@@ -251,9 +260,7 @@ pub fn make_dataset(args: &MakeArgs, bar: &ProgressBar) -> Result<bool> {
     bar.set_position(0);
     // The bar counts samples per pixel traced (test frames cost more), the message frames.
     bar.set_style(
-        ProgressStyle::with_template("{spinner} frames {msg} [{elapsed_precise}] {wide_bar} ETA {eta}")
-            .expect("static template")
-            .progress_chars("=> "),
+        ProgressStyle::with_template("{spinner} frames {msg} [{elapsed_precise}] {wide_bar} ETA {eta}").expect("static template").progress_chars("=> "),
     );
     bar.enable_steady_tick(Duration::from_millis(250));
     let progress = |p: GenerateProgress| {

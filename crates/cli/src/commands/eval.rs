@@ -133,7 +133,12 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
     let info = store.info();
     if let Some((_, planned, done)) = info.splits.iter().find(|s| s.0 == split) {
         if done < planned {
-            return Err(Error::bad_input(dataset.display(), "frames", format!("the {} split is incomplete ({done}/{planned}); finish it with `glassbake dataset`", args.split)).into());
+            return Err(Error::bad_input(
+                dataset.display(),
+                "frames",
+                format!("the {} split is incomplete ({done}/{planned}); finish it with `glassbake dataset`", args.split),
+            )
+            .into());
         }
     }
     let device = select_device(DeviceChoice::parse(&args.device)?, 0, false);
@@ -146,7 +151,10 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
             return Err(Error::bad_input(
                 dir.join("config.json").display(),
                 "data.scene_hash",
-                format!("the model was trained on scene {} ({}), the dataset holds {} ({})", data.scene, data.scene_hash, store.manifest.scene.name, store.manifest.scene.hash),
+                format!(
+                    "the model was trained on scene {} ({}), the dataset holds {} ({})",
+                    data.scene, data.scene_hash, store.manifest.scene.name, store.manifest.scene.hash
+                ),
             )
             .into());
         }
@@ -160,13 +168,22 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
     let lpips = args.lpips_weights.as_deref().map(Lpips::load).transpose()?;
     let needs_naive = args.path_traced_baseline.is_some() || models.iter().any(|m| m.kind().reads_naive_gbuffer());
     // The scene: to rasterize uncached buffers (the loader checks it then) and to path trace.
-    let scene = if !store.manifest.reads_cached_buffers() || args.path_traced_baseline.is_some() { Some(glassbake_scene::load_scene(&store.manifest.spec.scene)?) } else { None };
+    let scene = if !store.manifest.reads_cached_buffers() || args.path_traced_baseline.is_some() {
+        Some(glassbake_scene::load_scene(&store.manifest.spec.scene)?)
+    } else {
+        None
+    };
     if let (Some(scene), Some(spp)) = (&scene, args.path_traced_baseline) {
         if scene.content_hash() != store.manifest.scene.hash {
             return Err(Error::bad_input(
                 &store.manifest.spec.scene,
                 "scene",
-                format!("has changed since the dataset {} was made (scene hash {} now, {} then)", dataset.display(), scene.content_hash(), store.manifest.scene.hash),
+                format!(
+                    "has changed since the dataset {} was made (scene hash {} now, {} then)",
+                    dataset.display(),
+                    scene.content_hash(),
+                    store.manifest.scene.hash
+                ),
             )
             .into());
         }
@@ -175,12 +192,17 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
     let noise_floor = noise_floor_row(&store.manifest.spec, split);
     names.extend(noise_floor.clone());
     let loader_scene = if store.manifest.reads_cached_buffers() { None } else { scene.clone() };
-    let mut loader = Loader::new(dataset, loader_scene, LoaderOptions { split, batch_size: 1, crop: None, seed: 0, shuffle: false, workers: args.workers, naive: needs_naive, ..Default::default() })?;
+    let mut loader = Loader::new(
+        dataset,
+        loader_scene,
+        LoaderOptions { split, batch_size: 1, crop: None, seed: 0, shuffle: false, workers: args.workers, naive: needs_naive, ..Default::default() },
+    )?;
     let total = args.frames.unwrap_or(usize::MAX).min(loader.len());
     let mut evaluation = Evaluation::new(&args.out, names.clone(), lpips, dataset.display().to_string(), args.split.to_lowercase())?;
     // The order test runs on the first model that sums transparency buffers (GlassNet).
     let order_model = models.iter().position(|m| m.kind() == ModelKind::Glassnet);
-    let mut order = OrderTest { model: order_model.map(|i| names[i].clone()).unwrap_or_default(), frames: 0, reversed_max_abs_diff: 0.0, shuffled_max_abs_diff: 0.0 };
+    let mut order =
+        OrderTest { model: order_model.map(|i| names[i].clone()).unwrap_or_default(), frames: 0, reversed_max_abs_diff: 0.0, shuffled_max_abs_diff: 0.0 };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x0dde_0b1e);
 
     bar.set_style(frame_style());
@@ -205,7 +227,12 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
                 predictions.push(RgbImage::from_planar(&image)?);
             }
             if let (Some(spp), Some(scene)) = (args.path_traced_baseline, &scene) {
-                let sample = store.manifest.samples.iter().find(|s| s.index == e.index).ok_or_else(|| Error::Internal(format!("frame {} is not in the manifest", e.index)))?;
+                let sample = store
+                    .manifest
+                    .samples
+                    .iter()
+                    .find(|s| s.index == e.index)
+                    .ok_or_else(|| Error::Internal(format!("frame {} is not in the manifest", e.index)))?;
                 let naive = e.naive.as_ref().expect("the loader was asked for naive buffers");
                 let pt = path_traced_baseline(scene, sample, naive, spp)?;
                 predictions.extend([pt.raw, pt.denoised]);
@@ -245,8 +272,11 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
     let training_logs = model_dirs.iter().zip(&names).map(|(dir, name)| TrainingLog { name: name.clone(), path: dir.join("train_log.csv") }).collect();
     let spec = &store.manifest.spec;
     let glass_spp = spec.glass_spp_of(split);
-    let truth_spp =
-        if glass_spp != spec.spp_of(split) { format!("{} spp, {glass_spp} on pixels showing glass", spec.spp_of(split)) } else { format!("{} spp", spec.spp_of(split)) };
+    let truth_spp = if glass_spp != spec.spp_of(split) {
+        format!("{} spp, {glass_spp} on pixels showing glass", spec.spp_of(split))
+    } else {
+        format!("{} spp", spec.spp_of(split))
+    };
     let mut report_facts = vec![format!(
         "dataset {} ({} transparent objects, {} px, {} spp; the {} split's ground truth at {truth_spp})",
         dataset.display(),
@@ -264,12 +294,25 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
     report_facts.extend(facts.iter().cloned());
     let index = write_report(
         &args.out.join("report"),
-        &ReportInputs { title: format!("glassbake: {}", store.manifest.scene.name), facts: report_facts, eval_dir: Some(args.out.clone()), training_logs, bench: None },
+        &ReportInputs {
+            title: format!("glassbake: {}", store.manifest.scene.name),
+            facts: report_facts,
+            eval_dir: Some(args.out.clone()),
+            training_logs,
+            bench: None,
+        },
     )?;
     bar.suspend(|| {
         println!("evaluated {} frame(s) of {}: {}", summary.frames.len(), dataset.display(), args.out.join("metrics.json").display());
         if let Some(o) = &summary.order_test {
-            println!("  order test ({}, {} frames): max |difference| reversed {}, shuffled {}{}", o.model, o.frames, o.reversed_max_abs_diff, o.shuffled_max_abs_diff, if o.passed() { " (bit-identical)" } else { " — NOT identical" });
+            println!(
+                "  order test ({}, {} frames): max |difference| reversed {}, shuffled {}{}",
+                o.model,
+                o.frames,
+                o.reversed_max_abs_diff,
+                o.shuffled_max_abs_diff,
+                if o.passed() { " (bit-identical)" } else { " — NOT identical" }
+            );
         }
         println!("  LPIPS {}", summary.lpips);
         println!("  report {}", index.display());

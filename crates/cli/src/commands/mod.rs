@@ -1,9 +1,9 @@
-pub mod camera_arg;
+pub mod bake;
 pub mod buffers;
+pub mod camera_arg;
+pub mod dataset;
+pub mod eval;
+pub mod realtime;
 pub mod scene;
 pub mod trace;
-pub mod dataset;
 pub mod train;
-pub mod eval;
-pub mod bake;
-pub mod realtime;

@@ -11,8 +11,8 @@ use glassbake_eval::plot::{line_chart, Series};
 use glassbake_net::{select_device, DeviceChoice, TrainedModel, TrainedSuperSampler};
 use glassbake_raster::RasterizerOptions;
 use glassbake_realtime::bench::{marginal_ms_per_object, table};
-use glassbake_realtime::viewer::{check_display, run_viewer, ViewerOptions};
 use glassbake_realtime::gpu_handover::open_shared;
+use glassbake_realtime::viewer::{check_display, run_viewer, ViewerOptions};
 use glassbake_realtime::{run_bench, scene_of_model, BenchOptions, FramePipeline, Output};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -62,7 +62,10 @@ fn open(args: &PipelineArgs) -> Result<Opened> {
     let sr = args.sr.as_deref().map(|d| TrainedSuperSampler::load(d, &device)).transpose()?;
     let (pipeline, name) = match shared {
         Some(s) => (FramePipeline::with_rasterizer(scene.scene, glassnet, naive, sr, s.rasterizer, true)?, "wgpu, shared with the rasterizer (no host copies)"),
-        None => (FramePipeline::new(scene.scene, glassnet, naive, sr, RasterizerOptions::default())?, if choice == DeviceChoice::Wgpu { "wgpu, buffers through host memory" } else { "cpu" }),
+        None => (
+            FramePipeline::new(scene.scene, glassnet, naive, sr, RasterizerOptions::default())?,
+            if choice == DeviceChoice::Wgpu { "wgpu, buffers through host memory" } else { "cpu" },
+        ),
     };
     Ok(Opened { pipeline, dataset_seed: scene.dataset_seed, device: name.to_string() })
 }
@@ -96,7 +99,8 @@ fn parse_output(text: &str) -> glassbake_core::Result<Output> {
         "glassnet" => Output::GlassNet,
         "naive" => Output::Naive,
         other => {
-            let (layer, attribute) = other.rsplit_once('.').ok_or_else(|| Error::bad_input("--output", "output", format!("{other:?} is not glassnet, naive or LAYER.ATTRIBUTE")))?;
+            let (layer, attribute) =
+                other.rsplit_once('.').ok_or_else(|| Error::bad_input("--output", "output", format!("{other:?} is not glassnet, naive or LAYER.ATTRIBUTE")))?;
             Output::Buffer { layer: layer.into(), attribute: attribute.into() }
         }
     })
@@ -119,7 +123,16 @@ pub fn render(args: RenderArgs) -> Result<()> {
     };
     let (image, times) = opened.pipeline.render(&camera, &values, args.res, args.res, &output)?;
     image.write_png_rgb(&args.out, [0, 1, 2])?;
-    println!("{} ({}x{}, {}): {:.1} ms (raster {:.1}, network {:.1}; first frame, includes warm-up)", args.out.display(), args.res, args.res, args.output, times.total_ms, times.raster_ms, times.network_ms);
+    println!(
+        "{} ({}x{}, {}): {:.1} ms (raster {:.1}, network {:.1}; first frame, includes warm-up)",
+        args.out.display(),
+        args.res,
+        args.res,
+        args.output,
+        times.total_ms,
+        times.raster_ms,
+        times.network_ms
+    );
     Ok(())
 }
 
@@ -147,13 +160,18 @@ pub struct BenchArgs {
 
 pub fn bench(args: BenchArgs) -> Result<()> {
     if args.frames == 0 || args.res.is_empty() || args.objects.is_empty() || args.objects.contains(&0) {
-        return Err(Error::bad_input("glassbake bench", "--frames/--res/--objects", "need at least one frame, one resolution and object counts of at least 1").into());
+        return Err(
+            Error::bad_input("glassbake bench", "--frames/--res/--objects", "need at least one frame, one resolution and object counts of at least 1").into()
+        );
     }
     let out = args.out.clone().unwrap_or_else(|| args.pipeline.model.parent().unwrap_or(Path::new(".")).join("bench.json"));
     let mut opened = open(&args.pipeline)?;
-    let options = BenchOptions { resolutions: args.res.clone(), objects: args.objects.clone(), warmup: args.warmup, frames: args.frames, seed: opened.dataset_seed };
+    let options =
+        BenchOptions { resolutions: args.res.clone(), objects: args.objects.clone(), warmup: args.warmup, frames: args.frames, seed: opened.dataset_seed };
     let bar = ProgressBar::new(0);
-    bar.set_style(ProgressStyle::with_template("{spinner} frames {pos}/{len} [{elapsed_precise}] {wide_bar} ETA {eta}").expect("static template").progress_chars("=> "));
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} frames {pos}/{len} [{elapsed_precise}] {wide_bar} ETA {eta}").expect("static template").progress_chars("=> "),
+    );
     bar.enable_steady_tick(Duration::from_millis(250));
     let progress = |done: usize, total: usize| {
         bar.set_length(total as u64);
@@ -165,12 +183,23 @@ pub fn bench(args: BenchArgs) -> Result<()> {
     let report = report?;
     let json = serde_json::to_string_pretty(&report).map_err(|e| Error::Internal(e.to_string()))?;
     glassbake_core::image::write_bytes_atomically(&out, json.as_bytes())?;
-    println!("{}: median of {} frames after {} warm-up, {}{}", report.device, report.frames, report.warmup, report.model, if report.super_sampler { ", with the x2 super-sampler" } else { "" });
+    println!(
+        "{}: median of {} frames after {} warm-up, {}{}",
+        report.device,
+        report.frames,
+        report.warmup,
+        report.model,
+        if report.super_sampler { ", with the x2 super-sampler" } else { "" }
+    );
     print!("{}", table(&report));
     let series: Vec<Series> = args
         .res
         .iter()
-        .map(|&res| Series { name: format!("{res}x{res}"), points: report.rows.iter().filter(|r| r.resolution == res).map(|r| (r.objects as f64, r.ms_per_frame)).collect(), dashed: false })
+        .map(|&res| Series {
+            name: format!("{res}x{res}"),
+            points: report.rows.iter().filter(|r| r.resolution == res).map(|r| (r.objects as f64, r.ms_per_frame)).collect(),
+            dashed: false,
+        })
         .collect();
     let plot_path = out.with_extension("png");
     if let Some(plot) = line_chart("Frame time", "transparent objects", "ms / frame (median)", &series)? {

@@ -3,15 +3,15 @@
 
 use std::path::PathBuf;
 
+use super::camera_arg::parse_camera;
+use super::dataset::parse_trace_device;
 use anyhow::{Context, Result};
 use clap::Args;
 use glassbake_core::image::ExrPrecision;
 use glassbake_core::seed::purpose_seed;
-use glassbake_scene::load_scene;
-use super::camera_arg::parse_camera;
-use super::dataset::parse_trace_device;
 use glassbake_dataset::TraceDevice;
 use glassbake_raster::RasterizerOptions;
+use glassbake_scene::load_scene;
 use glassbake_trace::{render, sample_trace_seed, Integrator, TraceSettings};
 use glassbake_trace_gpu::GpuTracer;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -120,7 +120,9 @@ pub fn run(args: TraceArgs) -> Result<()> {
     // The PNG preview is written beside the EXR with the extension .png: any other extension
     // would let one overwrite the other.
     if !args.out.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
-        return Err(glassbake_core::Error::bad_input("--out", args.out.display().to_string(), "must name an .exr file (the .png preview goes beside it)").into());
+        return Err(
+            glassbake_core::Error::bad_input("--out", args.out.display().to_string(), "must name an .exr file (the .png preview goes beside it)").into()
+        );
     }
     let scene = load_scene(&args.scene)?;
     for w in scene.warnings() {

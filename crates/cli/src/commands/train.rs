@@ -97,7 +97,10 @@ impl Ablation {
     }
 
     pub fn parse(text: &str) -> glassbake_core::Result<Ablation> {
-        Ablation::ALL.into_iter().find(|a| a.name() == text).ok_or_else(|| Error::bad_input("--ablation", "ablation", format!("{text:?} is not no-encoding or l1-only")))
+        Ablation::ALL
+            .into_iter()
+            .find(|a| a.name() == text)
+            .ok_or_else(|| Error::bad_input("--ablation", "ablation", format!("{text:?} is not no-encoding or l1-only")))
     }
 }
 
@@ -156,7 +159,12 @@ fn open_dataset(dir: &Path) -> Result<(DatasetStore, Option<glassbake_scene::Sce
     let info = store.info();
     for (split, planned, done) in &info.splits {
         if matches!(split, Split::Train | Split::Val) && done < planned {
-            return Err(Error::bad_input(dir.display(), "frames", format!("{split:?} split is incomplete ({done}/{planned}); finish it by re-running `glassbake dataset`")).into());
+            return Err(Error::bad_input(
+                dir.display(),
+                "frames",
+                format!("{split:?} split is incomplete ({done}/{planned}); finish it by re-running `glassbake dataset`"),
+            )
+            .into());
         }
     }
     let scene = if store.manifest.reads_cached_buffers() { None } else { Some(load_scene(&store.manifest.spec.scene)?) };
@@ -198,12 +206,7 @@ fn on_event(bar: &ProgressBar) -> impl FnMut(&TrainEvent) + '_ {
             last_validation = e.validation_loss;
         }
         bar.set_position(e.step);
-        bar.set_message(format!(
-            "loss {:.4} lr {:.1e}{}",
-            e.loss,
-            e.learning_rate,
-            last_validation.map(|v| format!(" val {v:.4}")).unwrap_or_default()
-        ));
+        bar.set_message(format!("loss {:.4} lr {:.1e}{}", e.loss, e.learning_rate, last_validation.map(|v| format!(" val {v:.4}")).unwrap_or_default()));
     }
 }
 
@@ -278,9 +281,22 @@ fn loaders(dir: &Path, scene: Option<glassbake_scene::Scene>, config: &TrainConf
     let train = Loader::new(
         dir,
         scene.clone(),
-        LoaderOptions { split: Split::Train, batch_size: config.batch_size, crop: config.crop, seed: config.seed, shuffle: true, workers, naive, ..Default::default() },
+        LoaderOptions {
+            split: Split::Train,
+            batch_size: config.batch_size,
+            crop: config.crop,
+            seed: config.seed,
+            shuffle: true,
+            workers,
+            naive,
+            ..Default::default()
+        },
     )?;
-    let val = Loader::new(dir, scene, LoaderOptions { split: Split::Val, batch_size: config.batch_size, crop: None, seed: config.seed, shuffle: false, workers, naive, ..Default::default() })?;
+    let val = Loader::new(
+        dir,
+        scene,
+        LoaderOptions { split: Split::Val, batch_size: config.batch_size, crop: None, seed: config.seed, shuffle: false, workers, naive, ..Default::default() },
+    )?;
     Ok((train, val))
 }
 
@@ -294,7 +310,8 @@ pub fn run(args: TrainArgs) -> Result<()> {
 /// Trains one model as `glassbake train` does, showing progress on `bar`. Returns whether
 /// any step was trained (false: the model was already trained).
 pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<bool> {
-    let kind = ModelKind::parse(&args.model).ok_or_else(|| Error::bad_input("--model", "model", format!("{:?} is not glassnet, naive, concat or pixelgen", args.model)))?;
+    let kind = ModelKind::parse(&args.model)
+        .ok_or_else(|| Error::bad_input("--model", "model", format!("{:?} is not glassnet, naive, concat or pixelgen", args.model)))?;
     let device_choice = DeviceChoice::parse(&args.common.device)?;
     let mut train_config = train_config(&args.common)?;
     let ablation = args.ablation.as_deref().map(Ablation::parse).transpose()?;
@@ -331,15 +348,23 @@ pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<bool> {
     }
     let side = train_config.crop.unwrap_or(info.resolution) as usize;
     if !side.is_multiple_of(net_config.size_multiple()) {
-        return Err(Error::bad_input("--crop", "resolution", format!("training frames of {side} px are not a multiple of {}", net_config.size_multiple())).into());
+        return Err(
+            Error::bad_input("--crop", "resolution", format!("training frames of {side} px are not a multiple of {}", net_config.size_multiple())).into()
+        );
     }
     let files = ModelFiles::prepare(
         &args.common.out,
-        ModelConfig { format_version: FORMAT_VERSION, network: Network::Glassnet(net_config.clone()), train: train_config.clone(), data: data_source(&args.common.dataset, &store) },
+        ModelConfig {
+            format_version: FORMAT_VERSION,
+            network: Network::Glassnet(net_config.clone()),
+            train: train_config.clone(),
+            data: data_source(&args.common.dataset, &store),
+        },
     )?;
     let naive = kind.reads_naive_gbuffer();
     let (train_loader, val) = loaders(&args.common.dataset, scene, &train_config, args.common.workers, naive)?;
-    let mut data = DatasetData { train: train_loader, val, validation_frames: train_config.validation_frames, batch_size: train_config.batch_size, naive, low_res: None };
+    let mut data =
+        DatasetData { train: train_loader, val, validation_frames: train_config.validation_frames, batch_size: train_config.batch_size, naive, low_res: None };
     let device = select_device(device_choice, train_config.seed, true);
     let model = GlassNet::new(&net_config, train_config.seed, &device)?;
     let message = format!(
@@ -405,7 +430,12 @@ fn side_by_side(left: &glassbake_core::PlanarImage, right: &glassbake_core::Plan
             data.extend_from_slice(&r[y * w..(y + 1) * w]);
         }
     }
-    glassbake_core::PlanarImage::from_planes(2 * w as u32, h as u32, glassbake_core::layout::GROUND_TRUTH_CHANNELS.iter().map(|s| s.to_string()).collect(), data)
+    glassbake_core::PlanarImage::from_planes(
+        2 * w as u32,
+        h as u32,
+        glassbake_core::layout::GROUND_TRUTH_CHANNELS.iter().map(|s| s.to_string()).collect(),
+        data,
+    )
 }
 
 pub fn run_super_sampler(args: TrainSrArgs) -> Result<()> {
@@ -416,19 +446,42 @@ pub fn run_super_sampler(args: TrainSrArgs) -> Result<()> {
     let glassnet = TrainedModel::load(&args.glassnet, &inference_device)?;
     let side = train_config.crop.unwrap_or(store.manifest.spec.resolution) as usize;
     if !side.is_multiple_of(2 * glassnet.config().size_multiple()) {
-        return Err(Error::bad_input("--crop", "resolution", format!("{side} px frames halve to a size GlassNet cannot take (need a multiple of {})", 2 * glassnet.config().size_multiple())).into());
+        return Err(Error::bad_input(
+            "--crop",
+            "resolution",
+            format!("{side} px frames halve to a size GlassNet cannot take (need a multiple of {})", 2 * glassnet.config().size_multiple()),
+        )
+        .into());
     }
     let sr_config = SuperSamplerConfig::preset(&args.common.preset)?;
     let files = ModelFiles::prepare(
         &args.common.out,
-        ModelConfig { format_version: FORMAT_VERSION, network: Network::SuperSampler(sr_config.clone()), train: train_config.clone(), data: data_source(&args.common.dataset, &store) },
+        ModelConfig {
+            format_version: FORMAT_VERSION,
+            network: Network::SuperSampler(sr_config.clone()),
+            train: train_config.clone(),
+            data: data_source(&args.common.dataset, &store),
+        },
     )?;
     let naive = glassnet.kind().reads_naive_gbuffer();
     let (train_loader, val) = loaders(&args.common.dataset, scene, &train_config, args.common.workers, naive)?;
-    let mut data = DatasetData { train: train_loader, val, validation_frames: train_config.validation_frames, batch_size: train_config.batch_size, naive: false, low_res: Some(glassnet) };
+    let mut data = DatasetData {
+        train: train_loader,
+        val,
+        validation_frames: train_config.validation_frames,
+        batch_size: train_config.batch_size,
+        naive: false,
+        low_res: Some(glassnet),
+    };
     let device = select_device(device_choice, train_config.seed, true);
     let model = SuperSampler::new(&sr_config, train_config.seed, &device);
-    println!("training the x2 super-sampler ({} preset) on {}, {} steps on {}", args.common.preset, args.common.dataset.display(), train_config.steps, device_choice.name());
+    println!(
+        "training the x2 super-sampler ({} preset) on {}, {} steps on {}",
+        args.common.preset,
+        args.common.dataset.display(),
+        train_config.steps,
+        device_choice.name()
+    );
     let bar = ProgressBar::new(0);
     step_bar(&bar, train_config.steps);
     let summary = train(model, &files, &train_config, &device, &mut data, &RunOptions::default(), &mut on_event(&bar));

@@ -18,10 +18,12 @@ pub struct SyntheticFrame {
 
 fn smooth_plane(rng: &mut ChaCha8Rng, size: usize) -> Vec<f32> {
     let (a, b, c) = (rng.random_range(-1.0..1.0f32), rng.random_range(-1.0..1.0f32), rng.random_range(0.0..6.0f32));
-    (0..size * size).map(|i| {
-        let (x, y) = ((i % size) as f32 / size as f32, (i / size) as f32 / size as f32);
-        0.5 + 0.4 * (a * x * 3.0 + b * y * 3.0 + c).sin()
-    }).collect()
+    (0..size * size)
+        .map(|i| {
+            let (x, y) = ((i % size) as f32 / size as f32, (i / size) as f32 / size as f32);
+            0.5 + 0.4 * (a * x * 3.0 + b * y * 3.0 + c).sin()
+        })
+        .collect()
 }
 
 /// A frame of `size`^2 with `objects` transparency buffers and `variables` values.
@@ -53,10 +55,8 @@ pub fn frame(seed: u64, size: usize, objects: usize, variables: usize) -> Synthe
 }
 
 pub fn batch(frames: &[SyntheticFrame]) -> HostBatch {
-    let refs: Vec<FrameRef> = frames
-        .iter()
-        .map(|f| FrameRef { gbuffer: &f.opaque, transparent: &f.transparent, values: &f.values, ground_truth: Some(&f.ground_truth) })
-        .collect();
+    let refs: Vec<FrameRef> =
+        frames.iter().map(|f| FrameRef { gbuffer: &f.opaque, transparent: &f.transparent, values: &f.values, ground_truth: Some(&f.ground_truth) }).collect();
     HostBatch::from_frames(&refs).unwrap()
 }
 
