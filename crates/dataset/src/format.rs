@@ -38,7 +38,8 @@ impl Split {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum TraceDevice {
-    /// glassbake-trace on the CPU threads: bit-identical on any machine.
+    /// glassbake-trace on the CPU threads: bit-identical for any thread count on one
+    /// machine; another CPU may differ in the last bits.
     #[default]
     Cpu,
     /// glassbake-trace-gpu on a Vulkan adapter: deterministic on one device.

@@ -460,3 +460,24 @@ mod tests {
         assert!(json.contains("\"model\":\"concat\""));
     }
 }
+
+/// The x2 super-sampler's settings (the `super_sampler` module).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SuperSamplerConfig {
+    pub preset: String,
+    pub encoding_frequencies: usize,
+    pub network: CnnConfig,
+}
+
+impl SuperSamplerConfig {
+    pub fn preset(name: &str) -> Result<SuperSamplerConfig> {
+        let (frequencies, width, layers) = match name {
+            "tiny" => (1, 4, 1),
+            "quick" => (2, 16, 3),
+            "paper" => (4, 32, 4),
+            other => return Err(Error::bad_input("--preset", "preset", format!("unknown preset {other:?}; the presets are tiny, quick, paper"))),
+        };
+        Ok(SuperSamplerConfig { preset: name.into(), encoding_frequencies: frequencies, network: CnnConfig { width, layers, out_channels: 3 } })
+    }
+}

@@ -13,8 +13,8 @@ use serde::{Deserialize, Serialize};
 use glassbake_core::image::write_bytes_atomically;
 use glassbake_core::{Error, Result};
 
+use crate::config::SuperSamplerConfig;
 use crate::config::{NetConfig, TrainConfig};
-use crate::super_sampler::SuperSamplerConfig;
 
 pub const CONFIG_FILE: &str = "config.json";
 /// 2: transparency buffers gained `Ld` (19 channels). 3: they gained `Ld_far` (22 channels),
@@ -30,6 +30,8 @@ pub const CONFIG_FILE: &str = "config.json";
 pub const FORMAT_VERSION: u32 = 5;
 
 /// The network a directory holds.
+// Read once per run; boxing the larger config would buy nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Network {
@@ -53,6 +55,14 @@ pub struct DataSource {
     pub scene: String,
     pub scene_hash: String,
     pub resolution: u32,
+    /// The scene as the dataset was made from it (a built-in name or a path) and the seed of
+    /// its samples, so that the real-time renderer finds the scene and `--sample i` draws the
+    /// dataset's frame i without reading the dataset. Absent in models trained before they
+    /// were recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene_argument: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sample_seed: Option<u64>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -81,7 +91,14 @@ impl ModelFiles {
         fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
         let path = dir.join(CONFIG_FILE);
         if path.exists() {
-            let existing = read_config(&path)?;
+            let mut existing = read_config(&path)?;
+            // A run started before the data source recorded the scene argument and sample
+            // seed resumes, and its config gains them.
+            let recorded_later = existing.data.scene_argument.is_none() && existing.data.sample_seed.is_none();
+            if recorded_later {
+                existing.data.scene_argument.clone_from(&config.data.scene_argument);
+                existing.data.sample_seed = config.data.sample_seed;
+            }
             if existing != config {
                 let field = if existing.network != config.network {
                     "network"
@@ -95,6 +112,10 @@ impl ModelFiles {
                     field,
                     "this directory holds a run with different settings; resume with the same settings, or give a new --out",
                 ));
+            }
+            if recorded_later && config.data.sample_seed.is_some() {
+                let json = serde_json::to_vec_pretty(&config).expect("config serialises");
+                write_bytes_atomically(&path, &json)?;
             }
         } else {
             let json = serde_json::to_vec_pretty(&config).expect("config serialises");

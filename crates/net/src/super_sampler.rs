@@ -6,35 +6,14 @@
 
 use burn::prelude::*;
 use burn::tensor::TensorData;
-use serde::{Deserialize, Serialize};
 
 use glassbake_core::layout::OPAQUE_CHANNELS;
 use glassbake_core::{Error, PlanarImage, Result};
 
 use crate::batch::HostBatch;
 use crate::blocks::{positional_encoding, PlainCnn};
-use crate::config::CnnConfig;
+pub use crate::config::SuperSamplerConfig;
 use crate::train::Trainable;
-
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SuperSamplerConfig {
-    pub preset: String,
-    pub encoding_frequencies: usize,
-    pub network: CnnConfig,
-}
-
-impl SuperSamplerConfig {
-    pub fn preset(name: &str) -> Result<SuperSamplerConfig> {
-        let (frequencies, width, layers) = match name {
-            "tiny" => (1, 4, 1),
-            "quick" => (2, 16, 3),
-            "paper" => (4, 32, 4),
-            other => return Err(Error::bad_input("--preset", "preset", format!("unknown preset {other:?}; the presets are tiny, quick, paper"))),
-        };
-        Ok(SuperSamplerConfig { preset: name.into(), encoding_frequencies: frequencies, network: CnnConfig { width, layers, out_channels: 3 } })
-    }
-}
 
 #[derive(Module, Debug)]
 pub struct SuperSampler {

@@ -14,7 +14,14 @@ fn files(dir: &std::path::Path, net: &NetConfig, train: &TrainConfig) -> ModelFi
             format_version: FORMAT_VERSION,
             network: Network::Glassnet(net.clone()),
             train: train.clone(),
-            data: DataSource { dataset: "synthetic".into(), scene: "none".into(), scene_hash: "0".into(), resolution: 16 },
+            data: DataSource {
+                dataset: "synthetic".into(),
+                scene: "none".into(),
+                scene_hash: "0".into(),
+                resolution: 16,
+                scene_argument: None,
+                sample_seed: None,
+            },
         },
     )
     .unwrap()
@@ -128,7 +135,14 @@ fn a_directory_holding_a_different_run_is_refused() {
             format_version: FORMAT_VERSION,
             network: Network::Glassnet(net),
             train: other,
-            data: DataSource { dataset: "synthetic".into(), scene: "none".into(), scene_hash: "0".into(), resolution: 16 },
+            data: DataSource {
+                dataset: "synthetic".into(),
+                scene: "none".into(),
+                scene_hash: "0".into(),
+                resolution: 16,
+                scene_argument: None,
+                sample_seed: None,
+            },
         },
     )
     .unwrap_err();

@@ -2,8 +2,8 @@
 //! (camera + variable values -> rasterizer: opaque G-buffer, transparency buffers streamed one
 //! at a time -> GlassNet -> optional x2 super-sampler -> image), finding a model's scene,
 //! synthesising scenes with more or fewer transparent objects for the benchmark, the
-//! benchmark itself (frame times, peak memory), and the interactive viewer (eframe: egui on
-//! wgpu/winit).
+//! benchmark itself (frame times, peak memory), and, with the `viewer` feature, the
+//! interactive viewer (eframe: egui on wgpu/winit).
 
 pub mod bench;
 pub mod gpu_handover;
@@ -11,6 +11,7 @@ pub mod memory;
 pub mod pipeline;
 pub mod scene_source;
 pub mod synth;
+#[cfg(feature = "viewer")]
 pub mod viewer;
 
 pub use bench::{run_bench, BenchOptions, BenchReport, BenchRow};

@@ -280,8 +280,16 @@ fn shortest_floats(value: &mut toml::Value) {
 
 /// Write `dir/manifest.toml`, `dir/scene.gltf`, `dir/scene.bin` and one PNG per texture.
 /// The manifest is written last, so an interrupted export never leaves a loadable but
-/// incomplete scene.
-pub fn export_scene(scene: &Scene, dir: &Path) -> Result<()> {
+/// incomplete scene. Unless `overwrite`, a folder that already holds any of these files is
+/// refused before anything is written (the file named), so an export never replaces a
+/// user's scene by accident.
+pub fn export_scene(scene: &Scene, dir: &Path, overwrite: bool) -> Result<()> {
+    if !overwrite {
+        let names = scene.textures.iter().enumerate().map(|(i, t)| texture_file_name(i, t)).chain([BIN_FILE, GLTF_FILE, "manifest.toml"].map(String::from));
+        if let Some(existing) = names.map(|name| dir.join(name)).find(|path| path.symlink_metadata().is_ok()) {
+            return Err(Error::bad_input(existing.display(), "file", "already exists; export into another folder, or pass --force to overwrite it"));
+        }
+    }
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     for (i, t) in scene.textures.iter().enumerate() {
         write_bytes_atomically(&dir.join(texture_file_name(i, t)), &texture_png(t)?)?;

@@ -7,7 +7,7 @@ use glam::{Affine3A, Vec2, Vec3, Vec4};
 use serde::{Deserialize, Serialize};
 
 use crate::camera_spec::CameraSpec;
-use crate::variables::Variable;
+use crate::variables::{Variable, VariableTarget};
 
 /// A triangle mesh in object space. Normals and UVs are per vertex (same length as
 /// `positions`).
@@ -307,6 +307,17 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// Name of what `variable` acts on (a material, an object or a light), for display.
+    pub fn variable_target_name(&self, variable: &Variable) -> &str {
+        match variable.target {
+            VariableTarget::Roughness { material } | VariableTarget::Hue { material, .. } | VariableTarget::EmissionIntensity { material } => {
+                &self.materials[material].name
+            }
+            VariableTarget::Translation { object, .. } => &self.objects[object].name,
+            VariableTarget::LightTranslation { light, .. } | VariableTarget::LightIntensity { light } => &self.rect_lights[light].name,
+        }
+    }
+
     /// A scene with nothing in it, a camera framing the unit cube, and no variables.
     pub fn empty(name: &str) -> Scene {
         Scene {

@@ -3,8 +3,6 @@
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use crate::model::Scene;
-
 /// What a variable changes. Indices point into the scene's tables.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum VariableTarget {
@@ -42,17 +40,6 @@ impl Variable {
             VariableTarget::LightTranslation { .. } => "light_translation",
             VariableTarget::LightIntensity { .. } => "light_intensity",
             VariableTarget::EmissionIntensity { .. } => "emission_intensity",
-        }
-    }
-
-    /// Name of what the variable acts on, for display.
-    pub fn target_name<'a>(&self, scene: &'a Scene) -> &'a str {
-        match self.target {
-            VariableTarget::Roughness { material } | VariableTarget::Hue { material, .. } | VariableTarget::EmissionIntensity { material } => {
-                &scene.materials[material].name
-            }
-            VariableTarget::Translation { object, .. } => &scene.objects[object].name,
-            VariableTarget::LightTranslation { light, .. } | VariableTarget::LightIntensity { light } => &scene.rect_lights[light].name,
         }
     }
 

@@ -457,11 +457,25 @@ fn a_scene_without_glass_is_valid_but_warned() {
 }
 
 #[test]
+fn export_refuses_to_overwrite_a_scene_unless_forced() {
+    let scene = builtin("cornell-glass").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = dir.path().join("manifest.toml");
+    std::fs::write(&manifest, "# the user's own manifest\n").unwrap();
+    let err = glassbake_scene::export::export_scene(&scene, dir.path(), false).unwrap_err();
+    assert!(err.is_user_error() && err.to_string().contains("manifest.toml") && err.to_string().contains("--force"), "{err}");
+    assert_eq!(std::fs::read_to_string(&manifest).unwrap(), "# the user's own manifest\n", "the manifest was touched");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "nothing else was written");
+    glassbake_scene::export::export_scene(&scene, dir.path(), true).unwrap();
+    assert!(load_scene(manifest.to_str().unwrap()).is_ok());
+}
+
+#[test]
 fn export_round_trips_every_builtin() {
     for name in BUILTIN_NAMES {
         let original = builtin(name).unwrap();
         let dir = tempfile::tempdir().unwrap();
-        glassbake_scene::export::export_scene(&original, dir.path()).unwrap();
+        glassbake_scene::export::export_scene(&original, dir.path(), false).unwrap();
         let loaded = load_scene(dir.path().join("manifest.toml").to_str().unwrap()).unwrap();
         assert_eq!(loaded.name, original.name);
         assert_eq!(loaded.objects.len(), original.objects.len(), "{name}");

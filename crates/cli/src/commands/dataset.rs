@@ -86,7 +86,7 @@ pub struct MakeArgs {
     /// Path-tracer threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Where to path-trace the ground truth: `cpu` (bit-identical on any machine) or `wgpu`
+    /// Where to path-trace the ground truth: `cpu` (bit-identical for any thread count on one machine; other CPUs may differ in the last bits) or `wgpu`
     /// (the GPU tracer on a Vulkan adapter, deterministic on one device). A dataset keeps the
     /// device it was started with.
     #[arg(long, default_value = "cpu", value_parser = parse_trace_device)]

@@ -12,6 +12,7 @@ use glassbake_net::{select_device, DeviceChoice, TrainedModel, TrainedSuperSampl
 use glassbake_raster::RasterizerOptions;
 use glassbake_realtime::bench::{marginal_ms_per_object, table};
 use glassbake_realtime::gpu_handover::open_shared;
+#[cfg(feature = "viewer")]
 use glassbake_realtime::viewer::{check_display, run_viewer, ViewerOptions};
 use glassbake_realtime::{run_bench, scene_of_model, BenchOptions, FramePipeline, Output};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -229,6 +230,12 @@ pub struct ViewArgs {
     pub screenshot_after: usize,
 }
 
+#[cfg(not(feature = "viewer"))]
+pub fn view(_args: ViewArgs) -> Result<()> {
+    Err(Error::bad_input("glassbake", "view", "this glassbake was built without the viewer (cargo feature `viewer`)").into())
+}
+
+#[cfg(feature = "viewer")]
 pub fn view(args: ViewArgs) -> Result<()> {
     check_display()?;
     let opened = open(&args.pipeline)?;

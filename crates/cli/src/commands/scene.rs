@@ -17,7 +17,14 @@ pub enum SceneCommand {
     /// Load and check a scene; print warnings; exit 2 on errors.
     Validate { scene: String },
     /// Write a scene as manifest.toml + scene.gltf (+ texture PNGs) into a directory.
-    Export { scene: String, dir: PathBuf },
+    Export {
+        scene: String,
+        dir: PathBuf,
+        /// Replace the scene files already in DIR (by default a folder holding any of them is
+        /// refused).
+        #[arg(long)]
+        force: bool,
+    },
     /// Write one scene instance (camera and variable values of sample i) as Mitsuba 3 XML.
     Mitsuba {
         scene: String,
@@ -48,9 +55,9 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
             }
             println!("{scene}: valid ({} objects, {} transparent, {} warnings)", s.objects.len(), s.transparent_count(), warnings.len());
         }
-        SceneCommand::Export { scene, dir } => {
+        SceneCommand::Export { scene, dir, force } => {
             let s = load_scene(&scene)?;
-            glassbake_scene::export::export_scene(&s, &dir)?;
+            glassbake_scene::export::export_scene(&s, &dir, force)?;
             println!("wrote {}", dir.join("manifest.toml").display());
         }
         SceneCommand::Mitsuba { scene, sample, seed, out } => {
@@ -100,7 +107,7 @@ pub fn describe(s: &Scene) -> String {
     }
     let _ = writeln!(out, "  variables: {}", s.variables.len());
     for v in &s.variables {
-        let _ = writeln!(out, "    {:<20} [{}, {}] default {}  {} of {}", v.name, v.min, v.max, v.default, v.kind_name(), v.target_name(s));
+        let _ = writeln!(out, "    {:<20} [{}, {}] default {}  {} of {}", v.name, v.min, v.max, v.default, v.kind_name(), s.variable_target_name(v));
     }
     let c = &s.camera;
     let position = match c.position {

@@ -83,10 +83,12 @@ pub struct TraceArgs {
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long, conflicts_with = "device")]
     threads: Option<usize>,
-    /// `cpu` (the default; bit-identical on any machine) or `wgpu`: the GPU tracer on a
-    /// Vulkan adapter (chosen as the rasterizer's: `WGPU_ADAPTER_NAME`, else a discrete GPU
-    /// first). Same estimator and the same converged image, other random numbers; no
-    /// `guided` estimator.
+    /// `cpu` (the default; bit-identical for any thread count on one machine, other CPUs
+    /// may differ in the last bits) or `wgpu`: the GPU tracer on a Vulkan adapter (chosen as
+    /// the rasterizer's: `WGPU_ADAPTER_NAME`, else a discrete GPU first). The GPU has no light
+    /// tracer, adaptive sampling or stratified values; its default estimator is `plain`: the
+    /// same converged image as the CPU's default, with more noise at equal samples and other
+    /// random numbers.
     #[arg(long, default_value = "cpu", value_parser = parse_trace_device)]
     device: TraceDevice,
     /// Output EXR; the PNG preview goes beside it with the extension .png.

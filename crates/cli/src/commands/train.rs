@@ -177,6 +177,8 @@ fn data_source(dir: &Path, store: &DatasetStore) -> DataSource {
         scene: store.manifest.scene.name.clone(),
         scene_hash: store.manifest.scene.hash.clone(),
         resolution: store.manifest.spec.resolution,
+        scene_argument: Some(store.manifest.spec.scene.clone()),
+        sample_seed: Some(store.manifest.spec.seed),
     }
 }
 
