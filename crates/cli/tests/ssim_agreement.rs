@@ -1,6 +1,7 @@
 //! The SSIM that training optimises (burn, `glassbake_net::loss`) and the SSIM that evaluation
 //! reports (f64 on the CPU, `glassbake_eval::metrics`) are two implementations of one
-//! formula: on the same pairs of images they must agree to f32 precision.
+//! formula: on the same pairs of images they must agree to f32 precision (1e-5; they agreed to
+//! 1e-6 when this was written, and a C2 of 0.035 instead of 0.03 moves them 2e-3 apart).
 
 use glassbake_eval::metrics;
 use glassbake_eval::rgb::RgbImage;
@@ -51,7 +52,7 @@ fn training_ssim_equals_evaluation_ssim() {
         let evaluated = metrics::ssim(a, b).unwrap();
         let trained = glassbake_net::loss::ssim(to_tensor(a, &device), to_tensor(b, &device)).into_scalar::<f32>() as f64;
         eprintln!("pair {k}: evaluation {evaluated:.6}, training {trained:.6}");
-        assert!((evaluated - trained).abs() < 2e-4, "pair {k}: evaluation SSIM {evaluated} vs training SSIM {trained}");
+        assert!((evaluated - trained).abs() < 1e-5, "pair {k}: evaluation SSIM {evaluated} vs training SSIM {trained}");
     }
     // The pairs span the range, so agreement is not agreement on one value.
     let values: Vec<f64> = pairs.iter().map(|(a, b)| metrics::ssim(a, b).unwrap()).collect();

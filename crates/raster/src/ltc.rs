@@ -34,13 +34,6 @@ pub struct LtcCell {
     pub amplitude: [f32; 2],
 }
 
-impl LtcCell {
-    pub fn inverse_matrix(&self) -> Mat3 {
-        let [m00, m02, m11, m20] = self.minv;
-        Mat3::from_cols(Vec3::new(m00, 0.0, m20), Vec3::new(0.0, m11, 0.0), Vec3::new(m02, 0.0, 1.0))
-    }
-}
-
 /// Cell (i, j) at index `j * LTC_SIZE + i`.
 pub fn table() -> Vec<LtcCell> {
     parse_table(TABLE_TEXT).expect("the embedded LTC table is well-formed (tested)")

@@ -1090,11 +1090,6 @@ impl Frame<'_> {
         self.rasterizer.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| Error::Internal(format!("waiting for the GPU: {e}")))
     }
 
-    /// The opaque G-buffer's render targets (see `shaders/gbuffer.wgsl` for their packing).
-    pub fn opaque_textures(&self) -> &[wgpu::Texture] {
-        &self.rasterizer.targets.as_ref().expect("targets").opaque.textures
-    }
-
     /// The reused transparency targets, holding the buffer last rendered.
     pub fn transparency_textures(&self) -> &[wgpu::Texture] {
         &self.rasterizer.targets.as_ref().expect("targets").transparency.textures

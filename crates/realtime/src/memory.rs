@@ -17,11 +17,6 @@ pub fn peak_rss_mib() -> Option<f64> {
     status_kib("VmHWM:").map(|kib| kib / 1024.0)
 }
 
-/// Resident memory now, MiB.
-pub fn rss_mib() -> Option<f64> {
-    status_kib("VmRSS:").map(|kib| kib / 1024.0)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

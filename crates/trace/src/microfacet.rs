@@ -107,11 +107,6 @@ pub fn schlick(f0: Vec3, cos: f32) -> Vec3 {
     f0 + (Vec3::ONE - f0) * m
 }
 
-pub fn schlick_scalar(f0: f32, cos: f32) -> f32 {
-    let m = (1.0 - cos.clamp(0.0, 1.0)).powi(5);
-    f0 + (1.0 - f0) * m
-}
-
 pub fn reflect(w: Vec3, m: Vec3) -> Vec3 {
     2.0 * w.dot(m) * m - w
 }

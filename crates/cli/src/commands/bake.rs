@@ -10,12 +10,13 @@ use std::time::{Duration, Instant};
 use anyhow::Result;
 use clap::Args;
 use glassbake_core::Error;
+use glassbake_eval::score::{noise_floor_row, path_traced_rows};
 use glassbake_eval::EvaluationSummary;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 
 use super::dataset::{default_test_glass_spp, default_test_spp};
 use super::dataset::{make_dataset, MakeArgs};
-use super::eval::{evaluate, noise_floor_row, path_traced_rows, EvalArgs};
+use super::eval::{evaluate, EvalArgs};
 use super::train::{train_model, Ablation, CommonTrainArgs, TrainArgs};
 
 #[derive(Args)]
@@ -29,7 +30,8 @@ pub struct BakeArgs {
     /// Output directory: dataset/, glassnet/, naive/ (pixelgen/, glassnet-*/), eval/, report/.
     #[arg(long, default_value = "bake")]
     pub out: PathBuf,
-    /// cpu (burn's flex backend) or wgpu (Vulkan) for training and evaluation; wgpu also
+    /// cpu (burn's flex backend), wgpu (Vulkan) or cuda (a build with the `cuda` feature) for
+    /// training and evaluation; wgpu also
     /// path-traces the dataset's ground truth on the GPU (`dataset --device wgpu`).
     #[arg(long, default_value = "cpu")]
     pub device: String,

@@ -1,0 +1,291 @@
+//! Scoring trained models on a dataset split: each frame rendered by every model (and, on
+//! request, path-traced at a low spp and denoised), the noise floor where the split has one,
+//! the order test on GlassNet, then `metrics.*`, `frames/`, `grids/` and the report. This is
+//! where the evaluation meets the network and dataset crates; the metrics, grids and report
+//! it calls see only images.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use glassbake_core::layout::{self, GROUND_TRUTH_CHANNELS};
+use glassbake_core::seed::purpose_seed;
+use glassbake_core::{Error, PlanarImage, Result};
+use glassbake_dataset::{DatasetSpec, DatasetStore, Loader, LoaderOptions, SampleRecord, Split};
+use glassbake_net::{select_device, DeviceChoice, FrameRef, ModelKind, TrainedModel};
+use glassbake_trace::TraceSettings;
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+
+use crate::denoise::{denoise, DenoiseInput};
+use crate::report::{write_report, ReportInputs, TrainingLog};
+use crate::rgb::mask_from_planar;
+use crate::{Evaluation, EvaluationSummary, Lpips, OrderTest, RgbImage};
+
+/// What to score, on what, and where the results go.
+#[derive(Clone, Debug)]
+pub struct ScoreOptions {
+    /// Trained model directories (`glassbake train`).
+    pub models: Vec<PathBuf>,
+    pub dataset: PathBuf,
+    /// Where metrics.json, metrics.csv, frames/, grids/ and report/ go.
+    pub out: PathBuf,
+    pub split: Split,
+    /// Only the first N frames of the split.
+    pub frames: Option<usize>,
+    pub lpips_weights: Option<PathBuf>,
+    pub device: DeviceChoice,
+    /// Frame-reading/rasterizing worker threads.
+    pub workers: usize,
+    /// Also path trace each frame at this spp and denoise it (rows `ptSPP`, `ptSPP+oidn`).
+    pub path_traced_baseline: Option<u32>,
+}
+
+/// What a scoring run produced: the summary, and the report's index page.
+pub struct Scored {
+    pub summary: EvaluationSummary,
+    pub report: PathBuf,
+}
+
+/// The metrics rows of the path-traced baseline at `spp`: traced, then traced and denoised.
+pub fn path_traced_rows(spp: u32) -> [String; 2] {
+    [format!("pt{spp}"), format!("pt{spp}+oidn")]
+}
+
+/// The metrics row of the noise floor, where `split` of the dataset has one: its ground truth
+/// traced at the training spp, scored against the (higher-spp) ground truth of the same frames.
+pub fn noise_floor_row(spec: &DatasetSpec, split: Split) -> Option<String> {
+    spec.has_train_spp_copy(split).then(|| format!("gt-{}spp", spec.spp))
+}
+
+/// Planes `first..first + 3` of `image` (an RGB or XYZ attribute).
+fn three_planes(image: &PlanarImage, first: usize) -> [&[f32]; 3] {
+    [image.plane(first), image.plane(first + 1), image.plane(first + 2)]
+}
+
+/// The path-traced baseline of one frame: the traced image, and the same denoised.
+struct PathTraced {
+    raw: RgbImage,
+    denoised: RgbImage,
+    trace_seconds: f64,
+    denoise_seconds: f64,
+}
+
+/// Traces `sample` of `scene` at `spp` with a seed of its own (not the ground truth's), then
+/// denoises it with the naive G-buffer's first-surface albedo and normals as guides.
+fn path_traced_baseline(scene: &glassbake_scene::Scene, sample: &SampleRecord, naive: &PlanarImage, spp: u32) -> Result<PathTraced> {
+    let (w, h) = (naive.width(), naive.height());
+    let instance = scene.instantiate(&sample.values)?;
+    let settings = TraceSettings::new(w, h, spp, purpose_seed(sample.seed, "path-traced baseline"));
+    let started = Instant::now();
+    let traced = glassbake_trace::render(&instance, &sample.camera, &settings, None)?;
+    let trace_seconds = started.elapsed().as_secs_f64();
+    // OIDN reads interleaved RGB; the denoiser gets unclamped (HDR) radiance.
+    let interleave = |planes: [&[f32]; 3]| -> Vec<f32> { (0..(w * h) as usize).flat_map(|i| planes.map(|p| p[i])).collect() };
+    let color = interleave(GROUND_TRUTH_CHANNELS.map(|c| traced.image.plane_by_name(c).expect("the tracer writes R, G, B")));
+    let albedo = interleave(three_planes(naive, layout::opaque::ALBEDO));
+    let normal = interleave(three_planes(naive, layout::opaque::NORMAL));
+    let started = Instant::now();
+    let denoised = denoise(&DenoiseInput { width: w as usize, height: h as usize, color: &color, albedo: &albedo, normal: &normal })?;
+    let denoise_seconds = started.elapsed().as_secs_f64();
+    let rgb = |v: &[f32]| RgbImage::new(w as usize, h as usize, v.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect());
+    Ok(PathTraced { raw: rgb(&color)?, denoised: rgb(&denoised)?, trace_seconds, denoise_seconds })
+}
+
+fn model_name(dir: &Path) -> String {
+    dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| dir.display().to_string())
+}
+
+/// Largest |a - b| over two equally long slices (infinite when their lengths differ).
+fn max_abs_diff(a: &[f32], b: &[f32]) -> f32 {
+    if a.len() != b.len() {
+        return f32::INFINITY;
+    }
+    a.iter().zip(b).map(|(x, y)| if x.to_bits() == y.to_bits() { 0.0 } else { (x - y).abs().max(f32::MIN_POSITIVE) }).fold(0.0, f32::max)
+}
+
+/// Scores `options.models` on the dataset split, writes `OUT/metrics.*`, `OUT/frames`,
+/// `OUT/grids` and `OUT/report/`. `facts` are extra lines for the report (the bake's stage
+/// times); `progress(done, total)` is called after every frame.
+pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn FnMut(usize, usize)) -> Result<Scored> {
+    let (dataset, model_dirs) = (&options.dataset, &options.models);
+    let split = options.split;
+    let split_name = match split {
+        Split::Train => "train",
+        Split::Val => "val",
+        Split::Test => "test",
+    };
+    if options.path_traced_baseline.is_some() && !crate::denoise::AVAILABLE {
+        return Err(Error::bad_input("--path-traced-baseline", "oidn", crate::denoise::HOW_TO_ENABLE));
+    }
+    if options.path_traced_baseline == Some(0) {
+        return Err(Error::bad_input("--path-traced-baseline", "spp", "must be at least 1"));
+    }
+    let store = DatasetStore::open(dataset)?;
+    let info = store.info();
+    if let Some((_, planned, done)) = info.splits.iter().find(|s| s.0 == split) {
+        if done < planned {
+            return Err(Error::bad_input(
+                dataset.display(),
+                "frames",
+                format!("the {split_name} split is incomplete ({done}/{planned}); finish it with `glassbake dataset`"),
+            ));
+        }
+    }
+    let device = select_device(options.device, 0, false);
+    let mut models = Vec::new();
+    let mut names: Vec<String> = Vec::new();
+    for dir in model_dirs {
+        let model = TrainedModel::load(dir, &device)?;
+        let data = &model.files.config.data;
+        if data.scene_hash != store.manifest.scene.hash {
+            return Err(Error::bad_input(
+                dir.join("config.json").display(),
+                "data.scene_hash",
+                format!(
+                    "the model was trained on scene {} ({}), the dataset holds {} ({})",
+                    data.scene, data.scene_hash, store.manifest.scene.name, store.manifest.scene.hash
+                ),
+            ));
+        }
+        let mut name = model_name(dir);
+        if names.contains(&name) {
+            name = format!("{name}-{}", names.len());
+        }
+        names.push(name);
+        models.push(model);
+    }
+    let lpips = options.lpips_weights.as_deref().map(Lpips::load).transpose()?;
+    let needs_naive = options.path_traced_baseline.is_some() || models.iter().any(|m| m.kind().reads_naive_gbuffer());
+    // The scene: to rasterize uncached buffers (the loader checks it then) and to path trace.
+    let scene = if !store.manifest.reads_cached_buffers() || options.path_traced_baseline.is_some() {
+        Some(glassbake_scene::load_scene(&store.manifest.spec.scene)?)
+    } else {
+        None
+    };
+    if let (Some(scene), Some(spp)) = (&scene, options.path_traced_baseline) {
+        if scene.content_hash() != store.manifest.scene.hash {
+            return Err(Error::bad_input(
+                &store.manifest.spec.scene,
+                "scene",
+                format!(
+                    "has changed since the dataset {} was made (scene hash {} now, {} then)",
+                    dataset.display(),
+                    scene.content_hash(),
+                    store.manifest.scene.hash
+                ),
+            ));
+        }
+        names.extend(path_traced_rows(spp));
+    }
+    let noise_floor = noise_floor_row(&store.manifest.spec, split);
+    names.extend(noise_floor.clone());
+    let loader_scene = if store.manifest.reads_cached_buffers() { None } else { scene.clone() };
+    let mut loader = Loader::new(
+        dataset,
+        loader_scene,
+        LoaderOptions { split, batch_size: 1, crop: None, seed: 0, shuffle: false, workers: options.workers, naive: needs_naive, ..Default::default() },
+    )?;
+    let total = options.frames.unwrap_or(usize::MAX).min(loader.len());
+    let mut evaluation = Evaluation::new(&options.out, names.clone(), lpips, dataset.display().to_string(), split_name.to_string())?;
+    // The order test runs on the first model that sums transparency buffers (GlassNet).
+    let order_model = models.iter().position(|m| m.kind() == ModelKind::Glassnet);
+    let mut order =
+        OrderTest { model: order_model.map(|i| names[i].clone()).unwrap_or_default(), frames: 0, reversed_max_abs_diff: 0.0, shuffled_max_abs_diff: 0.0 };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x0dde_0b1e);
+
+    progress(0, total);
+    let mut done = 0;
+    'frames: for examples in loader.epoch_iter(0) {
+        for e in examples? {
+            if done == total {
+                break 'frames;
+            }
+            let mut predictions = Vec::new();
+            let mut seconds = Vec::new();
+            for model in &models {
+                let naive = model.kind().reads_naive_gbuffer();
+                let gbuffer = if naive { e.naive.as_ref().expect("the loader was asked for naive buffers") } else { &e.opaque };
+                let transparent: &[PlanarImage] = if naive { &[] } else { &e.transparent };
+                let started = Instant::now();
+                let image = model.render(FrameRef { gbuffer, transparent, values: &e.values, ground_truth: None })?;
+                seconds.push(Some(started.elapsed().as_secs_f64()));
+                predictions.push(RgbImage::from_planar(&image)?);
+            }
+            if let (Some(spp), Some(scene)) = (options.path_traced_baseline, &scene) {
+                let sample = store
+                    .manifest
+                    .samples
+                    .iter()
+                    .find(|s| s.index == e.index)
+                    .ok_or_else(|| Error::Internal(format!("frame {} is not in the manifest", e.index)))?;
+                let naive = e.naive.as_ref().expect("the loader was asked for naive buffers");
+                let pt = path_traced_baseline(scene, sample, naive, spp)?;
+                predictions.extend([pt.raw, pt.denoised]);
+                seconds.extend([Some(pt.trace_seconds), Some(pt.trace_seconds + pt.denoise_seconds)]);
+            }
+            if noise_floor.is_some() {
+                let path = store.train_spp_gt_path(e.index);
+                predictions.push(RgbImage::from_planar(&PlanarImage::read_exr(&path)?)?);
+                seconds.push(None);
+            }
+            if let Some(i) = order_model {
+                let model = &models[i];
+                let frame = |transparent: &[PlanarImage]| model.render_raw(FrameRef { gbuffer: &e.opaque, transparent, values: &e.values, ground_truth: None });
+                let original = frame(&e.transparent)?;
+                let mut reversed = e.transparent.clone();
+                reversed.reverse();
+                let mut shuffled = e.transparent.clone();
+                shuffled.shuffle(&mut rng);
+                order.reversed_max_abs_diff = order.reversed_max_abs_diff.max(max_abs_diff(&original, &frame(&reversed)?));
+                order.shuffled_max_abs_diff = order.shuffled_max_abs_diff.max(max_abs_diff(&original, &frame(&shuffled)?));
+                order.frames += 1;
+            }
+            evaluation.add_frame(e.index, &RgbImage::from_planar(&e.ground_truth)?, &mask_from_planar(&e.mask), &predictions)?;
+            for (model, s) in seconds.into_iter().enumerate() {
+                if let Some(s) = s {
+                    evaluation.add_render_time(model, s);
+                }
+            }
+            done += 1;
+            progress(done, total);
+        }
+    }
+    if order_model.is_some() {
+        evaluation.set_order_test(order);
+    }
+    let summary = evaluation.finish()?;
+    let training_logs = model_dirs.iter().zip(&names).map(|(dir, name)| TrainingLog { name: name.clone(), path: dir.join("train_log.csv") }).collect();
+    let spec = &store.manifest.spec;
+    let glass_spp = spec.glass_spp_of(split);
+    let truth_spp = if glass_spp != spec.spp_of(split) {
+        format!("{} spp, {glass_spp} on pixels showing glass", spec.spp_of(split))
+    } else {
+        format!("{} spp", spec.spp_of(split))
+    };
+    let mut report_facts = vec![format!(
+        "dataset {} ({} transparent objects, {} px, {} spp; the {} split's ground truth at {truth_spp})",
+        dataset.display(),
+        info.transparent_objects,
+        info.resolution,
+        info.spp,
+        split_name,
+    )];
+    if let Some(row) = &noise_floor {
+        report_facts.push(format!(
+            "noise floor: row {row} is the ground truth traced again at the training spp ({}) with other random numbers, scored against the ground truth ({truth_spp}): how far the frames the models learned from are from converged",
+            info.spp,
+        ));
+    }
+    report_facts.extend(facts.iter().cloned());
+    let index = write_report(
+        &options.out.join("report"),
+        &ReportInputs {
+            title: format!("glassbake: {}", store.manifest.scene.name),
+            facts: report_facts,
+            eval_dir: Some(options.out.clone()),
+            training_logs,
+            bench: None,
+        },
+    )?;
+    Ok(Scored { summary, report: index })
+}
