@@ -5,7 +5,20 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 
-cargo build --release --locked -p glassbake-cli
+# With burn's CUDA backend (`--device cuda`) beside wgpu: cudarc loads the driver's libcuda and
+# NVRTC at run time, so no CUDA toolkit is needed here, only the version it should expect
+# (CUDARC_CUDA_VERSION, 12080 = CUDA 12.8 by default). The backend's PTX compiler links a
+# prebuilt LLVM that a build script downloads from github.com/tracel-ai/tracel-llvm, so this
+# needs that site; without it (or with GPU_KIT_CUDA=0) the binary is built without CUDA.
+features=()
+if [ "${GPU_KIT_CUDA:-1}" = 1 ]; then
+  if CUDARC_CUDA_VERSION="${CUDARC_CUDA_VERSION:-12080}" cargo build --release --locked -p glassbake-cli --features cuda; then
+    features=(--features cuda)
+  else
+    echo "pack.sh: the CUDA build failed (above); building glassbake without the cuda feature" >&2
+  fi
+fi
+[ "${#features[@]}" -gt 0 ] || cargo build --release --locked -p glassbake-cli
 cargo build --release --locked -p glassbake-trace-gpu --example gpu_trace_bench
 
 exclude="$(git rev-parse --git-path info/exclude)"
@@ -16,6 +29,7 @@ for dir in .gpu .gl; do
 done
 # The release profile strips symbols; xz because the GPU machine decompresses with Python's lzma.
 xz -T0 -6 -c target/release/glassbake > .gpu/glassbake.xz
+if [ "${#features[@]}" -gt 0 ]; then echo cuda > .gpu/features.txt; else rm -f .gpu/features.txt; fi
 xz -T0 -6 -c target/release/examples/gpu_trace_bench > .gpu/gpu_trace_bench.xz
 
 # The Vulkan loader (the NVIDIA driver's ICD is on the GPU machine, the loader may not be), amd64

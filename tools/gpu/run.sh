@@ -1,32 +1,137 @@
 #!/usr/bin/env bash
-# The GPU tracer's figures in one run (tools/gpu/README.md). Run on the GPU machine from the folder
-# holding tools/gpu, .gpu and .gl; results go to $OUT (or ./gpu-out).
-#   bash tools/gpu/run.sh [RES] [SPP]
+# glassbake's GPU figures in one run (tools/gpu/README.md): the GPU tracer against the CPU's,
+# a dataset traced on the GPU, training steps per second for the `quick` and `paper` networks,
+# the real-time frame (Table 4 of the paper: FPS per resolution and transparent-object count,
+# with the zero-copy hand-over and through host memory, with the x2 super-sampler) and the GPU
+# memory it holds. Each result is a file under $OUT; tools/gpu/tables.py turns them into the
+# tables of docs/benchmarks.md.
+#
+# On the GPU machine, from the folder holding tools/gpu, .gpu and .gl:
+#   bash tools/gpu/run.sh            # the full run (about 20-30 minutes on an H100)
+#   bash tools/gpu/run.sh --smoke    # every stage at toy sizes (a minute or two; checks the kit)
+# GLASSBAKE_BIN_DIR=DIR takes the binaries from DIR instead of .gpu/*.xz (a build machine's
+# target/release, say; GPU_KIT_CUDA=1 when that glassbake was built with the `cuda` feature);
+# without .gl/ the system's Vulkan loader is used.
 set -uo pipefail
-res="${1:-256}"
-spp="${2:-1024}"
+
+smoke=0
+[ "${1:-}" = "--smoke" ] && smoke=1
 out="${OUT:-gpu-out}"
 mkdir -p "$out"
+out="$(cd "$out" && pwd)"
+work="${GPU_KIT_WORK:-/tmp/glassbake-gpu-kit}"
+rm -rf "$work"
+mkdir -p "$work"
 
-for f in .gl/*.deb; do dpkg -x "$f" /; done
-ldconfig
+if [ "$smoke" = 1 ]; then
+  trace_res=32 trace_spp=16 data_res=32 data_spp=4 frames=4 steps=3 bench_res=32,64 objects=1,2 bench_frames=2 warmup=1
+else
+  trace_res=256 trace_spp=1024 data_res=256 data_spp=256 frames=32 steps=300 bench_res=256,512 objects=1,2,4,8 bench_frames=50 warmup=5
+fi
+
+# The Vulkan loader packed by pack.sh (the NVIDIA driver's ICD is on the GPU machine).
+if ls .gl/*.deb >/dev/null 2>&1; then
+  for f in .gl/*.deb; do dpkg -x "$f" /; done
+  ldconfig
+fi
 icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 if [ -f "$icd" ] && [ -z "${VK_DRIVER_FILES:-}" ]; then export VK_DRIVER_FILES="$icd"; fi
 
-bin=/tmp/glassbake-gpu
-mkdir -p "$bin"
-for name in glassbake gpu_trace_bench; do
-  python3 -c "import lzma, shutil, sys; shutil.copyfileobj(lzma.open(sys.argv[1]), open(sys.argv[2], 'wb'))" ".gpu/$name.xz" "$bin/$name"
-  chmod +x "$bin/$name"
+bin="${GLASSBAKE_BIN_DIR:-}"
+if [ -z "$bin" ]; then
+  bin="$work/bin"
+  mkdir -p "$bin"
+  for name in glassbake gpu_trace_bench; do
+    [ -f ".gpu/$name.xz" ] || continue
+    python3 -c "import lzma, shutil, sys; shutil.copyfileobj(lzma.open(sys.argv[1]), open(sys.argv[2], 'wb'))" ".gpu/$name.xz" "$bin/$name"
+    chmod +x "$bin/$name"
+  done
+fi
+glassbake="$bin/glassbake"
+[ -x "$glassbake" ] || { echo "no glassbake binary in $bin (run tools/gpu/pack.sh on the build machine)" >&2; exit 1; }
+failed=()
+stage() { # stage NAME COMMAND...: runs a command, its output into $out/NAME.txt, its exit status noted
+  local name="$1"; shift
+  echo "== $name: $*" | tee "$out/$name.txt"
+  local start end
+  start=$(date +%s.%N)
+  "$@" >> "$out/$name.txt" 2>&1
+  local code=$?
+  end=$(date +%s.%N)
+  echo "== exit $code, $(python3 -c "print(round($end - $start, 2))") s" >> "$out/$name.txt"
+  tail -n 3 "$out/$name.txt"
+  [ "$code" = 0 ] || failed+=("$name")
+}
+
+{
+  nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv 2>/dev/null || echo "nvidia-smi: not found (no NVIDIA driver)"
+  echo "cpu cores: $(nproc)"
+  grep -m1 "model name" /proc/cpuinfo || true
+  echo "date: $(date -u +%Y-%m-%dT%H:%M:%SZ)"
+  "$glassbake" --version 2>/dev/null || true
+  echo "smoke: $smoke"
+} > "$out/machine.txt"
+
+# 1. Both tracers' samples per second on the built-in scenes (the CPU on all of this machine's cores).
+if [ -x "$bin/gpu_trace_bench" ]; then
+  stage trace_bench "$bin/gpu_trace_bench" --res "$trace_res" --spp "$trace_spp"
+fi
+
+# 2. A dataset path-traced on the GPU (frames per hour), one validation frame so that the
+#    training runs below spend their time on steps.
+stage dataset "$glassbake" dataset cornellbox --device wgpu --out "$work/dataset" --train "$frames" --val 1 --test 2 \
+  --res "$data_res" --spp "$data_spp" --test-spp "$data_spp" --cache-buffers
+
+# 3. Training steps per second, the `quick` and `paper` networks (train_log.csv: elapsed_s per
+#    step), on wgpu and, where the binary was built with the `cuda` feature, on burn's CUDA
+#    backend; the same `quick` step in PyTorch on the same GPU where PyTorch is installed.
+devices=(wgpu)
+if grep -qx cuda .gpu/features.txt 2>/dev/null || [ "${GPU_KIT_CUDA:-0}" = 1 ]; then
+  devices+=(cuda)
+fi
+for device in "${devices[@]}"; do
+  for preset in quick paper; do
+    suffix="$preset"; [ "$device" = wgpu ] || suffix="${preset}_$device"
+    stage "train_$suffix" "$glassbake" train "$work/dataset" --model glassnet --preset "$preset" --device "$device" --steps "$steps" --out "$work/$suffix"
+    cp "$work/$suffix/train_log.csv" "$out/train_log_$suffix.csv" 2>/dev/null
+  done
 done
+if python3 -c "import torch; assert torch.cuda.is_available()" 2>/dev/null; then
+  for model in glassnet naive; do
+    stage "torch_$model" python3 "$(dirname "$0")/../torch-compare/glassnet_step.py" --model "$model" --device cuda --steps "$steps"
+  done
+fi
+stage train_sr "$glassbake" train-sr "$work/dataset" --glassnet "$work/quick" --preset quick --device wgpu --steps "$steps" --out "$work/sr"
 
-{ nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv; nproc; date -u; } > "$out/machine.txt" 2>&1
+# 4. The real-time frame: zero-copy, through host memory, with the super-sampler; GPU memory
+#    sampled by nvidia-smi every 100 ms while each runs.
+bench() { # bench NAME PRESET EXTRA...
+  local name="$1" preset="$2"; shift 2
+  local sampler=""
+  if command -v nvidia-smi >/dev/null; then
+    nvidia-smi --query-compute-apps=pid,used_memory --format=csv,noheader,nounits -lms 100 > "$out/gpu_memory_$name.csv" 2>/dev/null &
+    sampler=$!
+  fi
+  stage "bench_$name" "$glassbake" bench "$work/$preset" --device wgpu --res "$bench_res" --objects "$objects" \
+    --frames "$bench_frames" --warmup "$warmup" --out "$out/bench_$name.json" "$@"
+  [ -n "$sampler" ] && kill "$sampler" 2>/dev/null
+}
+bench quick quick
+bench paper paper
+bench quick_host_copy quick --host-copy
+bench quick_sr quick --sr "$work/sr"
+if [[ " ${devices[*]} " == *" cuda "* ]]; then
+  bench() { # the CUDA backend: buffers reach it through host memory
+    local name="$1" preset="$2"; shift 2
+    stage "bench_$name" "$glassbake" bench "$work/$preset" --device cuda --res "$bench_res" --objects "$objects" \
+      --frames "$bench_frames" --warmup "$warmup" --out "$out/bench_$name.json" "$@"
+  }
+  bench quick_cuda quick_cuda
+fi
 
-# Throughput of both tracers on the built-in scenes (the CPU column uses this machine's cores).
-"$bin/gpu_trace_bench" --res "$res" --spp "$spp" 2>&1 | tee "$out/trace_bench.md"
-
-# A dataset on the GPU: frames per hour at the paper's resolution (made afresh each run).
-rm -rf /tmp/gb-dataset
-"$bin/glassbake" dataset cornellbox --device wgpu --out /tmp/gb-dataset --train 16 --val 0 --test 0 \
-  --res "$res" --spp "$spp" --cache-buffers 2>&1 | tee "$out/dataset.txt"
-"$bin/glassbake" trace cornellbox --sample 0 --device wgpu --res "$res" --spp "$spp" --out "$out/cornellbox_gpu.exr" 2>&1 | tee -a "$out/dataset.txt"
+python3 "$(dirname "$0")/tables.py" "$out" > "$out/tables.md" || failed+=(tables)
+cat "$out/tables.md"
+if [ "${#failed[@]}" -gt 0 ]; then
+  echo "failed stages: ${failed[*]} (their output is in $out/NAME.txt)" >&2
+  exit 1
+fi

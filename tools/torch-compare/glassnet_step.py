@@ -8,7 +8,7 @@ The layer list mirrors crates/net/src/{blocks,model,config}.rs (quick preset): a
 up-sampling, NeRF positional encoding with 4 frequencies, loss L1 + (1 - SSIM) (11x11 Gaussian,
 sigma 1.5), AdamW.
 
-    python3 tools/torch-compare/glassnet_step.py [--batch 4] [--crop 32] [--objects 4] [--model glassnet|naive]
+    python3 tools/torch-compare/glassnet_step.py [--batch 4] [--crop 32] [--objects 4] [--model glassnet|naive] [--device cpu|cuda]
 """
 import argparse
 import math
@@ -115,7 +115,7 @@ class GlassNet(nn.Module):
 
 
 def ssim(x, y, window=11, sigma=1.5):
-    g = torch.exp(-((torch.arange(window) - window // 2) ** 2) / (2 * sigma * sigma))
+    g = torch.exp(-((torch.arange(window, device=x.device) - window // 2) ** 2) / (2 * sigma * sigma))
     g = g / g.sum()
     c = x.shape[1]
     k = (g[:, None] * g[None, :]).expand(c, 1, window, window).contiguous()
@@ -135,16 +135,22 @@ def main():
     p.add_argument("--model", default="glassnet", choices=["glassnet", "naive"])
     p.add_argument("--steps", type=int, default=30)
     p.add_argument("--threads", type=int, default=torch.get_num_threads())
+    p.add_argument("--device", default="cpu", help="cpu, or cuda to time the step on an NVIDIA GPU")
     a = p.parse_args()
+    device = torch.device(a.device)
     torch.set_num_threads(a.threads)
     torch.manual_seed(0)
-    net = GlassNet(a.model, a.variables)
+    net = GlassNet(a.model, a.variables).to(device)
     opt = torch.optim.AdamW(net.parameters(), lr=2e-3, weight_decay=1e-4)
     n, s = a.batch, a.crop
-    gbuffer = torch.rand(n, OPAQUE, s, s)
-    transparent = [torch.rand(n, TRANSPARENT, s, s) for _ in range(a.objects)]
-    values = torch.rand(n, a.variables)
-    target = torch.rand(n, 3, s, s)
+    gbuffer = torch.rand(n, OPAQUE, s, s, device=device)
+    transparent = [torch.rand(n, TRANSPARENT, s, s, device=device) for _ in range(a.objects)]
+    values = torch.rand(n, a.variables, device=device)
+    target = torch.rand(n, 3, s, s, device=device)
+
+    def synchronize():
+        if device.type == "cuda":
+            torch.cuda.synchronize()
 
     def step():
         opt.zero_grad(set_to_none=True)
@@ -155,13 +161,16 @@ def main():
 
     for _ in range(3):
         step()
+    synchronize()
     t0 = time.perf_counter()
     for _ in range(a.steps):
         step()
+    synchronize()
     per_step = (time.perf_counter() - t0) / a.steps
     params = sum(p.numel() for p in net.parameters())
+    where = a.device if device.type != "cpu" else f"{a.threads} threads"
     print(f"pytorch {torch.__version__} {a.model}: {params} parameters, batch {n} x {s} px, {a.objects} objects, "
-          f"{a.threads} threads: {per_step * 1000:.1f} ms/step ({n * s * s / per_step:.0f} px/s)")
+          f"{where}: {per_step * 1000:.1f} ms/step ({n * s * s / per_step:.0f} px/s)")
 
 
 if __name__ == "__main__":

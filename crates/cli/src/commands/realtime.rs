@@ -34,7 +34,7 @@ pub struct PipelineArgs {
     /// The scene, when the model's training dataset is not at hand (must be the same scene).
     #[arg(long)]
     pub scene: Option<String>,
-    /// cpu (burn's flex backend) or wgpu (Vulkan) for the networks. With wgpu the rasterizer
+    /// cpu (burn's flex backend), wgpu (Vulkan) or cuda (a build with the `cuda` feature) for the networks. With wgpu the rasterizer
     /// and the networks share one device and buffers never leave the GPU.
     #[arg(long, default_value = "cpu")]
     pub device: String,
@@ -65,7 +65,7 @@ fn open(args: &PipelineArgs) -> Result<Opened> {
         Some(s) => (FramePipeline::with_rasterizer(scene.scene, glassnet, naive, sr, s.rasterizer, true)?, "wgpu, shared with the rasterizer (no host copies)"),
         None => (
             FramePipeline::new(scene.scene, glassnet, naive, sr, RasterizerOptions::default())?,
-            if choice == DeviceChoice::Wgpu { "wgpu, buffers through host memory" } else { "cpu" },
+            if choice == DeviceChoice::Wgpu { "wgpu, buffers through host memory" } else { choice.name() },
         ),
     };
     Ok(Opened { pipeline, dataset_seed: scene.dataset_seed, device: name.to_string() })

@@ -28,7 +28,7 @@ pub struct CommonTrainArgs {
     /// tiny (tests), quick (a CPU bake at 64-128 px) or paper (GPU, 256 px).
     #[arg(long, default_value = "quick")]
     pub preset: String,
-    /// cpu (burn's flex backend) or wgpu (Vulkan).
+    /// cpu (burn's flex backend), wgpu (Vulkan) or, in a build with the `cuda` feature, cuda.
     #[arg(long, default_value = "cpu")]
     pub device: String,
     /// Override the preset's number of optimizer steps.
