@@ -50,6 +50,29 @@ fn write_lpips_weights(file: &Path) {
     std::fs::write(file, bytes).unwrap();
 }
 
+/// What a trivial prediction scores against the clamped ground truth of the frames a bake
+/// evaluated, averaged over frames as eval averages PSNR: (a black frame, the best constant
+/// frame, each channel its own mean). A model or noise floor must beat both by a margin.
+fn trivial_psnrs(bake: &Path, metrics: &serde_json::Value) -> (f64, f64) {
+    let frames = metrics["frames"].as_array().unwrap();
+    let (mut black, mut constant) = (0.0, 0.0);
+    for frame in frames {
+        let index = frame["index"].as_u64().unwrap();
+        let truth = glassbake_core::PlanarImage::read_exr(&bake.join(format!("dataset/gt/{index:06}.exr"))).unwrap();
+        let (mut squares, mut variance, mut count) = (0.0f64, 0.0f64, 0usize);
+        for name in ["R", "G", "B"] {
+            let plane: Vec<f64> = truth.plane_by_name(name).unwrap().iter().map(|&v| v.clamp(0.0, 1.0) as f64).collect();
+            let mean = plane.iter().sum::<f64>() / plane.len() as f64;
+            squares += plane.iter().map(|v| v * v).sum::<f64>();
+            variance += plane.iter().map(|v| (v - mean).powi(2)).sum::<f64>();
+            count += plane.len();
+        }
+        black += 10.0 * (count as f64 / squares).log10();
+        constant += 10.0 * (count as f64 / variance).log10();
+    }
+    (black / frames.len() as f64, constant / frames.len() as f64)
+}
+
 #[test]
 fn bake_runs_every_stage_then_skips_them_and_eval_scores_with_lpips() {
     let dir = tempfile::tempdir().unwrap();
@@ -78,7 +101,16 @@ fn bake_runs_every_stage_then_skips_them_and_eval_scores_with_lpips() {
     // 4 spp, and its 4-spp copy is scored against it.
     let rows: Vec<&str> = metrics["models"].as_array().unwrap().iter().map(|m| m["model"].as_str().unwrap()).collect();
     assert_eq!(rows, ["glassnet", "naive", "gt-4spp"]);
-    assert!(metrics["models"][2]["psnr"].as_f64().unwrap() > 5.0 && metrics["models"][2]["seconds_per_frame"].is_null());
+    assert!(metrics["models"][2]["seconds_per_frame"].is_null());
+    let (black, constant) = trivial_psnrs(&out, &metrics);
+    let psnr = |row: usize| metrics["models"][row]["psnr"].as_f64().unwrap();
+    eprintln!("PSNR: black {black:.2}, best constant {constant:.2}, glassnet {:.2}, naive {:.2}, gt-4spp {:.2}", psnr(0), psnr(1), psnr(2));
+    // Measured here: black 17.3, best constant 19.1, GlassNet 23.2, naive 22.0, noise floor
+    // 27.3 dB. Even the tiny preset's networks learn the scene's structure, and a 4-spp
+    // trace is far closer than any constant.
+    for (row, margin) in [(0, 2.0), (1, 2.0), (2, 6.0)] {
+        assert!(psnr(row) > constant + margin, "{}: PSNR {:.2} not {margin} dB above the best constant frame's {constant:.2}", rows[row], psnr(row));
+    }
     assert!(stdout.contains("Noise floor (gt-4spp"), "{stdout}");
     let manifest: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("dataset/manifest.json")).unwrap()).unwrap();
     assert_eq!((manifest["spec"]["spp"].as_u64(), manifest["spec"]["test_spp"].as_u64()), (Some(4), Some(32)));
@@ -86,7 +118,6 @@ fn bake_runs_every_stage_then_skips_them_and_eval_scores_with_lpips() {
     assert_eq!(metrics["order_test"]["reversed_max_abs_diff"], 0.0);
     assert_eq!(metrics["order_test"]["shuffled_max_abs_diff"], 0.0);
     assert_eq!(metrics["frames"].as_array().unwrap().len(), 2);
-    assert!(metrics["models"][0]["psnr"].as_f64().unwrap() > 5.0);
 
     // Again: every stage is done already.
     let (code, stdout, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--out", path(&out)]);
@@ -195,9 +226,13 @@ fn baselines_pixelgen_and_path_tracing_plus_denoising() {
         let metrics: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("eval/metrics.json")).unwrap()).unwrap();
         let models: Vec<&str> = metrics["models"].as_array().unwrap().iter().map(|m| m["model"].as_str().unwrap()).collect();
         assert_eq!(models, ["glassnet", "naive", "pixelgen", "pt32", "pt32+oidn", "gt-4spp"]);
+        let (black, constant) = trivial_psnrs(&out, &metrics);
         for m in &metrics["models"].as_array().unwrap()[..5] {
             assert!(m["seconds_per_frame"].as_f64().unwrap() > 0.0, "{m}");
-            assert!(m["psnr"].as_f64().unwrap() > 5.0, "{m}");
+            // The networks beat a black frame; a 32-spp path trace, raw or denoised, is far
+            // closer than any constant frame.
+            let bound = if m["model"].as_str().unwrap().starts_with("pt") { constant + 6.0 } else { black };
+            assert!(m["psnr"].as_f64().unwrap() > bound, "{m}: PSNR not above {bound:.2}");
         }
         // Denoising takes the path tracer's time plus its own.
         let seconds = |i: usize| metrics["models"][i]["seconds_per_frame"].as_f64().unwrap();
