@@ -14,6 +14,10 @@ use serde::{Deserialize, Serialize};
 /// ground truth is good, and its cached buffers, which are not today's, are rasterized again.
 pub const FORMAT_VERSION: u32 = 3;
 
+/// The most frames one dataset holds: its manifest lists every frame's camera and values
+/// (about 200 bytes each), and is planned in memory before any frame is traced.
+pub const MAX_FRAMES: u64 = 1_000_000;
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Split {
@@ -178,8 +182,9 @@ pub struct DatasetSpec {
 }
 
 impl DatasetSpec {
+    /// Frames in all splits (saturating: `validate` refuses more than [`MAX_FRAMES`]).
     pub fn total(&self) -> u64 {
-        self.train + self.val + self.test
+        self.train.saturating_add(self.val).saturating_add(self.test)
     }
 
     /// Samples per pixel of the ground truth of a frame of `split`.
@@ -236,6 +241,13 @@ impl DatasetSpec {
         }
         if self.total() == 0 {
             return Err(Error::bad_input("dataset", "--train/--val/--test", "the dataset would have no frames"));
+        }
+        if self.total() > MAX_FRAMES {
+            return Err(Error::bad_input(
+                "dataset",
+                "--train/--val/--test",
+                format!("{} frames in all is more than {MAX_FRAMES}, the most one manifest lists (make several datasets)", self.total()),
+            ));
         }
         if self.device == TraceDevice::Wgpu && self.estimator != GroundTruthEstimator::Plain {
             return Err(Error::bad_input("dataset", "--estimator", format!("{} runs on the CPU only; with --device wgpu use plain", self.estimator.name())));
@@ -445,5 +457,30 @@ mod tests {
         let old: DatasetSpec = serde_json::from_value(json).unwrap();
         assert_eq!(old.estimator, GroundTruthEstimator::Plain);
         assert_eq!(old.estimator.integrator(), Integrator::Plain);
+    }
+
+    /// Frame counts that would wrap or could not be planned in memory are refused, naming the
+    /// flags, before anything is allocated.
+    #[test]
+    fn frame_counts_that_overflow_or_exceed_the_limit_are_refused() {
+        let spec = |train: u64, val: u64| DatasetSpec {
+            scene: "cornellbox".into(),
+            resolution: 8,
+            spp: 2,
+            test_spp: None,
+            test_glass_spp: None,
+            seed: 0,
+            train,
+            val,
+            test: 1,
+            cache_buffers: false,
+            device: TraceDevice::Cpu,
+            estimator: GroundTruthEstimator::Plain,
+        };
+        for (train, val) in [(u64::MAX, 0), (u64::MAX, 1), (MAX_FRAMES, 0), (100_000_000, 0)] {
+            let err = spec(train, val).validate().unwrap_err();
+            assert!(err.is_user_error() && err.to_string().contains("--train/--val/--test") && err.to_string().contains("1000000"), "{train}: {err}");
+        }
+        assert!(spec(MAX_FRAMES - 1, 0).validate().is_ok());
     }
 }

@@ -168,14 +168,39 @@ fn read_config(path: &Path) -> Result<ModelConfig> {
     }
 }
 
-/// Writes the weights as SafeTensors with PyTorch names, atomically.
-pub fn write_weights<M: Module + ModuleSnapshot>(model: &M, files: &ModelFiles) -> Result<()> {
+/// Writes the weights as SafeTensors with PyTorch names, atomically, recording the training
+/// `step` they are from (metadata `glassbake.step`, read back by [`weights_step`]).
+pub fn write_weights<M: Module + ModuleSnapshot>(model: &M, files: &ModelFiles, step: u64) -> Result<()> {
     let path = files.weights_path();
     let tmp = path.with_extension("safetensors.tmp");
     let config = serde_json::to_string(&files.config.network).expect("config serialises");
-    let mut store = SafetensorsStore::from_file(&tmp).with_to_adapter(BurnToPyTorchAdapter).metadata("glassbake.network", config).overwrite(true);
+    let mut store = SafetensorsStore::from_file(&tmp)
+        .with_to_adapter(BurnToPyTorchAdapter)
+        .metadata("glassbake.network", config)
+        .metadata(STEP_METADATA, step.to_string())
+        .overwrite(true);
     model.save_into(&mut store).map_err(|e| Error::Internal(format!("writing {}: {e}", tmp.display())))?;
     fs::rename(&tmp, &path).map_err(|e| Error::io(&path, e))
+}
+
+const STEP_METADATA: &str = "glassbake.step";
+
+/// The training step a weights file is from, as [`write_weights`] recorded it; None for a
+/// missing or unreadable file, or one written before the step was recorded. Reads only the
+/// SafeTensors header (an 8-byte little-endian length, then JSON).
+pub fn weights_step(path: &Path) -> Option<u64> {
+    use std::io::Read;
+    let mut file = fs::File::open(path).ok()?;
+    let mut length = [0u8; 8];
+    file.read_exact(&mut length).ok()?;
+    let length = u64::from_le_bytes(length);
+    if length > 100 << 20 {
+        return None;
+    }
+    let mut header = vec![0u8; length as usize];
+    file.read_exact(&mut header).ok()?;
+    let header: serde_json::Value = serde_json::from_slice(&header).ok()?;
+    header.get("__metadata__")?.get(STEP_METADATA)?.as_str()?.parse().ok()
 }
 
 /// Loads weights written by [`write_weights`] into `model` (built from the same config).

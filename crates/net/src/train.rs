@@ -123,6 +123,11 @@ where
         None
     };
     if state.step >= config.steps {
+        // Finished: the weights must be the checkpoint's (a run killed between the two
+        // writes by an older glassbake, or a weights file replaced since, is repaired here).
+        if model_dir::weights_step(&files.weights_path()) != Some(state.step) {
+            model_dir::write_weights(&model.valid(), files, state.step)?;
+        }
         return Ok(TrainSummary {
             steps: state.step,
             resumed_from,
@@ -196,8 +201,10 @@ where
                     saved.batch_in_epoch = 0;
                 }
                 saved.elapsed_seconds = elapsed_before + started.elapsed().as_secs_f64();
+                // The weights first: a checkpoint must never claim a step the weights file
+                // has not reached (a kill between the two then only repeats the last steps).
+                model_dir::write_weights(&model.valid(), files, state.step)?;
                 save_checkpoint(&model, &optimizer, &saved, &files.dir)?;
-                model_dir::write_weights(&model.valid(), files)?;
             }
             on_event(&TrainEvent { step: state.step, steps: config.steps, loss: loss_value, learning_rate, validation_loss, checkpointed });
         }

@@ -301,7 +301,7 @@ fn weights_round_trip_through_safetensors_with_pytorch_names() {
         },
     )
     .unwrap();
-    write_weights(&net, &files).unwrap();
+    write_weights(&net, &files, 0).unwrap();
     device.seed(2);
     let mut other = GlassNet::new(&config, 2, &device).unwrap();
     let batch = common::batch(&[common::frame(1, 16, 2, 2)]);

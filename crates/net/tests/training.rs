@@ -4,7 +4,7 @@
 mod common;
 
 use burn::prelude::*;
-use glassbake_net::model_dir::{DataSource, ModelConfig, ModelFiles, Network, FORMAT_VERSION};
+use glassbake_net::model_dir::{weights_step, DataSource, ModelConfig, ModelFiles, Network, FORMAT_VERSION};
 use glassbake_net::{burn, train, GlassNet, ModelKind, NetConfig, RunOptions, TrainConfig};
 
 fn files(dir: &std::path::Path, net: &NetConfig, train: &TrainConfig) -> ModelFiles {
@@ -171,4 +171,44 @@ fn validation_psnr_is_that_of_the_clamped_prediction_over_all_pixels() {
     let expected = 10.0 * (count as f64 / squared).log10();
     assert!((scores.psnr - expected).abs() < 1e-3, "{} vs {expected}", scores.psnr);
     assert!(scores.loss.is_finite() && scores.loss > 0.0);
+}
+
+/// A finished run whose weights file is not the final step's (a kill between writing the
+/// checkpoint and the weights, by a glassbake that wrote them in that order, or a file
+/// replaced since) is repaired when `train` runs again, instead of "nothing to do" leaving
+/// eval and render on stale weights for good.
+#[test]
+fn a_finished_run_repairs_weights_that_are_not_its_final_steps() {
+    let net = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 1).unwrap();
+    let config = TrainConfig { steps: 8, batch_size: 1, checkpoint_every: 4, validate_every: 4, ..TrainConfig::preset("tiny").unwrap() };
+    let data = || common::SyntheticData { frames: (0..3).map(|i| common::frame(i, 16, 1, 1)).collect(), batch_size: 1, seed: 0, poison_from_epoch: None };
+    let finished = tempfile::tempdir().unwrap();
+    let f = files(finished.path(), &net, &config);
+    let (m, d) = model(&net, 5);
+    train(m, &f, &config, &d, &mut data(), &RunOptions::default(), &mut |_| {}).unwrap();
+    assert_eq!(weights_step(&f.weights_path()), Some(8));
+    let final_weights = std::fs::read(f.weights_path()).unwrap();
+
+    // The stale state: the same run's weights from step 4, the checkpoint saying step 8.
+    let early = tempfile::tempdir().unwrap();
+    let f4 = files(early.path(), &net, &config);
+    let (m, d) = model(&net, 5);
+    train(m, &f4, &config, &d, &mut data(), &RunOptions { stop_after: Some(4) }, &mut |_| {}).unwrap();
+    assert_eq!(weights_step(&f4.weights_path()), Some(4));
+    std::fs::copy(f4.weights_path(), f.weights_path()).unwrap();
+
+    let (m, d) = model(&net, 99);
+    let summary = train(m, &f, &config, &d, &mut data(), &RunOptions::default(), &mut |_| {}).unwrap();
+    assert!(summary.already_done);
+    assert_eq!(weights_step(&f.weights_path()), Some(8), "the stale weights were left in place");
+    let (a, b) = (std::fs::read(f.weights_path()).unwrap(), final_weights);
+    let (a, b) = (safetensors::SafeTensors::deserialize(&a).unwrap(), safetensors::SafeTensors::deserialize(&b).unwrap());
+    for name in b.names() {
+        assert!(a.tensor(name).unwrap().data() == b.tensor(name).unwrap().data(), "{name}: not the final step's weights");
+    }
+    // Nothing to repair: a second run leaves the file alone.
+    let written = std::fs::metadata(f.weights_path()).unwrap().modified().unwrap();
+    let (m, d) = model(&net, 99);
+    train(m, &f, &config, &d, &mut data(), &RunOptions::default(), &mut |_| {}).unwrap();
+    assert_eq!(std::fs::metadata(f.weights_path()).unwrap().modified().unwrap(), written);
 }

@@ -126,6 +126,19 @@ fn dielectric_base_blend_xml(m: &Material, base: &str) -> String {
 
 /// Write `out` (XML) and, beside it, `meshes/*.ply` and `textures/*.png`. Resolution and
 /// samples per pixel are XML defaults (`-Dres=512 -Dspp=1024` on Mitsuba's command line).
+/// A user's name as the text of an XML comment: a comment may not hold "--" nor end in "-",
+/// so an object named "a --> <shape .../>" cannot close it early and inject elements.
+fn comment_text(name: &str) -> String {
+    let mut text: String = name.chars().map(|c| if c.is_control() { ' ' } else { c }).collect();
+    while text.contains("--") {
+        text = text.replace("--", "- -");
+    }
+    if text.ends_with('-') {
+        text.push(' ');
+    }
+    text
+}
+
 pub fn write_mitsuba(scene: &Scene, camera: &Camera, out: &Path) -> Result<()> {
     for m in &scene.materials {
         if m.base_color_texture.is_some() && m.base_color != glam::Vec3::ONE {
@@ -146,7 +159,7 @@ pub fn write_mitsuba(scene: &Scene, camera: &Camera, out: &Path) -> Result<()> {
         texture_files.push(rel);
     }
     let mut xml = String::new();
-    let _ = writeln!(xml, "<!-- glassbake scene {} exported for Mitsuba 3 -->", scene.name);
+    let _ = writeln!(xml, "<!-- glassbake scene {} exported for Mitsuba 3 -->", comment_text(&scene.name));
     let _ = writeln!(xml, "<scene version=\"3.0.0\">");
     let _ = writeln!(xml, "  <default name=\"spp\" value=\"256\"/>\n  <default name=\"res\" value=\"256\"/>\n  <default name=\"max_depth\" value=\"64\"/>");
     let _ = writeln!(xml, "  <integrator type=\"path\"><integer name=\"max_depth\" value=\"$max_depth\"/></integrator>");
@@ -178,7 +191,7 @@ pub fn write_mitsuba(scene: &Scene, camera: &Camera, out: &Path) -> Result<()> {
         let _ = writeln!(
             xml,
             "  <!-- {} -->\n  <shape type=\"ply\"><string name=\"filename\" value=\"{rel}\"/>{}{emitter}</shape>",
-            o.name,
+            comment_text(&o.name),
             bsdf_xml(m, &texture_files)
         );
     }
@@ -192,7 +205,7 @@ pub fn write_mitsuba(scene: &Scene, camera: &Camera, out: &Path) -> Result<()> {
             "  <!-- light {} -->\n  <shape type=\"rectangle\"><transform name=\"to_world\"><matrix value=\"{}\"/></transform>\
              <bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0, 0, 0\"/></bsdf>\
              <emitter type=\"area\"><rgb name=\"radiance\" value=\"{}\"/></emitter></shape>",
-            l.name,
+            comment_text(&l.name),
             matrix.join(" "),
             rgb(l.radiance)
         );

@@ -501,6 +501,35 @@ fn export_round_trips_every_builtin() {
 }
 
 #[test]
+fn mitsuba_export_keeps_hostile_names_inside_their_comments() {
+    let mut scene = builtin("cornell-glass").unwrap();
+    let hostile = "pane --> <shape type=\"evil\"/> <!-- -";
+    scene.objects[0].name = hostile.into();
+    scene.name = "scene--->".into();
+    scene.rect_lights[0].name = "light\n-->".into();
+    let sample = scene.sample(0, 0);
+    let instance = scene.instantiate(&sample.values).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("scene.xml");
+    glassbake_scene::mitsuba::write_mitsuba(&instance, &sample.camera, &out).unwrap();
+    let xml = std::fs::read_to_string(&out).unwrap();
+    // Remove the comments as an XML parser would (each ends at the first "-->"): nothing of
+    // the names may be left outside them.
+    let mut outside = String::new();
+    let mut rest = xml.as_str();
+    while let Some(start) = rest.find("<!--") {
+        outside.push_str(&rest[..start]);
+        let body = &rest[start + 4..];
+        let end = body.find("-->").expect("every comment is closed");
+        assert!(!body[..end].contains("--"), "a comment holds \"--\": {}", &body[..end]);
+        rest = &body[end + 3..];
+    }
+    outside.push_str(rest);
+    assert!(!outside.contains("evil") && !outside.contains("<!--"), "{outside}");
+    assert_eq!(outside.matches("<shape type=\"ply\"").count(), scene.objects.len());
+}
+
+#[test]
 fn mitsuba_export_writes_every_shape_and_the_camera() {
     let scene = builtin("cornell-glass").unwrap();
     let sample = scene.sample(0, 3);

@@ -84,6 +84,10 @@ const LEARNING_SHARE: u32 = 4;
 /// (about 4 per path, 28 bytes each) at large resolutions.
 const MAX_LEARNING_PATHS: u64 = 1 << 20;
 
+/// The largest image side the tracer accepts: its per-pixel sums (f64) of a 8192 x 8192 image
+/// already take about 4 GB, and a larger request should be refused before it is allocated.
+pub const MAX_SIDE: u32 = 8192;
+
 impl TraceSettings {
     pub const DEFAULT_MAX_DEPTH: u32 = 64;
     pub const DEFAULT_RR_DEPTH: u32 = 5;
@@ -112,6 +116,9 @@ impl TraceSettings {
         const SOURCE: &str = "trace settings";
         if self.width == 0 || self.height == 0 {
             return Err(Error::bad_input(SOURCE, "resolution", format!("{}x{} has no pixels", self.width, self.height)));
+        }
+        if self.width > MAX_SIDE || self.height > MAX_SIDE {
+            return Err(Error::bad_input(SOURCE, "resolution", format!("{}x{} is larger than {MAX_SIDE} px a side", self.width, self.height)));
         }
         if self.spp == 0 {
             return Err(Error::bad_input(SOURCE, "spp", "must be at least 1"));

@@ -859,7 +859,8 @@ fn bad_input_is_refused() {
     let scene = glassbake_scene::builtin::builtin("cornell-glass").unwrap();
     let camera = scene.camera.middle();
     let guided_adaptive = TraceSettings { integrator: Integrator::Guided, adaptive: true, ..TraceSettings::new(8, 8, 64, 0) };
-    for settings in [TraceSettings::new(0, 8, 4, 0), TraceSettings::new(8, 0, 4, 0), TraceSettings::new(8, 8, 0, 0), guided_adaptive] {
+    let huge = TraceSettings::new(100_000, 8, 4, 0);
+    for settings in [TraceSettings::new(0, 8, 4, 0), TraceSettings::new(8, 0, 4, 0), TraceSettings::new(8, 8, 0, 0), guided_adaptive, huge] {
         match render(&scene, &camera, &settings, None) {
             Err(e @ Error::BadInput { .. }) => assert!(e.is_user_error()),
             Err(e) => panic!("expected bad input, got {e}"),
