@@ -268,7 +268,17 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
     // Depth-first in file order, so objects (and thus transparency buffers) keep a stable order.
     let mut stack: Vec<(gltf::Node, Mat4)> = gltf_scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
     stack.reverse();
+    // glTF's node hierarchy is a forest: a node reached twice is a cycle (which would grow
+    // this stack without end) or a node with two parents; both are refused.
+    let mut visited = vec![false; document.nodes().len()];
     while let Some((node, parent)) = stack.pop() {
+        if std::mem::replace(&mut visited[node.index()], true) {
+            return Err(Error::bad_input(
+                &label,
+                format!("nodes[{}]", node.index()),
+                "is reached twice from the scene's root nodes: the node hierarchy has a cycle or a node with two parents (glTF requires a tree)",
+            ));
+        }
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         let children: Vec<_> = node.children().collect();
         for child in children.into_iter().rev() {

@@ -73,6 +73,28 @@ fn quad_gltf(buffer_uri: Option<&str>, volume: bool) -> serde_json::Value {
     })
 }
 
+/// A node hierarchy that is not a tree is refused, naming the node, before the traversal
+/// could loop: a node that is its own child (which once grew memory without end), a cycle
+/// through two nodes, and a node with two parents.
+#[test]
+fn gltf_node_cycles_and_shared_children_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    write_poster(dir.path());
+    write(&dir.path().join("quad.bin"), quad_buffer());
+    let cases: [(&str, serde_json::Value, &str); 3] = [
+        ("self", json!([{"name": "wall", "mesh": 0, "children": [0]}, {"name": "glass", "mesh": 1}]), "nodes[0]"),
+        ("cycle", json!([{"name": "wall", "mesh": 0, "children": [1]}, {"name": "glass", "mesh": 1, "children": [0]}]), "nodes[0]"),
+        ("shared", json!([{"name": "wall", "mesh": 0, "children": [1]}, {"name": "glass", "mesh": 1}]), "nodes[1]"),
+    ];
+    for (name, nodes, field) in cases {
+        let mut doc = quad_gltf(Some("quad.bin"), false);
+        doc["nodes"] = nodes;
+        let path = dir.path().join(format!("{name}.gltf"));
+        write(&path, serde_json::to_vec(&doc).unwrap());
+        expect_bad_input(load_scene(path.to_str().unwrap()), &format!("{name}.gltf"), field);
+    }
+}
+
 /// A 2x1 PNG: left texel sRGB 188 (linear ~0.5), right texel pure red.
 fn write_poster(dir: &Path) {
     let img = image::RgbaImage::from_raw(2, 1, vec![188, 188, 188, 255, 255, 0, 0, 255]).unwrap();
