@@ -293,6 +293,7 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
                 scene.load_warnings.push(format!("{field}: {:?} primitives are skipped (triangles only)", primitive.mode()));
                 continue;
             }
+            check_accessors(&primitive, &buffers, &label, &field)?;
             let reader = primitive.reader(|b| Some(&buffers[b.index()]));
             let positions: Vec<Vec3> =
                 reader.read_positions().ok_or_else(|| Error::bad_input(&label, format!("{field}.attributes.POSITION"), "missing"))?.map(Vec3::from).collect();
@@ -336,6 +337,55 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
         }
     }
     Ok(scene)
+}
+
+/// The accessors a primitive's triangles are read through, checked before gltf-rs reads them
+/// (it panics on some and silently drops others): POSITION is three floats per vertex,
+/// indices are unsigned scalars, and each accessor lies inside its buffer view and buffer.
+fn check_accessors(primitive: &gltf::Primitive, buffers: &[gltf::buffer::Data], label: &str, field: &str) -> Result<()> {
+    use gltf::accessor::{DataType, Dimensions};
+    let mut checked = Vec::new();
+    if let Some(position) = primitive.get(&gltf::Semantic::Positions) {
+        if position.data_type() != DataType::F32 || position.dimensions() != Dimensions::Vec3 {
+            return Err(Error::bad_input(
+                label,
+                format!("{field}.attributes.POSITION (accessors[{}])", position.index()),
+                format!("is {:?} {:?}; positions must be FLOAT VEC3", position.data_type(), position.dimensions()),
+            ));
+        }
+        checked.push(("attributes.POSITION", position));
+    }
+    if let Some(indices) = primitive.indices() {
+        if !matches!(indices.data_type(), DataType::U8 | DataType::U16 | DataType::U32) || indices.dimensions() != Dimensions::Scalar {
+            return Err(Error::bad_input(
+                label,
+                format!("{field}.indices (accessors[{}])", indices.index()),
+                format!("is {:?} {:?}; indices must be UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT SCALAR", indices.data_type(), indices.dimensions()),
+            ));
+        }
+        checked.push(("indices", indices));
+    }
+    for (name, accessor) in checked {
+        let Some(view) = accessor.view() else { continue };
+        let element = accessor.size();
+        let stride = view.stride().unwrap_or(element);
+        let needed = if accessor.count() == 0 { 0 } else { accessor.offset() + stride * (accessor.count() - 1) + element };
+        let buffer_length = buffers.get(view.buffer().index()).map_or(0, |b| b.len());
+        if needed > view.length() || view.offset() + view.length() > buffer_length {
+            return Err(Error::bad_input(
+                label,
+                format!("{field}.{name} (accessors[{}])", accessor.index()),
+                format!(
+                    "runs past its data: {} elements need {needed} bytes of bufferViews[{}] ({} bytes at offset {} of a {buffer_length}-byte buffer)",
+                    accessor.count(),
+                    view.index(),
+                    view.length(),
+                    view.offset()
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn load_image_texture(path: &Path, name: &str, is_color: bool, label: &str, field: &str) -> Result<Texture> {

@@ -95,6 +95,48 @@ fn gltf_node_cycles_and_shared_children_are_refused() {
     }
 }
 
+/// Accessors that gltf-rs would misread, drop or panic on are refused, naming the accessor:
+/// FLOAT indices, POSITION as UNSIGNED_BYTE or VEC2, indices running past their buffer view.
+#[test]
+fn gltf_accessors_of_the_wrong_type_or_out_of_bounds_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    write_poster(dir.path());
+    write(&dir.path().join("quad.bin"), quad_buffer());
+    let cases: [(&str, usize, serde_json::Value, &str); 4] = [
+        ("float-indices", 2, json!({"bufferView": 2, "componentType": 5126, "count": 3, "type": "SCALAR"}), "indices (accessors[2])"),
+        (
+            "byte-positions",
+            0,
+            json!({"bufferView": 0, "componentType": 5121, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}),
+            "POSITION (accessors[0])",
+        ),
+        (
+            "vec2-positions",
+            0,
+            json!({"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC2", "min": [0.0, 0.0], "max": [1.0, 1.0]}),
+            "POSITION (accessors[0])",
+        ),
+        ("long-indices", 2, json!({"bufferView": 2, "componentType": 5123, "count": 9, "type": "SCALAR"}), "indices (accessors[2])"),
+    ];
+    for (name, accessor, replacement, field) in cases {
+        let mut doc = quad_gltf(Some("quad.bin"), false);
+        doc["accessors"][accessor] = replacement;
+        let path = dir.path().join(format!("{name}.gltf"));
+        write(&path, serde_json::to_vec(&doc).unwrap());
+        // gltf-rs's own validation already refuses some (field "glTF", the attribute named in
+        // the message); the rest are this loader's checks, with the accessor in the field.
+        match load_scene(path.to_str().unwrap()) {
+            Err(Error::BadInput { file, field: f, message }) => {
+                assert!(file.contains(&format!("{name}.gltf")), "{name}: {file}");
+                let said = format!("{f}: {message}");
+                assert!(said.contains(field) || (f == "glTF" && said.contains(field.split(' ').next().unwrap())), "{name}: {said}");
+            }
+            Err(other) => panic!("{name}: expected bad input, got {other}"),
+            Ok(_) => panic!("{name} was accepted"),
+        }
+    }
+}
+
 /// A 2x1 PNG: left texel sRGB 188 (linear ~0.5), right texel pure red.
 fn write_poster(dir: &Path) {
     let img = image::RgbaImage::from_raw(2, 1, vec![188, 188, 188, 255, 255, 0, 0, 255]).unwrap();
