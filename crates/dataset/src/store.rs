@@ -161,14 +161,22 @@ impl DatasetStore {
         self.dir.join("preview").join(format!("{index:06}.png"))
     }
 
-    /// Temp files of writes a kill interrupted (`.NAME.tmpPID`).
+    /// Temp files of frame writes a kill interrupted: exactly the names the writer makes
+    /// (`.NNNNNN.exr.tmpPID`, `.NNNNNN.png.tmpPID`; `glassbake_core::image::write_atomically`),
+    /// regular files only, and never inside a frame folder that is a symbolic link (whose
+    /// target may be anything).
     fn remove_stale_temp_files(&self) -> Result<()> {
         for sub in FRAME_DIRS {
             let d = self.dir.join(sub);
+            let is_link = std::fs::symlink_metadata(&d).map_err(|e| Error::io(&d, e))?.file_type().is_symlink();
+            if is_link {
+                tracing::warn!("{} is a symbolic link: stale temp files there are left alone", d.display());
+                continue;
+            }
             for entry in std::fs::read_dir(&d).map_err(|e| Error::io(&d, e))? {
                 let entry = entry.map_err(|e| Error::io(&d, e))?;
-                let name = entry.file_name().to_string_lossy().to_string();
-                if name.starts_with('.') && name.contains(".tmp") {
+                let regular = entry.file_type().is_ok_and(|t| t.is_file());
+                if regular && is_frame_temp_name(&entry.file_name().to_string_lossy()) {
                     let _ = std::fs::remove_file(entry.path());
                 }
             }
@@ -272,6 +280,35 @@ impl DatasetStore {
             transparent_objects: m.scene.transparent_objects.len(),
             splits,
             disk_bytes: self.disk_bytes(),
+        }
+    }
+}
+
+/// Whether `name` is a temp name of a frame file as the atomic writer makes it:
+/// `.` + six digits + `.exr` or `.png` + `.tmp` + a process id.
+fn is_frame_temp_name(name: &str) -> bool {
+    let Some(rest) = name.strip_prefix('.') else { return false };
+    let Some((file, pid)) = rest.rsplit_once(".tmp") else { return false };
+    let Some((stem, extension)) = file.split_once('.') else { return false };
+    stem.len() == 6
+        && stem.bytes().all(|b| b.is_ascii_digit())
+        && matches!(extension, "exr" | "png")
+        && !pid.is_empty()
+        && pid.bytes().all(|b| b.is_ascii_digit())
+}
+
+#[cfg(test)]
+mod temp_name_tests {
+    use super::is_frame_temp_name;
+
+    #[test]
+    fn only_the_writers_own_temp_names_count_as_stale() {
+        for ours in [".000042.exr.tmp1234", ".000000.png.tmp7"] {
+            assert!(is_frame_temp_name(ours), "{ours}");
+        }
+        for theirs in [".my.tmp.notes", ".000042.exr.tmp", ".000042.exr.tmpx1", "000042.exr.tmp12", ".42.exr.tmp12", ".000042.txt.tmp12", ".tmp", ".000042.exr"]
+        {
+            assert!(!is_frame_temp_name(theirs), "{theirs}");
         }
     }
 }

@@ -73,6 +73,22 @@ fn resume_redoes_exactly_what_is_missing_or_corrupt() {
 
     let third = generate(&scene, &spec(1), &d, &GenerateOptions::default(), &no_progress).unwrap();
     assert_eq!((third.generated, third.skipped), (0, 8));
+
+    // Only the writer's own temp names are removed, and never through a symbolic link: a
+    // user's hidden file in a frame folder, and the temp-looking files of a folder that
+    // `preview` links to, survive a resume.
+    std::fs::write(d.join("gt/.notes.tmp"), b"mine").unwrap();
+    let elsewhere = dir.path().join("elsewhere");
+    std::fs::create_dir(&elsewhere).unwrap();
+    std::fs::write(elsewhere.join(".000001.png.tmp5"), b"not the dataset's").unwrap();
+    for entry in std::fs::read_dir(d.join("preview")).unwrap().flatten() {
+        std::fs::copy(entry.path(), elsewhere.join(entry.file_name())).unwrap();
+    }
+    std::fs::remove_dir_all(d.join("preview")).unwrap();
+    std::os::unix::fs::symlink(&elsewhere, d.join("preview")).unwrap();
+    generate(&scene, &spec(1), &d, &GenerateOptions::default(), &no_progress).unwrap();
+    assert_eq!(std::fs::read(d.join("gt/.notes.tmp")).unwrap(), b"mine");
+    assert_eq!(std::fs::read(elsewhere.join(".000001.png.tmp5")).unwrap(), b"not the dataset's");
 }
 
 #[test]
