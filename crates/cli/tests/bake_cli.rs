@@ -192,6 +192,11 @@ fn eval_refuses_a_model_of_another_scene() {
     let (code, _, err) = glassbake(&["eval", path(&out.join("glassnet")), path(&other), "--out", path(&dir.path().join("e"))]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("config.json") && err.contains("scene_hash"), "{err}");
+    // No frames is refused up front, not written as metrics nobody can read back.
+    let empty = dir.path().join("empty");
+    let (code, _, err) = glassbake(&["eval", path(&out.join("glassnet")), path(&out.join("dataset")), "--frames", "0", "--out", path(&empty)]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--frames") && !empty.join("metrics.json").exists(), "{err}");
 }
 
 #[test]

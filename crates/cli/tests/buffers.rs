@@ -42,6 +42,8 @@ fn bad_input_exits_with_code_2() {
         vec!["buffers", "cornell-glass", "--camera", "0,1,2", "--res", "8"],
         vec!["buffers", "cornell-glass", "--camera", "0,1,3,0,1,0", "--set", "nope=1", "--res", "8"],
         vec!["buffers", "no-such-scene", "--sample", "0", "--res", "8"],
+        // A bad preview name is refused before the EXR is written.
+        vec!["buffers", "cornell-glass", "--sample", "0", "--res", "8", "--png", "opaque.albedo,nosuch.layer"],
     ] {
         let output = glassbake().args(&args).arg("--out").arg(&out).output().unwrap();
         assert_eq!(output.status.code(), Some(2), "{args:?}: {}", String::from_utf8_lossy(&output.stderr));

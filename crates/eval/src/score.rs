@@ -120,6 +120,9 @@ pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn
     if options.path_traced_baseline == Some(0) {
         return Err(Error::bad_input("--path-traced-baseline", "spp", "must be at least 1"));
     }
+    if options.frames == Some(0) {
+        return Err(Error::bad_input("--frames", "frames", "must be at least 1 (a run of no frames has no metrics)"));
+    }
     let store = DatasetStore::open(dataset)?;
     let info = store.info();
     if let Some((_, planned, done)) = info.splits.iter().find(|s| s.0 == split) {

@@ -65,6 +65,10 @@ pub fn run(args: BuffersArgs) -> Result<()> {
     let mut rasterizer = Rasterizer::new(RasterizerOptions::default())?;
     let buffers = rasterizer.render(&instance, &camera, args.res, args.res)?;
     let image = buffers.combined()?;
+    // Every --png name is checked before anything is written.
+    for name in &args.png {
+        preview_channels(&image, name.trim())?;
+    }
     let precision = if args.half { ExrPrecision::F16 } else { ExrPrecision::F32 };
     image.write_exr(&args.out, precision)?;
     println!(
@@ -83,15 +87,24 @@ pub fn run(args: BuffersArgs) -> Result<()> {
     Ok(())
 }
 
-/// Write a PNG preview of one attribute: colours (albedo, L_d) with the clamp tone map and
-/// sRGB; directions mapped from [-1, 1]; positions, depths and other scalars stretched over
-/// their range in the image.
-fn preview(image: &PlanarImage, name: &str, out: &Path) -> Result<PathBuf> {
+/// The channels of the layer attribute `name` (e.g. `opaque.albedo`): 1 or 3 of them.
+fn preview_channels(image: &PlanarImage, name: &str) -> Result<Vec<usize>> {
     let prefix = format!("{name}.");
     let channels: Vec<usize> = (0..image.channels().len()).filter(|&c| image.channels()[c].starts_with(&prefix)).collect();
     if channels.is_empty() {
         return Err(Error::bad_input("--png", name, "no such layer attribute (e.g. opaque.albedo, transparent.0.coverage)").into());
     }
+    if !matches!(channels.len(), 1 | 3) {
+        return Err(Error::bad_input("--png", name, "expected an attribute with 1 or 3 channels").into());
+    }
+    Ok(channels)
+}
+
+/// Write a PNG preview of one attribute: colours (albedo, L_d) with the clamp tone map and
+/// sRGB; directions mapped from [-1, 1]; positions, depths and other scalars stretched over
+/// their range in the image.
+fn preview(image: &PlanarImage, name: &str, out: &Path) -> Result<PathBuf> {
+    let channels = preview_channels(image, name)?;
     let stem = out.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_else(|| "frame".into());
     let path = out.with_file_name(format!("{stem}.{name}.png"));
     let attribute = name.rsplit('.').next().unwrap_or(name);
