@@ -681,6 +681,21 @@ pub fn apply_manifest(scene: &mut Scene, manifest: &Manifest, file: &str) -> Res
     Ok(())
 }
 
+/// The largest radiance a light, an emissive material or the background may have: far above
+/// any scene the tone map can show, far below what overflows f32 once a path divides it by
+/// small densities (a light of 3e38 filled images with inf).
+pub const MAX_RADIANCE: f32 = 1e9;
+
+fn check_radiance(file: &str, field: String, radiance: Vec3) -> Result<()> {
+    if radiance.min_element() < 0.0 {
+        return Err(Error::bad_input(file, field, format!("{radiance} is negative: radiance is at least 0")));
+    }
+    if radiance.max_element() > MAX_RADIANCE {
+        return Err(Error::bad_input(file, field, format!("{radiance} is above {MAX_RADIANCE:e}, which would overflow the image")));
+    }
+    Ok(())
+}
+
 fn check_finite(file: &str, field: String, values: &[f32]) -> Result<()> {
     if values.iter().all(|v| v.is_finite()) {
         Ok(())
@@ -744,6 +759,13 @@ pub fn validate(scene: &Scene, file: &str) -> Result<()> {
         }
     }
     check_finite(file, "background".into(), &scene.background.to_array())?;
+    check_radiance(file, "background".into(), scene.background)?;
+    for m in &scene.materials {
+        check_radiance(file, format!("material {:?} emission", m.name), m.emission)?;
+    }
+    for l in &scene.rect_lights {
+        check_radiance(file, format!("light {:?} radiance", l.name), l.radiance)?;
+    }
     for v in &scene.variables {
         if let VariableTarget::Hue { saturation, brightness, .. } = v.target {
             check_finite(file, format!("variable {:?} saturation/brightness", v.name), &[saturation, brightness])?;

@@ -491,6 +491,15 @@ fn bad_inputs_name_the_file_and_field() {
             "geometry = \"quad.gltf\"\n[[variables]]\nname = \"l\"\nrange = [0.0, 1.0]\ntarget = { kind = \"light_intensity\", light = \"sun\" }\n",
             "target.light",
         ),
+        // Radiance that would overflow the image, or is negative.
+        (
+            "geometry = \"quad.gltf\"\n[[lights]]\nname = \"sun\"\ncorner = [0.0, 3.0, 0.0]\nedge_u = [1.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, 1.0]\nradiance = [3e38, 3e38, 3e38]\n",
+            "light \"sun\" radiance",
+        ),
+        (
+            "geometry = \"quad.gltf\"\n[[lights]]\nname = \"sun\"\ncorner = [0.0, 3.0, 0.0]\nedge_u = [1.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, 1.0]\nradiance = [1.0, -1.0, 1.0]\n",
+            "light \"sun\" radiance",
+        ),
     ];
     for (text, field) in cases {
         write(&manifest, text);
