@@ -143,10 +143,12 @@ fn make_frame(
         // An independent trace at the training spp: its error against the high-spp ground
         // truth is the noise floor of what the models learned from.
         let copy = trace(spec.spp, spec.spp, purpose_seed(sample.seed, "training-spp copy of a test frame"))?;
+        refuse_non_finite(&copy.image, &scene.name, sample.index)?;
         copy.image.write_exr(&store.train_spp_gt_path(sample.index), ExrPrecision::F32)?;
         discarded += copy.discarded_samples;
     }
     let traced = trace(spec.spp_of(sample.split), spec.glass_spp_of(sample.split), sample_trace_seed(sample.seed))?;
+    refuse_non_finite(&traced.image, &scene.name, sample.index)?;
     traced.image.write_png_rgb(&store.preview_path(sample.index), [0, 1, 2])?;
     // Ground truth last: it is what marks a frame as started-and-finished for humans too.
     traced.image.write_exr(&store.gt_path(sample.index), ExrPrecision::F32)?;
@@ -265,5 +267,36 @@ mod tests {
         for frame in 0..50 {
             assert_eq!((0..4).filter(|&i| ShardSpec { index: i, count: 4 }.contains(frame)).count(), 1);
         }
+    }
+}
+
+/// A traced frame with NaN or infinite values is not stored: training and evaluation would
+/// read it as ground truth, and every later run would trace it again identically.
+fn refuse_non_finite(image: &glassbake_core::PlanarImage, scene: &str, index: u64) -> Result<()> {
+    let bad = image.data().iter().filter(|v| !v.is_finite()).count();
+    if bad > 0 {
+        return Err(Error::bad_input(
+            scene,
+            format!("frame {index:06}"),
+            format!("the path tracer produced {bad} non-finite pixel values (radiance too large for f32?); the frame was not stored"),
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod non_finite_tests {
+    use super::refuse_non_finite;
+    use glassbake_core::PlanarImage;
+
+    #[test]
+    fn frames_with_non_finite_values_are_refused_naming_scene_frame_and_count() {
+        let mut image = PlanarImage::new(2, 2, vec!["R".into(), "G".into(), "B".into()]);
+        assert!(refuse_non_finite(&image, "scene", 3).is_ok());
+        image.set(0, 1, 0, f32::INFINITY);
+        image.set(2, 0, 1, f32::NAN);
+        let err = refuse_non_finite(&image, "bright", 3).unwrap_err();
+        let text = err.to_string();
+        assert!(err.is_user_error() && text.contains("bright") && text.contains("frame 000003") && text.contains("2 non-finite"), "{text}");
     }
 }

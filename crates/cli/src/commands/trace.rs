@@ -196,6 +196,12 @@ pub fn run(args: TraceArgs) -> Result<()> {
     for w in &output.warnings {
         eprintln!("warning: {w}");
     }
+    // Samples are discarded one by one; a pixel can still overflow when finite samples sum
+    // past f32 (radiance too large for the scene's scale). Say so rather than write it quietly.
+    let non_finite = output.image.data().iter().filter(|v| !v.is_finite()).count();
+    if non_finite > 0 {
+        eprintln!("warning: {non_finite} pixel values are NaN or infinite (radiance too large for f32?)");
+    }
 
     if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
