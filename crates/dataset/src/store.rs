@@ -22,20 +22,12 @@ pub struct DatasetStore {
 pub const TRAIN_SPP_GT_DIR: &str = "gt-train-spp";
 const FRAME_DIRS: [&str; 4] = ["gt", TRAIN_SPP_GT_DIR, "buffers", "preview"];
 
-pub const LOCK_FILE: &str = ".glassbake-writer.lock";
+pub use glassbake_core::lock::LOCK_FILE;
 
 /// An exclusive lock on `dir/.glassbake-writer.lock`, released when the process ends (even by
 /// a kill), so two runs never write into one dataset at once.
 fn lock_for_writing(dir: &Path) -> Result<std::fs::File> {
-    let path = dir.join(LOCK_FILE);
-    let file = std::fs::OpenOptions::new().create(true).truncate(false).write(true).open(&path).map_err(|e| Error::io(&path, e))?;
-    match file.try_lock() {
-        Ok(()) => Ok(file),
-        Err(std::fs::TryLockError::WouldBlock) => {
-            Err(Error::bad_input(dir.display(), "--out", "another glassbake process is writing into this dataset; wait for it or choose another --out"))
-        }
-        Err(std::fs::TryLockError::Error(e)) => Err(Error::io(&path, e)),
-    }
+    glassbake_core::lock::lock_dir_for_writing(dir, "--out", "dataset")
 }
 
 /// Whether a frame's files are all present and readable.

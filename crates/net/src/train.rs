@@ -106,6 +106,9 @@ where
     M: Trainable,
 {
     config.check("train config")?;
+    // One run at a time in a model directory: two would interleave train_log.csv and
+    // overwrite each other's checkpoints.
+    let _writer_lock = glassbake_core::lock::lock_dir_for_writing(&files.dir, "--out", "model directory")?;
     let batches_per_epoch = data.batches_per_epoch();
     if batches_per_epoch == 0 {
         return Err(Error::bad_input(files.dir.display(), "dataset", "the training split has no frames"));

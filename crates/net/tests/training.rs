@@ -212,3 +212,32 @@ fn a_finished_run_repairs_weights_that_are_not_its_final_steps() {
     train(m, &f, &config, &d, &mut data(), &RunOptions::default(), &mut |_| {}).unwrap();
     assert_eq!(std::fs::metadata(f.weights_path()).unwrap().modified().unwrap(), written);
 }
+
+/// Two runs never train into one model directory at once: the second is refused while the
+/// first holds the directory (as a concurrent process would), and a run on another
+/// dataset's samples (another sample seed) is refused as a different run.
+#[test]
+fn a_model_directory_has_one_writer_and_one_dataset() {
+    let net = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 1).unwrap();
+    let config = TrainConfig { steps: 2, batch_size: 1, checkpoint_every: 2, validate_every: 2, ..TrainConfig::preset("tiny").unwrap() };
+    let data = || common::SyntheticData { frames: (0..2).map(|i| common::frame(i, 16, 1, 1)).collect(), batch_size: 1, seed: 0, poison_from_epoch: None };
+    let dir = tempfile::tempdir().unwrap();
+    let f = files(dir.path(), &net, &config);
+    let held = glassbake_core::lock::lock_dir_for_writing(dir.path(), "--out", "model directory").unwrap();
+    let (m, d) = model(&net, 5);
+    let err = train(m, &f, &config, &d, &mut data(), &RunOptions::default(), &mut |_| {}).unwrap_err();
+    assert!(err.is_user_error() && err.to_string().contains("another glassbake process"), "{err}");
+    assert!(!dir.path().join("train_log.csv").exists(), "the refused run wrote its log");
+    drop(held);
+    let (m, d) = model(&net, 5);
+    train(m, &f, &config, &d, &mut data(), &RunOptions::default(), &mut |_| {}).unwrap();
+
+    let mut other = f.config.clone();
+    other.data.sample_seed = Some(7);
+    let mut recorded = f.config.clone();
+    recorded.data.sample_seed = Some(1);
+    let seeded = tempfile::tempdir().unwrap();
+    ModelFiles::prepare(seeded.path(), recorded).unwrap();
+    let err = ModelFiles::prepare(seeded.path(), other).unwrap_err();
+    assert!(err.is_user_error() && err.to_string().contains("data"), "{err}");
+}
