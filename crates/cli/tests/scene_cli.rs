@@ -64,3 +64,25 @@ fn mitsuba_writes_xml_and_meshes() {
     assert!(dir.path().join("meshes/000.ply").exists());
     assert!(dir.path().join("textures/texture0.png").exists());
 }
+
+/// A scene that reaches outside its folder is refused (exit 2) unless the user says it is
+/// trusted with GLASSBAKE_ALLOW_OUTSIDE_FILES=1.
+#[test]
+fn files_outside_the_scene_folder_need_an_explicit_allowance() {
+    let dir = tempfile::tempdir().unwrap();
+    let inner = dir.path().join("scene");
+    std::fs::create_dir(&inner).unwrap();
+    image::RgbImage::from_pixel(2, 2, image::Rgb([200, 100, 50])).save(dir.path().join("wood.png")).unwrap();
+    std::fs::write(inner.join("scene.mtl"), "newmtl wood\nKd 1 1 1\nmap_Kd ../wood.png\n").unwrap();
+    let obj = inner.join("scene.obj");
+    std::fs::write(&obj, "mtllib scene.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl wood\nf 1/1 2/2 3/3\n").unwrap();
+    let (code, _, err) = glassbake(&["scene", "validate", obj.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("map_Kd") && err.contains("GLASSBAKE_ALLOW_OUTSIDE_FILES"), "{err}");
+    let out = Command::new(env!("CARGO_BIN_EXE_glassbake"))
+        .args(["scene", "validate", obj.to_str().unwrap()])
+        .env("GLASSBAKE_ALLOW_OUTSIDE_FILES", "1")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+}

@@ -44,6 +44,53 @@ pub fn load_scene(arg: &str) -> Result<Scene> {
     Ok(scene)
 }
 
+/// Set to 1 to let scene files reference files outside their own folder.
+pub const ALLOW_OUTSIDE_ENV: &str = "GLASSBAKE_ALLOW_OUTSIDE_FILES";
+
+/// A file a scene file references (a manifest's geometry, a glTF buffer or image, an OBJ
+/// material library or texture) must lie in the scene file's folder or below it: no absolute
+/// path, no `..`, no URI scheme but `data:`. A scene from elsewhere can then not make
+/// glassbake read, and copy into datasets and reports, any file the user can read.
+/// `GLASSBAKE_ALLOW_OUTSIDE_FILES=1` lifts the rule for scenes that are trusted.
+fn check_reference(file: &str, field: &str, reference: &str) -> Result<()> {
+    if reference.starts_with("data:") || std::env::var(ALLOW_OUTSIDE_ENV).is_ok_and(|v| v == "1") {
+        return Ok(());
+    }
+    // URIs may percent-encode the separators and dots.
+    let decoded = percent_decode(reference);
+    let has_scheme = decoded.split_once(':').is_some_and(|(scheme, _)| {
+        scheme.len() > 1 && scheme.chars().all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c)) && scheme.starts_with(|c: char| c.is_ascii_alphabetic())
+    });
+    let outside = decoded.starts_with('/') || decoded.starts_with('\\') || has_scheme || decoded.split(['/', '\\']).any(|part| part == "..");
+    if outside {
+        return Err(Error::bad_input(
+            file,
+            field,
+            format!("{reference:?} is outside the scene's folder; reference files beside the scene file or below it (or set {ALLOW_OUTSIDE_ENV}=1 for a trusted scene)"),
+        ));
+    }
+    Ok(())
+}
+
+fn percent_decode(text: &str) -> String {
+    let bytes = text.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        let hex = |b: u8| (b as char).to_digit(16);
+        if bytes[i] == b'%' && i + 2 < bytes.len() {
+            if let (Some(h), Some(l)) = (hex(bytes[i + 1]), hex(bytes[i + 2])) {
+                out.push((h * 16 + l) as u8);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(bytes[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
 fn require_file(path: &Path) -> Result<()> {
     if !path.is_file() {
         return Err(Error::bad_input(path.display(), "file", "no such file"));
@@ -247,6 +294,16 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
     root.extensions_required.clear();
     let document = gltf::Document::from_json(root).map_err(gltf_error)?;
     let base = path.parent();
+    for buffer in document.buffers() {
+        if let gltf::buffer::Source::Uri(uri) = buffer.source() {
+            check_reference(&label, &format!("buffers[{}].uri", buffer.index()), uri)?;
+        }
+    }
+    for image in document.images() {
+        if let gltf::image::Source::Uri { uri, .. } = image.source() {
+            check_reference(&label, &format!("images[{}].uri", image.index()), uri)?;
+        }
+    }
     let buffers = gltf::import_buffers(&document, base, blob).map_err(gltf_error)?;
     let images = gltf::import_images(&document, base, &buffers).map_err(gltf_error)?;
     let mut scene = empty_scene(path);
@@ -414,6 +471,15 @@ fn parse_floats3(s: &str) -> Option<Vec3> {
 /// roughness from the Phong exponent `Ns` (alpha = sqrt(2 / (Ns + 2))).
 pub fn load_obj(path: &Path) -> Result<Scene> {
     let label = path.display().to_string();
+    // tobj opens the material libraries itself: check their names first.
+    let text = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    for (number, line) in String::from_utf8_lossy(&text).lines().enumerate() {
+        if let Some(libraries) = line.trim_start().strip_prefix("mtllib") {
+            for library in libraries.split_whitespace() {
+                check_reference(&label, &format!("line {} mtllib", number + 1), library)?;
+            }
+        }
+    }
     let options = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
     let (models, materials) = tobj::load_obj(path, &options).map_err(|e| Error::bad_input(&label, "OBJ", e.to_string()))?;
     let mut scene = empty_scene(path);
@@ -436,6 +502,7 @@ pub fn load_obj(path: &Path) -> Result<Scene> {
         let alpha = (2.0 / (ns + 2.0)).sqrt();
         let base_color_texture = match &m.diffuse_texture {
             Some(tex) => {
+                check_reference(&label, &format!("{field}.map_Kd"), tex)?;
                 let texture = load_image_texture(&dir.join(tex), tex, true, &label, &format!("{field}.map_Kd"))?;
                 scene.textures.push(Arc::new(texture));
                 Some(scene.textures.len() - 1)
@@ -534,6 +601,7 @@ pub fn load_manifest(path: &Path) -> Result<Scene> {
     require_file(path)?;
     let text = std::fs::read_to_string(path).map_err(|e| Error::bad_input(&file, "file", e.to_string()))?;
     let manifest = parse_manifest(&text).map_err(|(field, message)| Error::bad_input(&file, field, message))?;
+    check_reference(&file, "geometry", &manifest.geometry)?;
     let geometry: PathBuf = path.parent().unwrap_or(Path::new(".")).join(&manifest.geometry);
     if !geometry.is_file() {
         return Err(Error::bad_input(&file, "geometry", format!("no such file: {}", geometry.display())));

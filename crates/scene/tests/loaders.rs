@@ -137,6 +137,40 @@ fn gltf_accessors_of_the_wrong_type_or_out_of_bounds_are_refused() {
     }
 }
 
+/// Scene files may not make glassbake read files outside their folder: absolute paths,
+/// `..` (also percent-encoded), `file:` URIs, in glTF buffers and images, a manifest's
+/// geometry and an OBJ's material library and textures. Each is refused naming the field.
+#[test]
+fn references_outside_the_scene_folder_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let inner = dir.path().join("scene");
+    std::fs::create_dir(&inner).unwrap();
+    write_poster(dir.path());
+    write(&dir.path().join("quad.bin"), quad_buffer());
+    write_poster(&inner);
+    for (name, buffer, image, field) in [
+        ("up", "../quad.bin", "poster.png", "buffers[0].uri"),
+        ("encoded", "..%2Fquad.bin", "poster.png", "buffers[0].uri"),
+        ("absolute", &*dir.path().join("quad.bin").to_string_lossy().into_owned(), "poster.png", "buffers[0].uri"),
+        ("file-uri", "quad.bin", "file:///etc/passwd", "images[0].uri"),
+    ] {
+        let mut doc = quad_gltf(Some(buffer), false);
+        doc["images"][0]["uri"] = json!(image);
+        let path = inner.join(format!("{name}.gltf"));
+        write(&path, serde_json::to_vec(&doc).unwrap());
+        expect_bad_input(load_scene(path.to_str().unwrap()), &format!("{name}.gltf"), field);
+    }
+    let manifest = inner.join("m.toml");
+    write(&manifest, "geometry = \"../elsewhere.gltf\"\n");
+    expect_bad_input(load_scene(manifest.to_str().unwrap()), "m.toml", "geometry");
+    let obj = inner.join("scene.obj");
+    write(&obj, "mtllib ../../etc/passwd\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    expect_bad_input(load_scene(obj.to_str().unwrap()), "scene.obj", "mtllib");
+    write(&inner.join("tex.mtl"), "newmtl wood\nKd 1 1 1\nmap_Kd ../poster.png\n");
+    write(&obj, "mtllib tex.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl wood\nf 1 2 3\n");
+    expect_bad_input(load_scene(obj.to_str().unwrap()), "scene.obj", "map_Kd");
+}
+
 /// A 2x1 PNG: left texel sRGB 188 (linear ~0.5), right texel pure red.
 fn write_poster(dir: &Path) {
     let img = image::RgbaImage::from_raw(2, 1, vec![188, 188, 188, 255, 255, 0, 0, 255]).unwrap();
