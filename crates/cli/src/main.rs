@@ -99,8 +99,23 @@ fn main() {
     };
     if let Err(e) = result {
         eprintln!("error: {}", one_line(&e));
-        let user_error = e.downcast_ref::<glassbake_core::Error>().is_some_and(|e| e.is_user_error());
-        std::process::exit(if user_error { 2 } else { 1 });
+        std::process::exit(exit_code(&e));
+    }
+}
+
+/// The one exit-code table (docs/cli.md): 2 when the user's input is at fault (bad input, a
+/// missing or malformed file), 1 for a runtime fault (a full disk, a denied permission, a bug).
+fn exit_code(e: &anyhow::Error) -> i32 {
+    let users = e.chain().find_map(|cause| {
+        cause
+            .downcast_ref::<glassbake_core::Error>()
+            .map(|g| g.is_user_error())
+            .or_else(|| cause.downcast_ref::<std::io::Error>().map(glassbake_core::error::io_error_is_the_users))
+    });
+    if users.unwrap_or(false) {
+        2
+    } else {
+        1
     }
 }
 

@@ -29,8 +29,38 @@ impl Error {
         Error::Io { path: path.to_path_buf(), source }
     }
 
-    /// True for errors caused by the user's input (exit code 2 in the CLI).
+    /// True for errors caused by the user's input (exit code 2 in the CLI): bad input, and
+    /// I/O errors that say a named file is missing or not what it should be. A full disk, a
+    /// denied permission or any other failure of the machine is a runtime fault (exit 1).
     pub fn is_user_error(&self) -> bool {
-        matches!(self, Error::BadInput { .. } | Error::Io { .. })
+        match self {
+            Error::BadInput { .. } => true,
+            Error::Io { source, .. } => io_error_is_the_users(source),
+            Error::Internal(_) => false,
+        }
+    }
+}
+
+/// The exit-code rule for an I/O error wherever it comes from (see [`Error::is_user_error`]).
+pub fn io_error_is_the_users(error: &std::io::Error) -> bool {
+    use std::io::ErrorKind::*;
+    matches!(error.kind(), NotFound | InvalidInput | InvalidData | AlreadyExists | IsADirectory | NotADirectory | InvalidFilename)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::{Error as IoError, ErrorKind};
+
+    #[test]
+    fn exit_codes_follow_one_table() {
+        let io = |kind: ErrorKind| Error::io(Path::new("f"), IoError::new(kind, "x"));
+        assert!(Error::bad_input("f", "field", "wrong").is_user_error());
+        assert!(io(ErrorKind::NotFound).is_user_error());
+        assert!(io(ErrorKind::InvalidData).is_user_error());
+        for fault in [ErrorKind::StorageFull, ErrorKind::PermissionDenied, ErrorKind::Interrupted, ErrorKind::Other] {
+            assert!(!io(fault).is_user_error(), "{fault:?}");
+        }
+        assert!(!Error::Internal("bug".into()).is_user_error());
     }
 }
