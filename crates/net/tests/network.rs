@@ -4,7 +4,7 @@ mod common;
 
 use burn::prelude::*;
 use burn::tensor::TensorData;
-use glassbake_net::model_dir::{read_weights, write_weights, DataSource, ModelConfig, ModelFiles, Network, FORMAT_VERSION};
+use glassbake_net::model_dir::{read_weights, write_weights, ModelConfig, ModelFiles, Network, FORMAT_VERSION};
 use glassbake_net::sum::{snap_to_grid, TERM_BOUND};
 use glassbake_net::{burn, GlassNet, ModelKind, NetConfig, NetInputs, TrainConfig};
 use rand::seq::SliceRandom;
@@ -290,14 +290,7 @@ fn weights_round_trip_through_safetensors_with_pytorch_names() {
             format_version: FORMAT_VERSION,
             network: Network::Glassnet(config.clone()),
             train: TrainConfig::preset("tiny").unwrap(),
-            data: DataSource {
-                dataset: "synthetic".into(),
-                scene: "none".into(),
-                scene_hash: "0".into(),
-                resolution: 16,
-                scene_argument: None,
-                sample_seed: None,
-            },
+            data: common::synthetic_source(),
         },
     )
     .unwrap();
@@ -340,14 +333,7 @@ fn a_model_of_the_previous_format_opens_only_if_it_reads_no_transparency_buffers
             format_version: version,
             network: Network::Glassnet(NetConfig::preset("tiny", kind, 1, 2).unwrap()),
             train: TrainConfig::preset("tiny").unwrap(),
-            data: DataSource {
-                dataset: "synthetic".into(),
-                scene: "none".into(),
-                scene_hash: "0".into(),
-                resolution: 16,
-                scene_argument: None,
-                sample_seed: None,
-            },
+            data: common::synthetic_source(),
         };
         std::fs::write(dir.path().join("config.json"), serde_json::to_vec(&config).unwrap()).unwrap();
         std::fs::write(dir.path().join(config.network.weights_file()), b"").unwrap();
@@ -416,7 +402,7 @@ fn a_format_4_model_opens_with_the_direct_rgb_renderer_it_was_trained_with() {
         format_version: 4,
         network: Network::Glassnet(NetConfig { demodulated: true, ..NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap() }),
         train: TrainConfig::preset("tiny").unwrap(),
-        data: DataSource { dataset: "synthetic".into(), scene: "none".into(), scene_hash: "0".into(), resolution: 16, scene_argument: None, sample_seed: None },
+        data: common::synthetic_source(),
     };
     let mut json: serde_json::Value = serde_json::to_value(&config).unwrap();
     let network = json["network"].as_object_mut().unwrap();

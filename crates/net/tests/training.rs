@@ -4,25 +4,13 @@
 mod common;
 
 use burn::prelude::*;
-use glassbake_net::model_dir::{weights_step, DataSource, ModelConfig, ModelFiles, Network, FORMAT_VERSION};
+use glassbake_net::model_dir::{weights_step, ModelConfig, ModelFiles, Network, FORMAT_VERSION};
 use glassbake_net::{burn, train, GlassNet, ModelKind, NetConfig, RunOptions, TrainConfig};
 
 fn files(dir: &std::path::Path, net: &NetConfig, train: &TrainConfig) -> ModelFiles {
     ModelFiles::prepare(
         dir,
-        ModelConfig {
-            format_version: FORMAT_VERSION,
-            network: Network::Glassnet(net.clone()),
-            train: train.clone(),
-            data: DataSource {
-                dataset: "synthetic".into(),
-                scene: "none".into(),
-                scene_hash: "0".into(),
-                resolution: 16,
-                scene_argument: None,
-                sample_seed: None,
-            },
-        },
+        ModelConfig { format_version: FORMAT_VERSION, network: Network::Glassnet(net.clone()), train: train.clone(), data: common::synthetic_source() },
     )
     .unwrap()
 }
@@ -131,19 +119,7 @@ fn a_directory_holding_a_different_run_is_refused() {
     let other = TrainConfig { learning_rate: 0.5, ..config };
     let err = ModelFiles::prepare(
         dir.path(),
-        ModelConfig {
-            format_version: FORMAT_VERSION,
-            network: Network::Glassnet(net),
-            train: other,
-            data: DataSource {
-                dataset: "synthetic".into(),
-                scene: "none".into(),
-                scene_hash: "0".into(),
-                resolution: 16,
-                scene_argument: None,
-                sample_seed: None,
-            },
-        },
+        ModelConfig { format_version: FORMAT_VERSION, network: Network::Glassnet(net), train: other, data: common::synthetic_source() },
     )
     .unwrap_err();
     assert!(err.to_string().contains("config.json") && err.to_string().contains("train"), "{err}");

@@ -98,3 +98,15 @@ impl TrainingData for SyntheticData {
         Ok(vec![batch(&self.frames[..1])])
     }
 }
+
+/// The data source recorded for models trained on synthetic frames.
+pub fn synthetic_source() -> glassbake_net::DataSource {
+    glassbake_net::DataSource {
+        dataset: "synthetic".into(),
+        scene: "none".into(),
+        scene_hash: "0".into(),
+        resolution: 16,
+        scene_argument: None,
+        sample_seed: None,
+    }
+}
