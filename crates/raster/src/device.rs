@@ -80,7 +80,14 @@ fn usable(adapter: &wgpu::Adapter) -> bool {
         && format.allowed_usages.contains(wgpu::TextureUsages::RENDER_ATTACHMENT)
 }
 
-/// Open a device on the chosen Vulkan adapter, with the adapter's own limits.
+/// The adapter features a device shared with burn asks for: all of them except mappable primary
+/// buffers (slow device-local mapping) and wgpu's experimental features, which a device may only
+/// request with an unsafe opt-in (NVIDIA drivers offer mesh shaders, cooperative matrices and
+/// ray-tracing pipelines; asking for them fails the whole request).
+fn shareable_features(adapter_features: wgpu::Features) -> wgpu::Features {
+    adapter_features - wgpu::Features::MAPPABLE_PRIMARY_BUFFERS - wgpu::Features::all_experimental_mask()
+}
+
 /// Opens the Vulkan device the options choose: (instance, adapter, device, queue).
 pub fn open(options: &RasterizerOptions) -> Result<(wgpu::Instance, wgpu::Adapter, wgpu::Device, wgpu::Queue)> {
     let instance = wgpu::Instance::new(wgpu::InstanceDescriptor { backends: wgpu::Backends::VULKAN, ..wgpu::InstanceDescriptor::new_without_display_handle() });
@@ -105,7 +112,7 @@ pub fn open(options: &RasterizerOptions) -> Result<(wgpu::Instance, wgpu::Adapte
     let adapter = candidates.into_iter().next().ok_or_else(|| Error::Internal(format!("{NO_ADAPTER_HELP} (Vulkan adapters found: {})", names.join(", "))))?;
     let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
         label: Some("glassbake-raster"),
-        required_features: if options.all_adapter_features { adapter.features() - wgpu::Features::MAPPABLE_PRIMARY_BUFFERS } else { wgpu::Features::empty() },
+        required_features: if options.all_adapter_features { shareable_features(adapter.features()) } else { wgpu::Features::empty() },
         required_limits: adapter.limits(),
         ..Default::default()
     }))
@@ -116,6 +123,14 @@ pub fn open(options: &RasterizerOptions) -> Result<(wgpu::Instance, wgpu::Adapte
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_shared_device_never_asks_for_experimental_features() {
+        let asked = shareable_features(wgpu::Features::all());
+        assert!(!asked.intersects(wgpu::Features::all_experimental_mask()), "{asked:?}");
+        assert!(!asked.contains(wgpu::Features::MAPPABLE_PRIMARY_BUFFERS));
+        assert!(asked.contains(wgpu::Features::SHADER_F16 | wgpu::Features::SUBGROUP | wgpu::Features::TIMESTAMP_QUERY));
+    }
 
     #[test]
     fn preference_ranks_gpus_before_the_cpu() {
