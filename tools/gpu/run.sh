@@ -9,13 +9,19 @@
 # On the GPU machine, from the folder holding tools/gpu, .gpu and .gl:
 #   bash tools/gpu/run.sh            # the full run (about 20-30 minutes on an H100)
 #   bash tools/gpu/run.sh --smoke    # every stage at toy sizes (a minute or two; checks the kit)
+#   bash tools/gpu/run.sh --short    # every stage at reduced sizes, about 8 minutes on an H200
+# GPU_KIT_MODELS=DIR takes ready-made cornellbox models from DIR/quick, DIR/paper and DIR/sr
+# (trained anywhere: frame times depend on a network's size, not on how well it learned) and
+# runs the real-time benches first; without it they are trained here after the dataset stage.
+# GPU_KIT_STAGE_TIMEOUT=S stops any one stage after S seconds (default 900).
 # GLASSBAKE_BIN_DIR=DIR takes the binaries from DIR instead of .gpu/*.xz (a build machine's
 # target/release, say; GPU_KIT_CUDA=1 when that glassbake was built with the `cuda` feature);
 # without .gl/ the system's Vulkan loader is used.
 set -uo pipefail
 
-smoke=0
+smoke=0 short=0
 [ "${1:-}" = "--smoke" ] && smoke=1
+[ "${1:-}" = "--short" ] && short=1
 out="${OUT:-gpu-out}"
 mkdir -p "$out"
 out="$(cd "$out" && pwd)"
@@ -24,9 +30,11 @@ rm -rf "$work"
 mkdir -p "$work"
 
 if [ "$smoke" = 1 ]; then
-  trace_res=32 trace_spp=16 data_res=32 data_spp=4 frames=4 steps=3 bench_res=32,64 objects=1,2 bench_frames=2 warmup=1
+  trace_res=32 trace_spp=16 data_res=32 data_spp=4 frames=4 steps_few=1 steps=3 paper_steps_few=1 paper_steps=2 bench_res=32,64 objects=1,2 bench_frames=2 warmup=1
+elif [ "$short" = 1 ]; then
+  trace_res=256 trace_spp=128 data_res=256 data_spp=128 frames=8 steps_few=50 steps=250 paper_steps_few=5 paper_steps=25 bench_res=256,512 objects=1,2,4,8 bench_frames=30 warmup=5
 else
-  trace_res=256 trace_spp=1024 data_res=256 data_spp=256 frames=32 steps=300 bench_res=256,512 objects=1,2,4,8 bench_frames=50 warmup=5
+  trace_res=256 trace_spp=1024 data_res=256 data_spp=256 frames=32 steps_few=100 steps=600 paper_steps_few=20 paper_steps=120 bench_res=256,512 objects=1,2,4,8 bench_frames=50 warmup=5
 fi
 
 # The Vulkan loader packed by pack.sh (the NVIDIA driver's ICD is on the GPU machine).
@@ -55,7 +63,7 @@ stage() { # stage NAME COMMAND...: runs a command, its output into $out/NAME.txt
   echo "== $name: $*" | tee "$out/$name.txt"
   local start end
   start=$(date +%s.%N)
-  "$@" >> "$out/$name.txt" 2>&1
+  timeout "${GPU_KIT_STAGE_TIMEOUT:-900}" "$@" >> "$out/$name.txt" 2>&1
   local code=$?
   end=$(date +%s.%N)
   echo "== exit $code, $(python3 -c "print(round($end - $start, 2))") s" >> "$out/$name.txt"
@@ -69,30 +77,58 @@ stage() { # stage NAME COMMAND...: runs a command, its output into $out/NAME.txt
   grep -m1 "model name" /proc/cpuinfo || true
   echo "date: $(date -u +%Y-%m-%dT%H:%M:%SZ)"
   "$glassbake" --version 2>/dev/null || true
-  echo "smoke: $smoke"
+  echo "smoke: $smoke, short: $short"
 } > "$out/machine.txt"
 
-# 1. Both tracers' samples per second on the built-in scenes (the CPU on all of this machine's cores).
-if [ -x "$bin/gpu_trace_bench" ]; then
-  stage trace_bench "$bin/gpu_trace_bench" --res "$trace_res" --spp "$trace_spp"
-fi
-
-# 2. A dataset path-traced on the GPU (frames per hour), one validation frame so that the
-#    training runs below spend their time on steps.
-stage dataset "$glassbake" dataset cornellbox --device wgpu --out "$work/dataset" --train "$frames" --val 1 --test 2 \
-  --res "$data_res" --spp "$data_spp" --test-spp "$data_spp" --cache-buffers
-
-# 3. Training steps per second, the `quick` and `paper` networks (train_log.csv: elapsed_s per
-#    step), on wgpu and, where the binary was built with the `cuda` feature, on burn's CUDA
-#    backend; the same `quick` step in PyTorch on the same GPU where PyTorch is installed.
+# The real-time frame, the paper's Table 4: zero-copy, through host memory, the `paper` widths,
+# with the super-sampler; GPU memory sampled by nvidia-smi every 100 ms while each runs.
+models="${GPU_KIT_MODELS:-}"
+[ -z "$models" ] || models="$(cd "$models" && pwd)"
+bench() { # bench NAME MODEL_DIR DEVICE EXTRA...
+  local name="$1" model="$2" device="$3"; shift 3
+  local sampler="" scene=()
+  [ -z "$models" ] || scene=(--scene cornellbox)
+  if command -v nvidia-smi >/dev/null; then
+    nvidia-smi --query-compute-apps=pid,used_memory --format=csv,noheader,nounits -lms 100 > "$out/gpu_memory_$name.csv" 2>/dev/null &
+    sampler=$!
+  fi
+  stage "bench_$name" "$glassbake" bench "$model" "${scene[@]}" --device "$device" --res "$bench_res" --objects "$objects" \
+    --frames "$bench_frames" --warmup "$warmup" --out "$out/bench_$name.json" "$@"
+  [ -n "$sampler" ] && kill "$sampler" 2>/dev/null
+}
 devices=(wgpu)
 if grep -qx cuda .gpu/features.txt 2>/dev/null || [ "${GPU_KIT_CUDA:-0}" = 1 ]; then
   devices+=(cuda)
 fi
+benches() { # benches DIR: DIR/quick, DIR/paper and DIR/sr hold the models
+  local dir="$1"
+  bench quick "$dir/quick" wgpu
+  bench quick_host_copy "$dir/quick" wgpu --host-copy
+  bench paper "$dir/paper" wgpu
+  bench quick_sr "$dir/quick" wgpu --sr "$dir/sr"
+  # The CUDA backend: buffers reach it through host memory.
+  [[ " ${devices[*]} " != *" cuda "* ]] || bench quick_cuda "$dir/quick" cuda
+}
+[ -z "$models" ] || benches "$models"
+
+# A dataset path-traced on the GPU (frames per hour), one validation frame so that the
+# training runs below spend their time on steps.
+stage dataset "$glassbake" dataset cornellbox --device wgpu --out "$work/dataset" --train "$frames" --val 1 --test 2 \
+  --res "$data_res" --spp "$data_spp" --test-spp "$data_spp" --cache-buffers
+
+# Training steps per second, the `quick` and `paper` networks (train_log.csv: elapsed_s per
+# step), on wgpu and, where the binary was built with the `cuda` feature, on burn's CUDA
+# backend; the same `quick` step in PyTorch on the same GPU where PyTorch is installed.
+# Each network trains twice, for a few steps and for more: the difference of the two runs' times
+# is the steady-state step, start-up (shader compilation, autotuning) and the final validation
+# cancelling out.
 for device in "${devices[@]}"; do
   for preset in quick paper; do
     suffix="$preset"; [ "$device" = wgpu ] || suffix="${preset}_$device"
-    stage "train_$suffix" "$glassbake" train "$work/dataset" --model glassnet --preset "$preset" --device "$device" --steps "$steps" --out "$work/$suffix"
+    if [ "$preset" = paper ]; then few=$paper_steps_few many=$paper_steps; else few=$steps_few many=$steps; fi
+    stage "train_${suffix}_few" "$glassbake" train "$work/dataset" --model glassnet --preset "$preset" --device "$device" --steps "$few" --out "$work/${suffix}_few"
+    cp "$work/${suffix}_few/train_log.csv" "$out/train_log_${suffix}_few.csv" 2>/dev/null
+    stage "train_$suffix" "$glassbake" train "$work/dataset" --model glassnet --preset "$preset" --device "$device" --steps "$many" --out "$work/$suffix"
     cp "$work/$suffix/train_log.csv" "$out/train_log_$suffix.csv" 2>/dev/null
   done
 done
@@ -102,31 +138,11 @@ if python3 -c "import torch; assert torch.cuda.is_available()" 2>/dev/null; then
   done
 fi
 stage train_sr "$glassbake" train-sr "$work/dataset" --glassnet "$work/quick" --preset quick --device wgpu --steps "$steps" --out "$work/sr"
+[ -n "$models" ] || benches "$work"
 
-# 4. The real-time frame: zero-copy, through host memory, with the super-sampler; GPU memory
-#    sampled by nvidia-smi every 100 ms while each runs.
-bench() { # bench NAME PRESET EXTRA...
-  local name="$1" preset="$2"; shift 2
-  local sampler=""
-  if command -v nvidia-smi >/dev/null; then
-    nvidia-smi --query-compute-apps=pid,used_memory --format=csv,noheader,nounits -lms 100 > "$out/gpu_memory_$name.csv" 2>/dev/null &
-    sampler=$!
-  fi
-  stage "bench_$name" "$glassbake" bench "$work/$preset" --device wgpu --res "$bench_res" --objects "$objects" \
-    --frames "$bench_frames" --warmup "$warmup" --out "$out/bench_$name.json" "$@"
-  [ -n "$sampler" ] && kill "$sampler" 2>/dev/null
-}
-bench quick quick
-bench paper paper
-bench quick_host_copy quick --host-copy
-bench quick_sr quick --sr "$work/sr"
-if [[ " ${devices[*]} " == *" cuda "* ]]; then
-  bench() { # the CUDA backend: buffers reach it through host memory
-    local name="$1" preset="$2"; shift 2
-    stage "bench_$name" "$glassbake" bench "$work/$preset" --device cuda --res "$bench_res" --objects "$objects" \
-      --frames "$bench_frames" --warmup "$warmup" --out "$out/bench_$name.json" "$@"
-  }
-  bench quick_cuda quick_cuda
+# Both tracers' samples per second on the built-in scenes (the CPU on all of this machine's cores).
+if [ -x "$bin/gpu_trace_bench" ]; then
+  stage trace_bench "$bin/gpu_trace_bench" --res "$trace_res" --spp "$trace_spp"
 fi
 
 python3 "$(dirname "$0")/tables.py" "$out" > "$out/tables.md" || failed+=(tables)

@@ -88,6 +88,14 @@ def bench_table(out, name, title):
     return "\n".join(lines) + "\n"
 
 
+def last_log_row(path):
+    """(step, elapsed seconds) of the last row of a train_log.csv; None when there is none."""
+    rows = list(csv.DictReader(read_text(path).splitlines()))
+    if not rows:
+        return None
+    return int(rows[-1]["step"]), float(rows[-1]["elapsed_s"])
+
+
 def training_table(out):
     lines = [
         "### Training steps per second",
@@ -100,31 +108,24 @@ def training_table(out):
     ]
     for preset in ["quick", "paper"]:
         for device, suffix in [("wgpu", preset), ("cuda", f"{preset}_cuda")]:
-            path = out / f"train_log_{suffix}.csv"
-            if not path.is_file():
-                if device == "wgpu":
-                    lines.append(f"| {preset} | {device} | - | - | not measured (see train_{suffix}.txt) | - |")
+            few, many = last_log_row(out / f"train_log_{suffix}_few.csv"), last_log_row(out / f"train_log_{suffix}.csv")
+            if few is None or many is None or many[0] <= few[0]:
+                if device == "wgpu" or (out / f"train_{suffix}.txt").is_file():
+                    lines.append(f"| {preset} | burn {device} | - | - | not measured (see train_{suffix}_few.txt, train_{suffix}.txt) | - |")
                 continue
-            rows = list(csv.DictReader(read_text(path).splitlines()))
-            if len(rows) >= 2:
-                first, last = rows[0], rows[-1]
-                steps = int(last["step"]) - int(first["step"])
-                seconds = float(last["elapsed_s"]) - float(first["elapsed_s"])
-                label = f"{first['step']}-{last['step']}"
-            elif len(rows) == 1:
-                steps, seconds, label = int(rows[0]["step"]), float(rows[0]["elapsed_s"]), f"0-{rows[0]['step']} (start-up included)"
-            else:
-                lines.append(f"| {preset} | {device} | - | - | not measured (see train_{suffix}.txt) | - |")
-                continue
+            steps, seconds = many[0] - few[0], many[1] - few[1]
             rate = steps / seconds if seconds > 0 else float("nan")
-            lines.append(f"| {preset} | burn {device} | {label} | {seconds:.1f} | {rate:.2f} | {1000 / rate:.1f} |")
+            lines.append(f"| {preset} | burn {device} | {few[0]} -> {many[0]} | {seconds:.1f} | {rate:.2f} | {1000 / rate:.1f} |")
     for model in ["glassnet", "naive"]:
         match = re.search(r"([0-9.]+) ms/step", read_text(out / f"torch_{model}.txt"))
         if match:
             ms = float(match.group(1))
             lines.append(f"| quick ({model}) | PyTorch cuda | - | - | {1000 / ms:.2f} | {ms:.1f} |")
     lines.append("")
-    lines.append("burn rows: between the first and the last row of train_log.csv (validation on one frame included).")
+    lines.append(
+        "burn rows: two runs of the same network, for the first and the second step count; the difference of their times over the"
+        " difference of their steps (start-up and the final validation cancel). PyTorch: after three untimed steps."
+    )
     return "\n".join(lines) + "\n"
 
 

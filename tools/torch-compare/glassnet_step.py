@@ -6,7 +6,7 @@ random and the data synthetic, as in `cargo run --release -p glassbake-net --exa
 The layer list mirrors crates/net/src/{blocks,model,config}.rs (quick preset): a 1x1 stem then
 3x3 convolutions with leaky ReLU (0.1), stride-2 3x3 down-sampling, 2x2 stride-2 transposed
 up-sampling, NeRF positional encoding with 4 frequencies, loss L1 + (1 - SSIM) (11x11 Gaussian,
-sigma 1.5), AdamW.
+sigma 1.5), AdamW. Like glassbake's training loop, each step reads its loss back to the host.
 
     python3 tools/torch-compare/glassnet_step.py [--batch 4] [--crop 32] [--objects 4] [--model glassnet|naive] [--device cpu|cuda]
 """
@@ -158,6 +158,8 @@ def main():
         loss = (out - target).abs().mean() + (1 - ssim(out, target))
         loss.backward()
         opt.step()
+        # glassbake reads every step's loss (its NaN guard and log), which waits for the device.
+        return loss.item()
 
     for _ in range(3):
         step()
