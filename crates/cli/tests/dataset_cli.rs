@@ -1,5 +1,5 @@
 //! `glassbake dataset` killed mid-run and run again completes the set exactly as an
-//! uninterrupted run would.
+//! uninterrupted run would; a frame rotted on disk is named and made again.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -71,6 +71,26 @@ fn killed_and_rerun_equals_uninterrupted() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(String::from_utf8_lossy(&out.stdout).contains("already complete"));
     assert_eq!(snapshot(&resumed), snapshot(&reference));
+
+    // Bit rot in a training frame: `dataset info` and `train` name the frame and exit 2; the
+    // dataset command makes it again.
+    let frame = reference.join("gt/000004.exr");
+    let mut bytes = std::fs::read(&frame).unwrap();
+    let middle = bytes.len() / 2;
+    bytes[middle] ^= 0x01;
+    std::fs::write(&frame, &bytes).unwrap();
+    let data = reference.to_str().unwrap();
+    let (code, out, err) = glassbake(&["dataset", "info", data]);
+    assert_eq!(code, 2, "{err}");
+    assert!(out.contains("damaged frame 4: ") && err.contains("frame 4: ") && err.contains("SHA-256"), "{out}\n{err}");
+    let model = dir.path().join("model");
+    let (code, _, err) = glassbake(&["train", data, "--preset", "tiny", "--steps", "1", "--out", model.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("frame 4: ") && err.contains("000004.exr"), "{err}");
+    let out = Command::new(bin).args(dataset_args(&reference)).output().unwrap();
+    assert!(String::from_utf8_lossy(&out.stdout).contains("1 frame(s) made"), "{}", String::from_utf8_lossy(&out.stdout));
+    assert_eq!(snapshot(&resumed), snapshot(&reference));
+    assert_eq!(glassbake(&["dataset", "info", data]).0, 0);
 }
 
 fn glassbake(args: &[&str]) -> (i32, String, String) {

@@ -129,6 +129,13 @@ impl PlanarImage {
 
     /// Write all channels to an EXR file, atomically (temp file + rename).
     pub fn write_exr(&self, path: &Path, precision: ExrPrecision) -> Result<()> {
+        let bytes = self.exr_bytes(precision).map_err(|e| CoreError::Internal(format!("{}: {e}", path.display())))?;
+        write_bytes_atomically(path, &bytes)
+    }
+
+    /// The bytes of the EXR file [`PlanarImage::write_exr`] writes: all channels, ZIP16,
+    /// scan lines in increasing order, so that equal pixels give equal bytes.
+    pub fn exr_bytes(&self, precision: ExrPrecision) -> Result<Vec<u8>> {
         use exr::prelude::*;
         let channels: Vec<AnyChannel<FlatSamples>> = self
             .channels
@@ -153,24 +160,30 @@ impl PlanarImage {
             AnyChannels::sort(channels.into()),
         );
         let image = Image::from_layer(layer);
-        write_atomically(path, |tmp| image.write().to_file(tmp).map_err(|e| CoreError::Internal(format!("{}: writing EXR: {e}", path.display()))))
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        image.write().to_buffered(&mut bytes).map_err(|e| CoreError::Internal(format!("encoding EXR: {e}")))?;
+        Ok(bytes.into_inner())
     }
 
     /// Read every channel of the first layer of an EXR file (channel order as stored, which
     /// EXR sorts by name; use [`PlanarImage::select`] to get a layout's order).
     pub fn read_exr(path: &Path) -> Result<Self> {
+        let bytes = std::fs::read(path).map_err(|e| CoreError::io(path, e))?;
+        PlanarImage::read_exr_bytes(&bytes, &path.display())
+    }
+
+    /// [`PlanarImage::read_exr`] of a file's bytes already in memory; `source` names the file
+    /// in errors.
+    pub fn read_exr_bytes(bytes: &[u8], source: &impl std::fmt::Display) -> Result<Self> {
         use exr::prelude::*;
-        if !path.exists() {
-            return Err(CoreError::io(path, std::io::Error::from(std::io::ErrorKind::NotFound)));
-        }
         let image = read()
             .no_deep_data()
             .largest_resolution_level()
             .all_channels()
             .first_valid_layer()
             .all_attributes()
-            .from_file(path)
-            .map_err(|e| CoreError::bad_input(path.display(), "EXR", e.to_string()))?;
+            .from_buffered(std::io::Cursor::new(bytes))
+            .map_err(|e| CoreError::bad_input(source, "EXR", e.to_string()))?;
         let size = image.layer_data.size;
         let mut channels = Vec::new();
         let mut data = Vec::with_capacity(size.area() * image.layer_data.channel_data.list.len());

@@ -317,6 +317,12 @@ pub struct DatasetManifest {
     pub buffer_precision: String,
     pub channel_layout: ChannelLayout,
     pub samples: Vec<SampleRecord>,
+    /// SHA-256 of this manifest as glassbake wrote it, serialised without this field
+    /// (`store::manifest_bytes`): a manifest edited by hand, or rotted, no longer matches, and
+    /// is refused rather than trusted (its frames were made for the manifest as written).
+    /// Absent in manifests from before the field.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub content_sha256: Option<String>,
 }
 
 impl DatasetManifest {
@@ -358,6 +364,7 @@ impl DatasetManifest {
                 ground_truth: layout::GROUND_TRUTH_CHANNELS.iter().map(|s| s.to_string()).collect(),
             },
             samples,
+            content_sha256: None,
         }
     }
 

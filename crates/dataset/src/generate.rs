@@ -15,7 +15,7 @@ use glassbake_trace::{sample_trace_seed, TraceSettings};
 use glassbake_trace_gpu::GpuTracer;
 
 use crate::format::{DatasetManifest, DatasetSpec, SampleRecord, TraceDevice};
-use crate::store::{DatasetStore, FrameStatus};
+use crate::store::{write_frame, DatasetStore, FrameStatus};
 
 /// Which frames this machine makes: those whose index mod `count` is `index`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -102,7 +102,7 @@ fn frame_work(spec: &DatasetSpec, sample: &SampleRecord) -> u64 {
 fn store_buffers(store: &DatasetStore, rasterizer: &mut Rasterizer, instance: &Scene, sample: &SampleRecord) -> Result<()> {
     let res = store.manifest.spec.resolution;
     let buffers = rasterizer.render(instance, &sample.camera, res, res)?.combined()?;
-    buffers.write_exr(&store.buffers_path(sample.index), ExrPrecision::F16)
+    write_frame(&store.buffers_path(sample.index), &buffers, ExrPrecision::F16)
 }
 
 fn make_frame(
@@ -144,14 +144,14 @@ fn make_frame(
         // truth is the noise floor of what the models learned from.
         let copy = trace(spec.spp, spec.spp, purpose_seed(sample.seed, "training-spp copy of a test frame"))?;
         refuse_non_finite(&copy.image, &scene.name, sample.index)?;
-        copy.image.write_exr(&store.train_spp_gt_path(sample.index), ExrPrecision::F32)?;
+        write_frame(&store.train_spp_gt_path(sample.index), &copy.image, ExrPrecision::F32)?;
         discarded += copy.discarded_samples;
     }
     let traced = trace(spec.spp_of(sample.split), spec.glass_spp_of(sample.split), sample_trace_seed(sample.seed))?;
     refuse_non_finite(&traced.image, &scene.name, sample.index)?;
     traced.image.write_png_rgb(&store.preview_path(sample.index), [0, 1, 2])?;
     // Ground truth last: it is what marks a frame as started-and-finished for humans too.
-    traced.image.write_exr(&store.gt_path(sample.index), ExrPrecision::F32)?;
+    write_frame(&store.gt_path(sample.index), &traced.image, ExrPrecision::F32)?;
     Ok(discarded + traced.discarded_samples)
 }
 

@@ -6,7 +6,7 @@ use std::path::Path;
 use glassbake_core::image::write_bytes_atomically;
 use glassbake_core::{Error, Result};
 
-use crate::store::{read_manifest, DatasetStore, FrameStatus};
+use crate::store::{checksum_path, read_manifest, DatasetStore, FrameStatus};
 
 /// Merge `shards` into `out`. All shards must hold the same dataset; every frame must be
 /// complete in at least one of them. Nothing is written unless the merge can complete.
@@ -37,9 +37,18 @@ pub fn merge(out: &Path, shards: &[&Path]) -> Result<u64> {
         ));
     }
     let target = DatasetStore::create_or_resume(out, &manifest)?;
-    let copy = |from: &Path, to: &Path| -> Result<()> {
+    let copy_bytes = |from: &Path, to: &Path| -> Result<()> {
         let bytes = std::fs::read(from).map_err(|e| Error::io(from, e))?;
         write_bytes_atomically(to, &bytes)
+    };
+    // A frame file with its checksum, the checksum first (as the writer does); a shard from
+    // before checksums has none to copy.
+    let copy = |from: &Path, to: &Path| -> Result<()> {
+        let sums = checksum_path(from);
+        if sums.is_file() {
+            copy_bytes(&sums, &checksum_path(to))?;
+        }
+        copy_bytes(from, to)
     };
     let mut copied = 0;
     for (index, store) in sources {
@@ -54,7 +63,7 @@ pub fn merge(out: &Path, shards: &[&Path]) -> Result<u64> {
         }
         let preview = store.preview_path(index);
         if preview.exists() {
-            copy(&preview, &target.preview_path(index))?;
+            copy_bytes(&preview, &target.preview_path(index))?;
         }
         copy(&store.gt_path(index), &target.gt_path(index))?;
         copied += 1;

@@ -1,11 +1,19 @@
 //! The dataset directory: paths, opening/creating with the same-dataset check, per-frame
-//! completeness checks (missing, truncated or corrupt files are redone), and `dataset info`.
+//! completeness checks (missing, truncated or corrupt files are redone), frame checksums, and
+//! `dataset info`.
+//!
+//! Every frame file `NNNNNN.exr` has a `NNNNNN.exr.sha256` beside it (the `sha256sum` format),
+//! written before the frame itself: a frame on disk always has its checksum, and a frame whose
+//! bytes no longer match it (bit rot, an edit) is reported by name and made again on resume.
+//! Frames of datasets written before checksums were recorded have none and are checked by
+//! decoding alone.
 
 use std::path::{Path, PathBuf};
 
-use glassbake_core::image::write_bytes_atomically;
+use glassbake_core::image::{write_bytes_atomically, ExrPrecision};
 use glassbake_core::layout;
 use glassbake_core::{Error, PlanarImage, Result};
+use sha2::{Digest, Sha256};
 
 use crate::format::{DatasetManifest, GroundTruthEstimator, Split, TraceDevice, FORMAT_VERSION};
 
@@ -62,11 +70,61 @@ pub struct DatasetInfo {
     pub transparent_objects: usize,
     /// (split, frames planned, frames complete)
     pub splits: Vec<(Split, usize, usize)>,
+    /// Every frame present on disk but unusable, with why: "frame 7: gt/000007.exr: ...".
+    pub damaged: Vec<String>,
+    /// Frames written before checksums were recorded (checked by decoding alone).
+    pub without_checksum: usize,
     pub disk_bytes: u64,
 }
 
+impl DatasetInfo {
+    /// "; damaged: frame 3: ..., frame 9: ..." naming the first few damaged frames, or "".
+    pub fn damaged_summary(&self) -> String {
+        if self.damaged.is_empty() {
+            return String::new();
+        }
+        let more = if self.damaged.len() > 3 { format!(" and {} more", self.damaged.len() - 3) } else { String::new() };
+        format!("; damaged: {}{more}", self.damaged.iter().take(3).cloned().collect::<Vec<_>>().join("; "))
+    }
+}
+
+/// The checksum file of a frame file: `NNNNNN.exr` -> `NNNNNN.exr.sha256`.
+pub fn checksum_path(frame: &Path) -> PathBuf {
+    let mut name = frame.as_os_str().to_owned();
+    name.push(".sha256");
+    PathBuf::from(name)
+}
+
+fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// A checksum file's line, as `sha256sum` writes it (so `sha256sum -c` checks it too).
+fn checksum_line(bytes: &[u8], frame: &Path) -> String {
+    let name = frame.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+    format!("{}  {name}\n", sha256_hex(bytes))
+}
+
+/// Writes a frame file and, first, its checksum: a frame on disk always has one (a kill between
+/// the two leaves a checksum without its frame, which counts as missing).
+pub fn write_frame(path: &Path, image: &PlanarImage, precision: ExrPrecision) -> Result<()> {
+    let bytes = image.exr_bytes(precision).map_err(|e| Error::Internal(format!("{}: {e}", path.display())))?;
+    write_bytes_atomically(&checksum_path(path), checksum_line(&bytes, path).as_bytes())?;
+    write_bytes_atomically(path, &bytes)
+}
+
+/// The manifest without its checksum, as its checksum covers it.
+fn unsealed_bytes(manifest: &DatasetManifest) -> Result<Vec<u8>> {
+    let unsealed = DatasetManifest { content_sha256: None, ..manifest.clone() };
+    let mut bytes = serde_json::to_vec_pretty(&unsealed).map_err(|e| Error::Internal(e.to_string()))?;
+    bytes.push(b'\n');
+    Ok(bytes)
+}
+
+/// The bytes of `manifest.json`: the manifest with its checksum (`content_sha256`).
 fn manifest_bytes(manifest: &DatasetManifest) -> Result<Vec<u8>> {
-    let mut bytes = serde_json::to_vec_pretty(manifest).map_err(|e| Error::Internal(e.to_string()))?;
+    let sealed = DatasetManifest { content_sha256: Some(sha256_hex(&unsealed_bytes(manifest)?)), ..manifest.clone() };
+    let mut bytes = serde_json::to_vec_pretty(&sealed).map_err(|e| Error::Internal(e.to_string()))?;
     bytes.push(b'\n');
     Ok(bytes)
 }
@@ -85,6 +143,16 @@ pub fn read_manifest(dir: &Path) -> Result<DatasetManifest> {
             "format_version",
             format!("{} is not a version this glassbake reads (1 to {FORMAT_VERSION}); it was made by a newer glassbake", manifest.format_version),
         ));
+    }
+    if let Some(recorded) = &manifest.content_sha256 {
+        if *recorded != sha256_hex(&unsealed_bytes(&manifest)?) {
+            return Err(Error::bad_input(
+                path.display(),
+                "content_sha256",
+                "manifest.json changed after glassbake wrote it (an edit, or bit rot): its frames were made for the manifest as written, \
+                 so it is not trusted; restore it, or make a new dataset",
+            ));
+        }
     }
     if let Some((i, _)) = manifest.samples.iter().enumerate().find(|(i, s)| s.index != *i as u64) {
         return Err(Error::bad_input(path.display(), format!("samples[{i}].index"), "samples must be listed in index order from 0"));
@@ -115,8 +183,18 @@ impl DatasetStore {
                 return Err(Error::bad_input(path.display(), "dataset", format!("refusing to add to this dataset: {why}; {remedy}")));
             }
         } else {
-            if dir.exists() && std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?.next().is_some() {
-                return Err(Error::bad_input(dir.display(), "--out", "exists, is not empty and holds no manifest.json: not overwriting it"));
+            // Only what an interrupted creation of this very directory leaves may be there: the
+            // lock file (a kill or a full disk before the manifest was written) and the
+            // manifest's temp file.
+            if dir.exists() {
+                for entry in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
+                    let name = entry.map_err(|e| Error::io(dir, e))?.file_name().to_string_lossy().to_string();
+                    let ours = name == LOCK_FILE
+                        || name.strip_prefix(".manifest.json.tmp").is_some_and(|pid| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()));
+                    if !ours {
+                        return Err(Error::bad_input(dir.display(), "--out", "exists, is not empty and holds no manifest.json: not overwriting it"));
+                    }
+                }
             }
             std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
         }
@@ -153,11 +231,20 @@ impl DatasetStore {
         self.dir.join("preview").join(format!("{index:06}.png"))
     }
 
-    /// Temp files of frame writes a kill interrupted: exactly the names the writer makes
-    /// (`.NNNNNN.exr.tmpPID`, `.NNNNNN.png.tmpPID`; `glassbake_core::image::write_atomically`),
+    /// Temp files of writes a kill interrupted: the manifest's (`.manifest.json.tmpPID`) and,
+    /// in the frame folders, exactly the names the writer makes
+    /// (`.NNNNNN.exr.tmpPID`, `.NNNNNN.exr.sha256.tmpPID`, `.NNNNNN.png.tmpPID`;
+    /// `glassbake_core::image::write_atomically`),
     /// regular files only, and never inside a frame folder that is a symbolic link (whose
     /// target may be anything).
     fn remove_stale_temp_files(&self) -> Result<()> {
+        for entry in std::fs::read_dir(&self.dir).map_err(|e| Error::io(&self.dir, e))?.flatten() {
+            let name = entry.file_name().to_string_lossy().to_string();
+            let manifest_temp = name.strip_prefix(".manifest.json.tmp").is_some_and(|pid| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()));
+            if manifest_temp && entry.file_type().is_ok_and(|t| t.is_file()) {
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
         for sub in FRAME_DIRS {
             let d = self.dir.join(sub);
             let is_link = std::fs::symlink_metadata(&d).map_err(|e| Error::io(&d, e))?.file_type().is_symlink();
@@ -180,18 +267,39 @@ impl DatasetStore {
         if !path.exists() {
             return FrameStatus::Missing;
         }
-        let image = match PlanarImage::read_exr(path) {
+        let bytes = match std::fs::read(path) {
+            Ok(bytes) => bytes,
+            Err(e) => return FrameStatus::Corrupt(format!("{}: {e}", path.display())),
+        };
+        let sums = checksum_path(path);
+        match std::fs::read_to_string(&sums) {
+            Ok(recorded) => {
+                let recorded = recorded.split_whitespace().next().unwrap_or_default();
+                if recorded != sha256_hex(&bytes) {
+                    return FrameStatus::Corrupt(format!(
+                        "{}: its SHA-256 differs from the one recorded when it was written ({}): the file changed on disk",
+                        path.display(),
+                        sums.display()
+                    ));
+                }
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return FrameStatus::Corrupt(format!("{}: {e}", sums.display())),
+        }
+        let image = match PlanarImage::read_exr_bytes(&bytes, &path.display()) {
             Ok(image) => image,
             Err(e) => return FrameStatus::Corrupt(e.to_string()),
         };
         let res = self.manifest.spec.resolution;
         if (image.width(), image.height()) != (res, res) {
-            return FrameStatus::Corrupt(format!("{}x{} instead of {res}x{res}", image.width(), image.height()));
+            return FrameStatus::Corrupt(format!("{}: {}x{} instead of {res}x{res}", path.display(), image.width(), image.height()));
         }
         for name in channels {
             match image.plane_by_name(name) {
-                None => return FrameStatus::Corrupt(format!("no channel {name}")),
-                Some(plane) if plane.iter().any(|v| !v.is_finite()) => return FrameStatus::Corrupt(format!("channel {name} holds NaN or infinity")),
+                None => return FrameStatus::Corrupt(format!("{}: no channel {name}", path.display())),
+                Some(plane) if plane.iter().any(|v| !v.is_finite()) => {
+                    return FrameStatus::Corrupt(format!("{}: channel {name} holds NaN or infinity", path.display()))
+                }
                 Some(_) => {}
             }
         }
@@ -246,16 +354,38 @@ impl DatasetStore {
         walk(&self.dir)
     }
 
+    /// Every file of frame `index` (ground truth, its training-spp copy, cached buffers).
+    pub fn frame_files(&self, index: u64) -> Vec<PathBuf> {
+        let mut files = vec![self.gt_path(index)];
+        if self.manifest.spec.has_train_spp_copy(self.manifest.spec.split_of(index)) {
+            files.push(self.train_spp_gt_path(index));
+        }
+        if self.manifest.spec.cache_buffers {
+            files.push(self.buffers_path(index));
+        }
+        files
+    }
+
+    /// Reads the whole dataset: every frame decoded and its checksum compared.
     pub fn info(&self) -> DatasetInfo {
         let m = &self.manifest;
+        let mut damaged = Vec::new();
         let splits = [Split::Train, Split::Val, Split::Test]
             .into_iter()
             .map(|split| {
                 let indices = m.indices_of(split);
-                let done = indices.iter().filter(|&&i| self.frame_status(i) == FrameStatus::Done).count();
+                let mut done = 0;
+                for &i in &indices {
+                    match self.frame_status(i) {
+                        FrameStatus::Done => done += 1,
+                        FrameStatus::Missing => {}
+                        FrameStatus::Corrupt(why) => damaged.push(format!("frame {i}: {why}")),
+                    }
+                }
                 (split, indices.len(), done)
             })
             .collect();
+        let without_checksum = m.samples.iter().filter(|s| self.frame_files(s.index).iter().any(|f| f.is_file() && !checksum_path(f).is_file())).count();
         DatasetInfo {
             scene_name: m.scene.name.clone(),
             scene_hash: m.scene.hash.clone(),
@@ -271,20 +401,22 @@ impl DatasetStore {
             cache_buffers: m.spec.cache_buffers,
             transparent_objects: m.scene.transparent_objects.len(),
             splits,
+            damaged,
+            without_checksum,
             disk_bytes: self.disk_bytes(),
         }
     }
 }
 
 /// Whether `name` is a temp name of a frame file as the atomic writer makes it:
-/// `.` + six digits + `.exr` or `.png` + `.tmp` + a process id.
+/// `.` + six digits + `.exr`, `.png` or `.exr.sha256` + `.tmp` + a process id.
 fn is_frame_temp_name(name: &str) -> bool {
     let Some(rest) = name.strip_prefix('.') else { return false };
     let Some((file, pid)) = rest.rsplit_once(".tmp") else { return false };
     let Some((stem, extension)) = file.split_once('.') else { return false };
     stem.len() == 6
         && stem.bytes().all(|b| b.is_ascii_digit())
-        && matches!(extension, "exr" | "png")
+        && matches!(extension, "exr" | "png" | "exr.sha256")
         && !pid.is_empty()
         && pid.bytes().all(|b| b.is_ascii_digit())
 }
@@ -295,7 +427,7 @@ mod temp_name_tests {
 
     #[test]
     fn only_the_writers_own_temp_names_count_as_stale() {
-        for ours in [".000042.exr.tmp1234", ".000000.png.tmp7"] {
+        for ours in [".000042.exr.tmp1234", ".000000.png.tmp7", ".000003.exr.sha256.tmp88"] {
             assert!(is_frame_temp_name(ours), "{ours}");
         }
         for theirs in [".my.tmp.notes", ".000042.exr.tmp", ".000042.exr.tmpx1", "000042.exr.tmp12", ".42.exr.tmp12", ".000042.txt.tmp12", ".tmp", ".000042.exr"]

@@ -6,7 +6,8 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use glassbake_core::layout::transparent;
-use glassbake_core::Error;
+use glassbake_core::{Error, PlanarImage};
+use glassbake_dataset::store::{checksum_path, FrameStatus};
 use glassbake_dataset::{
     generate, merge, upgrade, DatasetSpec, DatasetStore, GenerateOptions, GenerateProgress, GroundTruthEstimator, Loader, LoaderOptions, ShardSpec, Split,
     TraceDevice,
@@ -58,7 +59,7 @@ fn resume_redoes_exactly_what_is_missing_or_corrupt() {
     let first = generate(&scene, &spec(1), &d, &GenerateOptions::default(), &no_progress).unwrap();
     assert_eq!((first.generated, first.skipped, first.frames_in_shard), (8, 0, 8));
     let reference = snapshot(&d);
-    assert_eq!(reference.keys().filter(|k| k.starts_with("gt/")).count(), 8);
+    assert_eq!(reference.keys().filter(|k| k.starts_with("gt/") && k.ends_with(".exr")).count(), 8);
 
     // An interrupted run leaves: a missing frame, a truncated file, a stale temp file.
     let store = DatasetStore::open(&d).unwrap();
@@ -89,6 +90,96 @@ fn resume_redoes_exactly_what_is_missing_or_corrupt() {
     generate(&scene, &spec(1), &d, &GenerateOptions::default(), &no_progress).unwrap();
     assert_eq!(std::fs::read(d.join("gt/.notes.tmp")).unwrap(), b"mine");
     assert_eq!(std::fs::read(elsewhere.join(".000001.png.tmp5")).unwrap(), b"not the dataset's");
+}
+
+#[test]
+fn a_frame_whose_bytes_changed_after_writing_is_named_and_made_again() {
+    let scene = builtin("cornell-glass").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("set");
+    generate(&scene, &spec(1), &d, &GenerateOptions::default(), &no_progress).unwrap();
+    let reference = snapshot(&d);
+    let store = DatasetStore::open(&d).unwrap();
+    for index in 0..8 {
+        for file in store.frame_files(index) {
+            let line = std::fs::read_to_string(checksum_path(&file)).unwrap();
+            let (hex, name) = line.trim_end().split_once("  ").unwrap();
+            assert!(hex.len() == 64 && hex.bytes().all(|b| b.is_ascii_hexdigit()), "{line}");
+            assert_eq!(name, file.file_name().unwrap().to_string_lossy());
+        }
+    }
+
+    // Every one-byte change is caught, also those that still decode to finite pixels, which a
+    // check by decoding alone lets through.
+    let path = store.gt_path(3);
+    let original = std::fs::read(&path).unwrap();
+    let mut decodes_fine = None;
+    for offset in 0..original.len() {
+        let mut rotten = original.clone();
+        rotten[offset] ^= 0x10;
+        std::fs::write(&path, &rotten).unwrap();
+        if PlanarImage::read_exr(&path).is_ok_and(|image| image.data().iter().all(|v| v.is_finite())) {
+            decodes_fine = Some(rotten);
+        }
+        assert!(matches!(store.frame_status(3), FrameStatus::Corrupt(_)), "a change at byte {offset} went unnoticed");
+    }
+    let rotten = decodes_fine.expect("some one-byte change still decodes");
+    std::fs::write(&path, &rotten).unwrap();
+    let info = store.info();
+    assert_eq!(info.damaged.len(), 1, "{:?}", info.damaged);
+    assert!(info.damaged[0].starts_with("frame 3: ") && info.damaged[0].contains("SHA-256"), "{}", info.damaged[0]);
+    assert!(info.damaged_summary().contains("frame 3: "));
+    drop(store);
+
+    let resumed = generate(&scene, &spec(1), &d, &GenerateOptions::default(), &no_progress).unwrap();
+    assert_eq!((resumed.generated, resumed.redone), (1, 1));
+    assert_eq!(snapshot(&d), reference);
+}
+
+#[test]
+fn a_manifest_changed_after_writing_is_refused_not_trusted() {
+    let scene = builtin("cornell-glass").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("set");
+    generate(&scene, &spec(1), &d, &GenerateOptions::default(), &no_progress).unwrap();
+    let path = d.join("manifest.json");
+    let written = std::fs::read(&path).unwrap();
+    // Formatting alone is no change.
+    let value: serde_json::Value = serde_json::from_slice(&written).unwrap();
+    std::fs::write(&path, serde_json::to_vec(&value).unwrap()).unwrap();
+    DatasetStore::open(&d).unwrap();
+    // One transparent object cut from the scene record: train would build a GlassNet for two.
+    let mut cut = value.clone();
+    cut["scene"]["transparent_objects"].as_array_mut().unwrap().pop();
+    std::fs::write(&path, serde_json::to_vec_pretty(&cut).unwrap()).unwrap();
+    let err = DatasetStore::open(&d).err().expect("an edited manifest is refused").to_string();
+    assert!(err.contains("manifest.json") && err.contains("content_sha256") && err.contains("changed"), "{err}");
+    let err = generate(&scene, &spec(1), &d, &GenerateOptions::default(), &no_progress).unwrap_err().to_string();
+    assert!(err.contains("content_sha256"), "{err}");
+    std::fs::write(&path, &written).unwrap();
+    DatasetStore::open(&d).unwrap();
+}
+
+#[test]
+fn a_creation_cut_short_before_its_manifest_is_continued() {
+    // A kill or a full disk between taking the lock and writing the manifest leaves the lock
+    // file and perhaps the manifest's temp file; the same command then starts the dataset.
+    let scene = builtin("cornell-glass").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("set");
+    std::fs::create_dir(&d).unwrap();
+    std::fs::write(d.join(".glassbake-writer.lock"), b"").unwrap();
+    std::fs::write(d.join(".manifest.json.tmp4242"), b"{ \"format_ver").unwrap();
+    let made = generate(&scene, &spec(1), &d, &GenerateOptions::default(), &no_progress).unwrap();
+    assert_eq!(made.generated, 8);
+    assert!(!d.join(".manifest.json.tmp4242").exists());
+    // Anything else there is still the user's, and refused.
+    let other = dir.path().join("other");
+    std::fs::create_dir(&other).unwrap();
+    std::fs::write(other.join(".glassbake-writer.lock"), b"").unwrap();
+    std::fs::write(other.join("notes.txt"), b"mine").unwrap();
+    let err = generate(&scene, &spec(1), &other, &GenerateOptions::default(), &no_progress).unwrap_err().to_string();
+    assert!(err.contains("not empty"), "{err}");
 }
 
 #[test]
@@ -374,10 +465,13 @@ fn loader_batches_crops_and_matches_rasterizing_again() {
 }
 
 /// Sets (or, with `None`, removes) a top-level field of the dataset manifest in `dir`.
+/// Makes the manifest look as an older glassbake wrote it: `field` set or removed, and no
+/// `content_sha256` (older glassbakes recorded none).
 fn set_manifest_field(dir: &Path, field: &str, value: Option<serde_json::Value>) {
     let path = dir.join("manifest.json");
     let mut manifest: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
     let object = manifest.as_object_mut().unwrap();
+    object.remove("content_sha256");
     match value {
         Some(value) => object.insert(field.to_string(), value),
         None => object.remove(field),
@@ -390,6 +484,7 @@ fn set_format_version(dir: &Path, version: u32) {
     let path = dir.join("manifest.json");
     let mut manifest: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
     manifest["format_version"] = version.into();
+    manifest.as_object_mut().unwrap().remove("content_sha256");
     std::fs::write(&path, serde_json::to_vec_pretty(&manifest).unwrap()).unwrap();
 }
 

@@ -130,7 +130,10 @@ pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn
             return Err(Error::bad_input(
                 dataset.display(),
                 "frames",
-                format!("the {split_name} split is incomplete ({done}/{planned}); finish it with `glassbake dataset`"),
+                format!(
+                    "the {split_name} split is incomplete ({done}/{planned}){}; finish it with `glassbake dataset` (it makes damaged frames again)",
+                    info.damaged_summary()
+                ),
             ));
         }
     }

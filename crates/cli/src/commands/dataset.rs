@@ -6,6 +6,7 @@ use std::time::Duration;
 
 use anyhow::Result;
 use clap::{Args, Subcommand};
+use glassbake_core::Error;
 use glassbake_dataset::{
     generate, merge, upgrade, DatasetSpec, DatasetStore, GenerateOptions, GenerateProgress, GroundTruthEstimator, ShardSpec, TraceDevice, FORMAT_VERSION,
 };
@@ -32,7 +33,8 @@ enum DatasetCommand {
         #[arg(required = true)]
         shards: Vec<PathBuf>,
     },
-    /// Counts per split, resolution, spp, disk use, scene hash.
+    /// Counts per split, resolution, spp, disk use, scene hash. Reads every frame and compares
+    /// it with the checksum recorded when it was written; exits 2 naming any damaged frame.
     Info { dir: PathBuf },
     /// Bring a dataset made by an older glassbake to today's format in place: the ground
     /// truth is kept, the cached buffers are rasterized again (seconds, not hours).
@@ -171,10 +173,24 @@ pub fn run(args: DatasetArgs) -> Result<()> {
                 info.transparent_objects
             );
             println!("  buffers {}", if info.cache_buffers { "cached (f16 EXR)" } else { "rasterized on demand" });
-            for (split, planned, done) in info.splits {
+            for (split, planned, done) in &info.splits {
                 println!("  {:<6} {done}/{planned} frames complete", format!("{split:?}").to_lowercase());
             }
+            for damaged in &info.damaged {
+                println!("  damaged {damaged}");
+            }
+            if info.without_checksum > 0 {
+                println!("  {} frame(s) written before checksums were recorded: checked by decoding alone", info.without_checksum);
+            }
             println!("  disk {}", human_bytes(info.disk_bytes));
+            if !info.damaged.is_empty() {
+                return Err(Error::bad_input(
+                    dir.display(),
+                    "frames",
+                    format!("{} damaged frame(s){}; `glassbake dataset` with the same arguments makes them again", info.damaged.len(), info.damaged_summary()),
+                )
+                .into());
+            }
         }
         (Some(DatasetCommand::Upgrade { dir, scene }), _) => {
             let store = DatasetStore::open(&dir)?;

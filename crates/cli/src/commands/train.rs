@@ -7,7 +7,7 @@ use std::time::Duration;
 use anyhow::Result;
 use clap::Args;
 use glassbake_core::Error;
-use glassbake_dataset::{DatasetStore, Example, Loader, LoaderOptions, Split};
+use glassbake_dataset::{DatasetInfo, DatasetStore, Example, Loader, LoaderOptions, Split};
 use glassbake_net::model_dir::{DataSource, ModelConfig, ModelFiles, Network, FORMAT_VERSION};
 use glassbake_net::super_sampler::downsample_box2;
 use glassbake_net::{
@@ -154,7 +154,9 @@ fn position_grid(scene: &str) -> Result<glassbake_net::hash_grid::HashGridConfig
     })
 }
 
-fn open_dataset(dir: &Path) -> Result<(DatasetStore, Option<glassbake_scene::Scene>)> {
+/// Opens a dataset whose training and validation frames are all complete and intact (every
+/// frame read and its checksum compared).
+fn open_dataset(dir: &Path) -> Result<(DatasetStore, DatasetInfo, Option<glassbake_scene::Scene>)> {
     let store = DatasetStore::open(dir)?;
     let info = store.info();
     for (split, planned, done) in &info.splits {
@@ -162,13 +164,16 @@ fn open_dataset(dir: &Path) -> Result<(DatasetStore, Option<glassbake_scene::Sce
             return Err(Error::bad_input(
                 dir.display(),
                 "frames",
-                format!("{split:?} split is incomplete ({done}/{planned}); finish it by re-running `glassbake dataset`"),
+                format!(
+                    "{split:?} split is incomplete ({done}/{planned}){}; finish it by re-running `glassbake dataset` (it makes damaged frames again)",
+                    info.damaged_summary()
+                ),
             )
             .into());
         }
     }
     let scene = if store.manifest.reads_cached_buffers() { None } else { Some(load_scene(&store.manifest.spec.scene)?) };
-    Ok((store, scene))
+    Ok((store, info, scene))
 }
 
 fn data_source(dir: &Path, store: &DatasetStore) -> DataSource {
@@ -324,8 +329,7 @@ pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<bool> {
         train_config.ssim_weight = w;
         train_config.check("--ssim-weight")?;
     }
-    let (store, scene) = open_dataset(&args.common.dataset)?;
-    let info = store.info();
+    let (store, info, scene) = open_dataset(&args.common.dataset)?;
     let variables = store.manifest.samples.first().map_or(0, |s| s.values.len());
     let mut net_config = NetConfig::preset(&args.common.preset, kind, variables, info.transparent_objects)?;
     if ablation == Some(Ablation::NoEncoding) {
@@ -443,7 +447,7 @@ fn side_by_side(left: &glassbake_core::PlanarImage, right: &glassbake_core::Plan
 pub fn run_super_sampler(args: TrainSrArgs) -> Result<()> {
     let device_choice = DeviceChoice::parse(&args.common.device)?;
     let train_config = train_config(&args.common)?;
-    let (store, scene) = open_dataset(&args.common.dataset)?;
+    let (store, _, scene) = open_dataset(&args.common.dataset)?;
     let inference_device = select_device(device_choice, train_config.seed, false);
     let glassnet = TrainedModel::load(&args.glassnet, &inference_device)?;
     let side = train_config.crop.unwrap_or(store.manifest.spec.resolution) as usize;
