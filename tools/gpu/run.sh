@@ -13,7 +13,8 @@
 # GPU_KIT_MODELS=DIR takes ready-made cornellbox models from DIR/quick, DIR/paper and DIR/sr
 # (trained anywhere: frame times depend on a network's size, not on how well it learned) and
 # runs the real-time benches first; without it they are trained here after the dataset stage.
-# GPU_KIT_STAGE_TIMEOUT=S stops any one stage after S seconds (default 900).
+# GPU_KIT_STAGE_TIMEOUT=S stops any one stage after S seconds (default 900); GPU_KIT_SKIP="NAME ..."
+# skips the stages of those names (trace_bench, dataset, train_quick, bench_paper, ...).
 # GLASSBAKE_BIN_DIR=DIR takes the binaries from DIR instead of .gpu/*.xz (a build machine's
 # target/release, say; GPU_KIT_CUDA=1 when that glassbake was built with the `cuda` feature);
 # without .gl/ the system's Vulkan loader is used.
@@ -60,6 +61,7 @@ glassbake="$bin/glassbake"
 failed=()
 stage() { # stage NAME COMMAND...: runs a command, its output into $out/NAME.txt, its exit status noted
   local name="$1"; shift
+  if [[ " ${GPU_KIT_SKIP:-} " == *" $name "* ]]; then echo "== $name: skipped (GPU_KIT_SKIP)"; return; fi
   echo "== $name: $*" | tee "$out/$name.txt"
   local start end
   start=$(date +%s.%N)
