@@ -292,6 +292,21 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
     let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(&bytes).map_err(gltf_error)?;
     let mut root = document.into_json();
     root.extensions_required.clear();
+    // gltf-json 1.4.1's validation indexes the accessors with a primitive's POSITION before it
+    // checks that the index exists (a panic): check it first.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if let Some(accessor) = primitive.attributes.get(&gltf::json::validation::Checked::Valid(gltf::Semantic::Positions)) {
+                if accessor.value() >= root.accessors.len() {
+                    return Err(Error::bad_input(
+                        &label,
+                        format!("meshes[{m}].primitives[{p}].attributes.POSITION"),
+                        format!("accessor {} does not exist (the file has {})", accessor.value(), root.accessors.len()),
+                    ));
+                }
+            }
+        }
+    }
     let document = gltf::Document::from_json(root).map_err(gltf_error)?;
     let base = path.parent();
     for buffer in document.buffers() {

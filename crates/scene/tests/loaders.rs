@@ -137,6 +137,26 @@ fn gltf_accessors_of_the_wrong_type_or_out_of_bounds_are_refused() {
     }
 }
 
+#[test]
+fn a_position_attribute_without_its_accessor_is_refused() {
+    // Found by fuzz/fuzz_targets/geometry_gltf.rs: gltf-json indexed the missing accessor.
+    let dir = tempfile::tempdir().unwrap();
+    write(&dir.path().join("quad.bin"), quad_buffer());
+    for missing in [7, u32::MAX as usize] {
+        let mut doc = quad_gltf(Some("quad.bin"), false);
+        doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(missing);
+        let path = dir.path().join("lost.gltf");
+        write(&path, serde_json::to_vec(&doc).unwrap());
+        match load_scene(path.to_str().unwrap()) {
+            Err(Error::BadInput { field, message, .. }) => {
+                assert_eq!(field, "meshes[0].primitives[0].attributes.POSITION");
+                assert!(message.contains(&format!("accessor {missing} does not exist")), "{message}");
+            }
+            other => panic!("expected bad input, got {:?}", other.map(|s| s.objects.len())),
+        }
+    }
+}
+
 /// Scene files may not make glassbake read files outside their folder: absolute paths,
 /// `..` (also percent-encoded), `file:` URIs, in glTF buffers and images, a manifest's
 /// geometry and an OBJ's material library and textures. Each is refused naming the field.
