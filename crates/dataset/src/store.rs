@@ -10,10 +10,10 @@
 
 use std::path::{Path, PathBuf};
 
+use glassbake_core::checksum::{sha256_hex, sha256sum_line};
 use glassbake_core::image::{write_bytes_atomically, ExrPrecision};
 use glassbake_core::layout;
 use glassbake_core::{Error, PlanarImage, Result};
-use sha2::{Digest, Sha256};
 
 use crate::format::{DatasetManifest, GroundTruthEstimator, Split, TraceDevice, FORMAT_VERSION};
 
@@ -95,14 +95,9 @@ pub fn checksum_path(frame: &Path) -> PathBuf {
     PathBuf::from(name)
 }
 
-fn sha256_hex(bytes: &[u8]) -> String {
-    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
-}
-
 /// A checksum file's line, as `sha256sum` writes it (so `sha256sum -c` checks it too).
 fn checksum_line(bytes: &[u8], frame: &Path) -> String {
-    let name = frame.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
-    format!("{}  {name}\n", sha256_hex(bytes))
+    sha256sum_line(bytes, &frame.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default())
 }
 
 /// Writes a frame file and, first, its checksum: a frame on disk always has one (a kill between

@@ -17,6 +17,7 @@ use burn::prelude::*;
 use burn::store::{BurnpackStore, ModuleSnapshot};
 use serde::{Deserialize, Serialize};
 
+use glassbake_core::checksum::{parse_sha256sum, sha256_hex, sha256sum_line};
 use glassbake_core::{Error, Result};
 
 use crate::batch::HostBatch;
@@ -271,6 +272,14 @@ fn save_checkpoint<M: Module + ModuleSnapshot>(model: &M, optimizer: &ModuleOpti
     optimizer.save(tmp.join("optimizer.bpk")).map_err(|e| Error::Internal(format!("saving the optimizer state: {e:?}")))?;
     let json = serde_json::to_vec_pretty(state).expect("state serialises");
     fs::write(tmp.join("state.json"), json).map_err(|e| Error::io(&tmp.join("state.json"), e))?;
+    // The checksums of what a resume trusts, so that a damaged file is named rather than
+    // surfacing as a NaN loss steps later.
+    let mut sums = String::new();
+    for name in CHECKSUMMED {
+        let path = tmp.join(name);
+        sums.push_str(&sha256sum_line(&fs::read(&path).map_err(|e| Error::io(&path, e))?, name));
+    }
+    fs::write(tmp.join(CHECKSUMS), sums).map_err(|e| Error::io(&tmp.join(CHECKSUMS), e))?;
     let current = dir.join(CHECKPOINT);
     let old = dir.join("checkpoint.old");
     let _ = fs::remove_dir_all(&old);
@@ -282,7 +291,40 @@ fn save_checkpoint<M: Module + ModuleSnapshot>(model: &M, optimizer: &ModuleOpti
     Ok(())
 }
 
+/// The checkpoint files whose SHA-256 `save_checkpoint` records in [`CHECKSUMS`].
+const CHECKSUMMED: [&str; 3] = ["model.bpk", "optimizer.bpk", "state.json"];
+const CHECKSUMS: &str = "sha256";
+
+/// Compares a checkpoint's files with the checksums recorded when it was written (checkpoints
+/// from before checksums were recorded have none, and are trusted as before).
+fn verify_checkpoint(dir: &Path) -> Result<()> {
+    let sums = dir.join(CHECKSUMS);
+    let text = match fs::read_to_string(&sums) {
+        Ok(text) => text,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(Error::io(&sums, e)),
+    };
+    for (digest, name) in parse_sha256sum(&text) {
+        let path = dir.join(&name);
+        let bytes = fs::read(&path).map_err(|e| Error::io(&path, e))?;
+        if sha256_hex(&bytes) != digest {
+            return Err(Error::bad_input(
+                path.display(),
+                "checkpoint",
+                format!(
+                    "changed since training wrote it (its SHA-256 differs from the one in {}): a damaged checkpoint; \
+                     remove {} to train from the start",
+                    sums.display(),
+                    dir.display()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn load_checkpoint<M: Module + ModuleSnapshot>(mut model: M, optimizer: ModuleOptimizer, dir: &Path) -> Result<(M, ModuleOptimizer, TrainState)> {
+    verify_checkpoint(dir)?;
     let state_path = dir.join("state.json");
     let text = fs::read_to_string(&state_path).map_err(|e| Error::io(&state_path, e))?;
     let state: TrainState = serde_json::from_str(&text).map_err(|e| Error::bad_input(state_path.display(), "state", e.to_string()))?;

@@ -111,6 +111,40 @@ fn a_nan_loss_stops_with_a_clear_message_and_keeps_the_last_checkpoint() {
 }
 
 #[test]
+fn a_damaged_checkpoint_is_named_not_trained_on() {
+    let net = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap();
+    let config = TrainConfig { steps: 8, batch_size: 2, checkpoint_every: 4, validate_every: 4, ..TrainConfig::preset("tiny").unwrap() };
+    let data = || common::SyntheticData { frames: (0..4).map(|i| common::frame(i, 16, 2, 1)).collect(), batch_size: 2, seed: 3, poison_from_epoch: None };
+    let dir = tempfile::tempdir().unwrap();
+    let f = files(dir.path(), &net, &config);
+    let (m, d) = model(&net, 7);
+    train(m, &f, &config, &d, &mut data(), &RunOptions { stop_after: Some(4) }, &mut |_| {}).unwrap();
+
+    // One bit of the optimizer's moments flipped (bit rot): resuming on it would train on
+    // garbage. The resume refuses, naming the file, and leaves everything as it was.
+    let optimizer = dir.path().join("checkpoint/optimizer.bpk");
+    let good = std::fs::read(&optimizer).unwrap();
+    let mut bad = good.clone();
+    let at = bad.len() - 64;
+    bad[at] ^= 0x40;
+    std::fs::write(&optimizer, &bad).unwrap();
+    let (m, d) = model(&net, 7);
+    let err = train(m, &f, &config, &d, &mut data(), &RunOptions::default(), &mut |_| {}).unwrap_err();
+    match &err {
+        glassbake_core::Error::BadInput { file, message, .. } => {
+            assert!(file.ends_with("optimizer.bpk") && message.contains("SHA-256"), "{err}");
+        }
+        other => panic!("expected bad input, got {other}"),
+    }
+    assert_eq!(std::fs::read(&optimizer).unwrap(), bad);
+
+    std::fs::write(&optimizer, &good).unwrap();
+    let (m, d) = model(&net, 7);
+    let summary = train(m, &f, &config, &d, &mut data(), &RunOptions::default(), &mut |_| {}).unwrap();
+    assert_eq!((summary.resumed_from, summary.steps), (Some(4), 8));
+}
+
+#[test]
 fn a_directory_holding_a_different_run_is_refused() {
     let net = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap();
     let config = TrainConfig::preset("tiny").unwrap();
