@@ -427,6 +427,27 @@ fn check_accessors(primitive: &gltf::Primitive, buffers: &[gltf::buffer::Data], 
         }
         checked.push(("attributes.POSITION", position));
     }
+    // The gltf crate's readers meet other types of these with `unreachable!()`.
+    if let Some(normal) = primitive.get(&gltf::Semantic::Normals) {
+        if normal.data_type() != DataType::F32 || normal.dimensions() != Dimensions::Vec3 {
+            return Err(Error::bad_input(
+                label,
+                format!("{field}.attributes.NORMAL (accessors[{}])", normal.index()),
+                format!("is {:?} {:?}; normals must be FLOAT VEC3", normal.data_type(), normal.dimensions()),
+            ));
+        }
+        checked.push(("attributes.NORMAL", normal));
+    }
+    if let Some(uv) = primitive.get(&gltf::Semantic::TexCoords(0)) {
+        if !matches!(uv.data_type(), DataType::F32 | DataType::U8 | DataType::U16) || uv.dimensions() != Dimensions::Vec2 {
+            return Err(Error::bad_input(
+                label,
+                format!("{field}.attributes.TEXCOORD_0 (accessors[{}])", uv.index()),
+                format!("is {:?} {:?}; texture coordinates must be FLOAT, UNSIGNED_BYTE or UNSIGNED_SHORT VEC2", uv.data_type(), uv.dimensions()),
+            ));
+        }
+        checked.push(("attributes.TEXCOORD_0", uv));
+    }
     if let Some(indices) = primitive.indices() {
         if !matches!(indices.data_type(), DataType::U8 | DataType::U16 | DataType::U32) || indices.dimensions() != Dimensions::Scalar {
             return Err(Error::bad_input(

@@ -102,7 +102,7 @@ fn gltf_accessors_of_the_wrong_type_or_out_of_bounds_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     write_poster(dir.path());
     write(&dir.path().join("quad.bin"), quad_buffer());
-    let cases: [(&str, usize, serde_json::Value, &str); 4] = [
+    let cases: [(&str, usize, serde_json::Value, &str); 6] = [
         ("float-indices", 2, json!({"bufferView": 2, "componentType": 5126, "count": 3, "type": "SCALAR"}), "indices (accessors[2])"),
         (
             "byte-positions",
@@ -117,10 +117,19 @@ fn gltf_accessors_of_the_wrong_type_or_out_of_bounds_are_refused() {
             "POSITION (accessors[0])",
         ),
         ("long-indices", 2, json!({"bufferView": 2, "componentType": 5123, "count": 9, "type": "SCALAR"}), "indices (accessors[2])"),
+        // Found by fuzz/fuzz_targets/geometry_gltf.rs: the gltf crate's reader hit `unreachable!()`.
+        ("uint-uvs", 1, json!({"bufferView": 1, "componentType": 5125, "count": 4, "type": "VEC2"}), "TEXCOORD_0 (accessors[1])"),
+        ("vec2-normals", 3, json!({"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"}), "NORMAL (accessors[3])"),
     ];
     for (name, accessor, replacement, field) in cases {
         let mut doc = quad_gltf(Some("quad.bin"), false);
-        doc["accessors"][accessor] = replacement;
+        if accessor == 3 {
+            // A NORMAL attribute of its own: the quad has none.
+            doc["accessors"].as_array_mut().unwrap().push(replacement);
+            doc["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = json!(3);
+        } else {
+            doc["accessors"][accessor] = replacement;
+        }
         let path = dir.path().join(format!("{name}.gltf"));
         write(&path, serde_json::to_vec(&doc).unwrap());
         // gltf-rs's own validation already refuses some (field "glTF", the attribute named in
