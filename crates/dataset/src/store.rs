@@ -184,8 +184,7 @@ impl DatasetStore {
             if dir.exists() {
                 for entry in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
                     let name = entry.map_err(|e| Error::io(dir, e))?.file_name().to_string_lossy().to_string();
-                    let ours = name == LOCK_FILE
-                        || name.strip_prefix(".manifest.json.tmp").is_some_and(|pid| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()));
+                    let ours = name == LOCK_FILE || is_manifest_temp_name(&name);
                     if !ours {
                         return Err(Error::bad_input(dir.display(), "--out", "exists, is not empty and holds no manifest.json: not overwriting it"));
                     }
@@ -235,8 +234,7 @@ impl DatasetStore {
     fn remove_stale_temp_files(&self) -> Result<()> {
         for entry in std::fs::read_dir(&self.dir).map_err(|e| Error::io(&self.dir, e))?.flatten() {
             let name = entry.file_name().to_string_lossy().to_string();
-            let manifest_temp = name.strip_prefix(".manifest.json.tmp").is_some_and(|pid| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()));
-            if manifest_temp && entry.file_type().is_ok_and(|t| t.is_file()) {
+            if is_manifest_temp_name(&name) && entry.file_type().is_ok_and(|t| t.is_file()) {
                 let _ = std::fs::remove_file(entry.path());
             }
         }
@@ -401,6 +399,12 @@ impl DatasetStore {
             disk_bytes: self.disk_bytes(),
         }
     }
+}
+
+/// Whether `name` is the manifest's temp name as the atomic writer makes it:
+/// `.manifest.json.tmp` + a process id.
+fn is_manifest_temp_name(name: &str) -> bool {
+    name.strip_prefix(".manifest.json.tmp").is_some_and(|pid| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()))
 }
 
 /// Whether `name` is a temp name of a frame file as the atomic writer makes it:
