@@ -45,8 +45,8 @@ const ATTR_HAS_NORMALS: u32 = 2u;
 const ATTR_PASS_THROUGH: u32 = 4u;
 
 const STACK_SIZE: u32 = 64u;
-// Rectangles are sampled by solid angle within this many times their edge-length sum.
-const SOLID_ANGLE_RANGE: f32 = 1.5;
+// SOLID_ANGLE_RANGE (rectangles are sampled by solid angle within this many times their
+// edge-length sum) is the CPU tracer's, prepended by `trace_source` in tracer.rs.
 const MAX_VERTICES: u32 = 4096u;
 
 @group(0) @binding(0) var<uniform> params: Params;

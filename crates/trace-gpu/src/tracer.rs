@@ -65,9 +65,11 @@ pub struct GpuTracer {
     samples_per_thread: u32,
 }
 
-/// The WGSL source of the trace kernel: the BSDF, then the integrator.
+/// The WGSL source of the trace kernel: the constants it shares with the CPU tracer, the
+/// BSDF, then the integrator.
 pub(crate) fn trace_source() -> String {
-    [include_str!("../shaders/bsdf.wgsl"), include_str!("../shaders/trace.wgsl")].join("\n")
+    let shared = format!("const SOLID_ANGLE_RANGE: f32 = {:?};", glassbake_trace::lights::SOLID_ANGLE_RANGE);
+    [shared.as_str(), include_str!("../shaders/bsdf.wgsl"), include_str!("../shaders/trace.wgsl")].join("\n")
 }
 
 /// Compile `source` into a compute pipeline with the layout its bindings imply.

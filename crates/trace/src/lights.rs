@@ -19,7 +19,8 @@ use crate::spherical_rect::SphericalRect;
 /// they save: with the `caustic` estimator at 128 px, 256 spp, 1.5 and 0.75 lowered the
 /// desk's variance alike (-18%) but 1.5 cost it +20% time and 0.75 nothing measurable
 /// (docs/history/benchmarks-2026-11.md, 2026-11-24).
-const SOLID_ANGLE_RANGE: f32 = 0.75;
+/// The GPU tracer's kernel takes this value too (`glassbake_trace_gpu`'s `trace_source`).
+pub const SOLID_ANGLE_RANGE: f32 = 0.75;
 
 /// Where an emitter's points lie.
 #[derive(Clone, Copy, Debug)]
