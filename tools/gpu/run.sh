@@ -7,9 +7,9 @@
 # tables of docs/benchmarks.md.
 #
 # On the GPU machine, from the folder holding tools/gpu, .gpu and .gl:
-#   bash tools/gpu/run.sh            # the full run (about 20-30 minutes on an H100)
+#   bash tools/gpu/run.sh            # the full run (not yet timed on a GPU; larger than --short)
 #   bash tools/gpu/run.sh --smoke    # every stage at toy sizes (a minute or two; checks the kit)
-#   bash tools/gpu/run.sh --short    # every stage at reduced sizes, about 8 minutes on an H200
+#   bash tools/gpu/run.sh --short    # every stage at reduced sizes, 5 minutes on an H200 (2026-11-26)
 # GPU_KIT_MODELS=DIR takes ready-made cornellbox models from DIR/quick, DIR/paper and DIR/sr
 # (trained anywhere: frame times depend on a network's size, not on how well it learned) and
 # runs the real-time benches first; without it they are trained here after the dataset stage.
