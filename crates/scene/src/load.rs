@@ -53,11 +53,17 @@ pub const ALLOW_OUTSIDE_ENV: &str = "GLASSBAKE_ALLOW_OUTSIDE_FILES";
 /// glassbake read, and copy into datasets and reports, any file the user can read.
 /// `GLASSBAKE_ALLOW_OUTSIDE_FILES=1` lifts the rule for scenes that are trusted.
 fn check_reference(file: &str, field: &str, reference: &str) -> Result<()> {
-    if reference.starts_with("data:") || std::env::var(ALLOW_OUTSIDE_ENV).is_ok_and(|v| v == "1") {
+    if reference.starts_with("data:") {
         return Ok(());
     }
-    // URIs may percent-encode the separators and dots.
-    let decoded = percent_decode(reference);
+    // URIs may percent-encode the separators and dots. One that decodes to no file name at all
+    // is refused here: the gltf crate (1.4.1) unwraps its own decoding and would panic.
+    let Ok(decoded) = String::from_utf8(percent_decode(reference)) else {
+        return Err(Error::bad_input(file, field, format!("{reference:?} is not a file name: its percent-encoding decodes to invalid UTF-8")));
+    };
+    if std::env::var(ALLOW_OUTSIDE_ENV).is_ok_and(|v| v == "1") {
+        return Ok(());
+    }
     let has_scheme = decoded.split_once(':').is_some_and(|(scheme, _)| {
         scheme.len() > 1 && scheme.chars().all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c)) && scheme.starts_with(|c: char| c.is_ascii_alphabetic())
     });
@@ -72,7 +78,7 @@ fn check_reference(file: &str, field: &str, reference: &str) -> Result<()> {
     Ok(())
 }
 
-fn percent_decode(text: &str) -> String {
+fn percent_decode(text: &str) -> Vec<u8> {
     let bytes = text.as_bytes();
     let mut out = Vec::with_capacity(bytes.len());
     let mut i = 0;
@@ -88,7 +94,7 @@ fn percent_decode(text: &str) -> String {
         out.push(bytes[i]);
         i += 1;
     }
-    String::from_utf8_lossy(&out).into_owned()
+    out
 }
 
 fn require_file(path: &Path) -> Result<()> {
@@ -305,6 +311,19 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
                     ));
                 }
             }
+        }
+    }
+    // The gltf crate's `Image::source` unwraps the uri when there is no bufferView, and the
+    // mimeType when there is one: check both first.
+    for (i, image) in root.images.iter().enumerate() {
+        let problem = match (&image.uri, &image.buffer_view, &image.mime_type) {
+            (None, None, _) => Some("has neither a uri nor a bufferView"),
+            (Some(_), Some(_), _) => Some("has both a uri and a bufferView"),
+            (None, Some(_), None) => Some("has a bufferView but no mimeType"),
+            _ => None,
+        };
+        if let Some(problem) = problem {
+            return Err(Error::bad_input(&label, format!("images[{i}]"), problem));
         }
     }
     let document = gltf::Document::from_json(root).map_err(gltf_error)?;

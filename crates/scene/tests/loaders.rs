@@ -166,6 +166,27 @@ fn a_position_attribute_without_its_accessor_is_refused() {
     }
 }
 
+#[test]
+fn an_image_without_a_source_is_refused() {
+    // Found by fuzz/fuzz_targets/geometry_gltf.rs: the gltf crate unwrapped the missing uri.
+    let dir = tempfile::tempdir().unwrap();
+    write(&dir.path().join("quad.bin"), quad_buffer());
+    for (image, problem) in [
+        (json!({"name": "nothing"}), "neither a uri nor a bufferView"),
+        (json!({"bufferView": 0}), "no mimeType"),
+        (json!({"bufferView": 0, "mimeType": "image/png", "uri": "poster.png"}), "both a uri and a bufferView"),
+    ] {
+        let mut doc = quad_gltf(Some("quad.bin"), false);
+        doc["images"][0] = image;
+        let path = dir.path().join("image.gltf");
+        write(&path, serde_json::to_vec(&doc).unwrap());
+        match load_scene(path.to_str().unwrap()) {
+            Err(Error::BadInput { field, message, .. }) => assert!(field == "images[0]" && message.contains(problem), "{field}: {message}"),
+            other => panic!("expected bad input, got {:?}", other.map(|s| s.objects.len())),
+        }
+    }
+}
+
 /// Scene files may not make glassbake read files outside their folder: absolute paths,
 /// `..` (also percent-encoded), `file:` URIs, in glTF buffers and images, a manifest's
 /// geometry and an OBJ's material library and textures. Each is refused naming the field.
@@ -182,6 +203,8 @@ fn references_outside_the_scene_folder_are_refused() {
         ("encoded", "..%2Fquad.bin", "poster.png", "buffers[0].uri"),
         ("absolute", &*dir.path().join("quad.bin").to_string_lossy().into_owned(), "poster.png", "buffers[0].uri"),
         ("file-uri", "quad.bin", "file:///etc/passwd", "images[0].uri"),
+        // Found by fuzz/fuzz_targets/geometry_gltf.rs: the gltf crate unwrapped the decoding.
+        ("not-utf8", "quad%AA.bin", "poster.png", "buffers[0].uri"),
     ] {
         let mut doc = quad_gltf(Some(buffer), false);
         doc["images"][0]["uri"] = json!(image);
