@@ -524,21 +524,44 @@ fn parse_floats3(s: &str) -> Option<Vec3> {
 /// Load a Wavefront OBJ file with its MTL materials. Glass is recognised by dissolve `d` < 1
 /// or an illumination model 4, 6, 7 or 9; `Ni` is its IOR and `Tf` its tint; `Ke` emission;
 /// roughness from the Phong exponent `Ns` (alpha = sqrt(2 / (Ns + 2))).
+/// tobj 4.0.5 unwraps a colour statement (`Ka`, `Kd`, `Ks`, `Ke`) of fewer than three numbers
+/// in a material library (a panic): check them first. A library that is not there is tobj's
+/// to report (a warning, grey materials).
+fn check_material_colours(library: &Path) -> Result<()> {
+    let Ok(bytes) = std::fs::read(library) else { return Ok(()) };
+    for (number, line) in String::from_utf8_lossy(&bytes).lines().enumerate() {
+        let mut words = line.split_whitespace();
+        if let Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")) = words.next() {
+            if words.take(3).count() < 3 {
+                return Err(Error::bad_input(library.display(), format!("line {} {key}", number + 1), "needs three numbers (red, green, blue)"));
+            }
+        }
+    }
+    Ok(())
+}
+
 pub fn load_obj(path: &Path) -> Result<Scene> {
     let label = path.display().to_string();
     // tobj opens the material libraries itself: check their names first.
     let text = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let dir = path.parent().unwrap_or(Path::new("."));
     for (number, line) in String::from_utf8_lossy(&text).lines().enumerate() {
+        let field = format!("line {} mtllib", number + 1);
         if let Some(libraries) = line.trim_start().strip_prefix("mtllib") {
             for library in libraries.split_whitespace() {
-                check_reference(&label, &format!("line {} mtllib", number + 1), library)?;
+                check_reference(&label, &field, library)?;
             }
+        }
+        if line.split_whitespace().next() == Some("mtllib") {
+            // The name tobj 4.0.5 opens: the rest of the line after the first space.
+            let library = line.split_once(' ').unwrap_or_default().1.trim();
+            check_reference(&label, &field, library)?;
+            check_material_colours(&dir.join(library))?;
         }
     }
     let options = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
     let (models, materials) = tobj::load_obj(path, &options).map_err(|e| Error::bad_input(&label, "OBJ", e.to_string()))?;
     let mut scene = empty_scene(path);
-    let dir = path.parent().unwrap_or(Path::new("."));
     let obj_materials = match materials {
         Ok(m) => m,
         Err(e) => {

@@ -167,6 +167,16 @@ fn a_position_attribute_without_its_accessor_is_refused() {
 }
 
 #[test]
+fn a_material_colour_of_fewer_than_three_numbers_is_refused() {
+    // Found by fuzz/fuzz_targets/geometry_obj.rs: tobj unwrapped the short colour.
+    let dir = tempfile::tempdir().unwrap();
+    write(&dir.path().join("short.mtl"), "newmtl wall\nKd 0.8 0.8 0.8\nnewmtl floor\nKs 0 1\n");
+    let obj = dir.path().join("scene.obj");
+    write(&obj, "mtllib short.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl floor\nf 1 2 3\n");
+    expect_bad_input(load_scene(obj.to_str().unwrap()), "short.mtl", "line 4 Ks");
+}
+
+#[test]
 fn an_image_without_a_source_is_refused() {
     // Found by fuzz/fuzz_targets/geometry_gltf.rs: the gltf crate unwrapped the missing uri.
     let dir = tempfile::tempdir().unwrap();
