@@ -10,7 +10,7 @@
 
 use std::path::{Path, PathBuf};
 
-use glassbake_core::checksum::{sha256_hex, sha256sum_line};
+use glassbake_core::checksum::{parse_sha256sum, sha256_hex, sha256sum_line};
 use glassbake_core::image::{write_bytes_atomically, ExrPrecision};
 use glassbake_core::layout;
 use glassbake_core::{Error, PlanarImage, Result};
@@ -267,7 +267,7 @@ impl DatasetStore {
         let sums = checksum_path(path);
         match std::fs::read_to_string(&sums) {
             Ok(recorded) => {
-                let recorded = recorded.split_whitespace().next().unwrap_or_default();
+                let recorded = parse_sha256sum(&recorded).into_iter().next().map(|(digest, _)| digest).unwrap_or_default();
                 if recorded != sha256_hex(&bytes) {
                     return FrameStatus::Corrupt(format!(
                         "{}: its SHA-256 differs from the one recorded when it was written ({}): the file changed on disk",

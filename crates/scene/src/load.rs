@@ -431,51 +431,41 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
 }
 
 /// The accessors a primitive's triangles are read through, checked before gltf-rs reads them
-/// (it panics on some and silently drops others): POSITION is three floats per vertex,
-/// indices are unsigned scalars, and each accessor lies inside its buffer view and buffer.
+/// (it panics on some and silently drops others): POSITION and NORMAL are three floats per
+/// vertex, TEXCOORD_0 two numbers, indices unsigned scalars, and each accessor lies inside its
+/// buffer view and buffer.
 fn check_accessors(primitive: &gltf::Primitive, buffers: &[gltf::buffer::Data], label: &str, field: &str) -> Result<()> {
     use gltf::accessor::{DataType, Dimensions};
+    // The gltf crate's readers meet other types of NORMAL and TEXCOORD_0 with `unreachable!()`.
+    let rules = [
+        ("attributes.POSITION", primitive.get(&gltf::Semantic::Positions), &[DataType::F32][..], Dimensions::Vec3, "positions must be FLOAT VEC3"),
+        ("attributes.NORMAL", primitive.get(&gltf::Semantic::Normals), &[DataType::F32][..], Dimensions::Vec3, "normals must be FLOAT VEC3"),
+        (
+            "attributes.TEXCOORD_0",
+            primitive.get(&gltf::Semantic::TexCoords(0)),
+            &[DataType::F32, DataType::U8, DataType::U16][..],
+            Dimensions::Vec2,
+            "texture coordinates must be FLOAT, UNSIGNED_BYTE or UNSIGNED_SHORT VEC2",
+        ),
+        (
+            "indices",
+            primitive.indices(),
+            &[DataType::U8, DataType::U16, DataType::U32][..],
+            Dimensions::Scalar,
+            "indices must be UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT SCALAR",
+        ),
+    ];
     let mut checked = Vec::new();
-    if let Some(position) = primitive.get(&gltf::Semantic::Positions) {
-        if position.data_type() != DataType::F32 || position.dimensions() != Dimensions::Vec3 {
+    for (name, accessor, types, dimensions, rule) in rules {
+        let Some(accessor) = accessor else { continue };
+        if !types.contains(&accessor.data_type()) || accessor.dimensions() != dimensions {
             return Err(Error::bad_input(
                 label,
-                format!("{field}.attributes.POSITION (accessors[{}])", position.index()),
-                format!("is {:?} {:?}; positions must be FLOAT VEC3", position.data_type(), position.dimensions()),
+                format!("{field}.{name} (accessors[{}])", accessor.index()),
+                format!("is {:?} {:?}; {rule}", accessor.data_type(), accessor.dimensions()),
             ));
         }
-        checked.push(("attributes.POSITION", position));
-    }
-    // The gltf crate's readers meet other types of these with `unreachable!()`.
-    if let Some(normal) = primitive.get(&gltf::Semantic::Normals) {
-        if normal.data_type() != DataType::F32 || normal.dimensions() != Dimensions::Vec3 {
-            return Err(Error::bad_input(
-                label,
-                format!("{field}.attributes.NORMAL (accessors[{}])", normal.index()),
-                format!("is {:?} {:?}; normals must be FLOAT VEC3", normal.data_type(), normal.dimensions()),
-            ));
-        }
-        checked.push(("attributes.NORMAL", normal));
-    }
-    if let Some(uv) = primitive.get(&gltf::Semantic::TexCoords(0)) {
-        if !matches!(uv.data_type(), DataType::F32 | DataType::U8 | DataType::U16) || uv.dimensions() != Dimensions::Vec2 {
-            return Err(Error::bad_input(
-                label,
-                format!("{field}.attributes.TEXCOORD_0 (accessors[{}])", uv.index()),
-                format!("is {:?} {:?}; texture coordinates must be FLOAT, UNSIGNED_BYTE or UNSIGNED_SHORT VEC2", uv.data_type(), uv.dimensions()),
-            ));
-        }
-        checked.push(("attributes.TEXCOORD_0", uv));
-    }
-    if let Some(indices) = primitive.indices() {
-        if !matches!(indices.data_type(), DataType::U8 | DataType::U16 | DataType::U32) || indices.dimensions() != Dimensions::Scalar {
-            return Err(Error::bad_input(
-                label,
-                format!("{field}.indices (accessors[{}])", indices.index()),
-                format!("is {:?} {:?}; indices must be UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT SCALAR", indices.data_type(), indices.dimensions()),
-            ));
-        }
-        checked.push(("indices", indices));
+        checked.push((name, accessor));
     }
     for (name, accessor) in checked {
         let Some(view) = accessor.view() else { continue };
