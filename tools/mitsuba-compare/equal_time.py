@@ -8,7 +8,7 @@ choice) vs Mitsuba 3's path tracer on the same exported scene instance.
     export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1
     python3 tools/mitsuba-compare/equal_time.py --glassbake target/release/glassbake \
         [--scenes cornellbox,desk] [--sample 0] [--res 128] [--spp 256] [--ref-factor 16] \
-        [--integrator caustic] [--sampling adaptive] [--sampler stratified] [--photon-merging] [--variant llvm_ad_rgb]
+        [--estimator caustic+adaptive+stratified] [--variant llvm_ad_rgb]
 
 Per scene: glassbake traces the instance at --spp (process wall time t, BVH build and EXR
 write included); Mitsuba renders it with as many spp as fit in t (calibrated on a first
@@ -16,8 +16,9 @@ render, kernel compilation excluded, then timed again). Each renderer's error is
 against its own reference, --ref-factor times the spp, traced with independent random
 numbers: the two renderers interpret a few materials differently by design (docs/trace.md:
 the default opaque blend is 1-3% brighter in Mitsuba), so a shared reference would measure
-that difference, not convergence. With --photon-merging glassbake's test render merges
-photons (biased) while its reference stays unbiased, so the error counts the bias. The reference's own noise is 1/ref-factor of a test
+that difference, not convergence. With an estimator that merges photons (`+merging`)
+glassbake's test render is biased while its reference, the same estimator without
+`+merging`, stays unbiased, so the error counts the bias. The reference's own noise is 1/ref-factor of a test
 render's variance; the printed MSE is not corrected for it. Prints a Markdown table:
 seconds, spp, MSE over all pixels and over the pixels away from emitters (no reference value
 above 1 in a pixel's 3x3 neighbourhood: the light's edge pixels, whose box-filtered noise is
@@ -41,10 +42,7 @@ def main():
     p.add_argument("--res", type=int, default=128)
     p.add_argument("--spp", type=int, default=256)
     p.add_argument("--ref-factor", type=int, default=16)
-    p.add_argument("--integrator", default="caustic")
-    p.add_argument("--sampling", default="adaptive", help="glassbake trace --sampling")
-    p.add_argument("--sampler", default="stratified", help="glassbake trace --sampler")
-    p.add_argument("--photon-merging", action="store_true", help="glassbake's test render with --photon-merging (its reference without)")
+    p.add_argument("--estimator", default="caustic+adaptive+stratified", help="glassbake trace --estimator (its reference: the same without +merging)")
     p.add_argument("--variant", default="llvm_ad_rgb")
     p.add_argument("--max-depth", type=int, default=64)
     a = p.parse_args()
@@ -54,8 +52,8 @@ def main():
 
     mi.set_variant(a.variant)
     work = tempfile.mkdtemp(prefix="gb-mitsuba-equal-time-")
-    merging = " --photon-merging" if a.photon_merging else ""
-    print(f"{a.res}x{a.res}, sample {a.sample}, glassbake --integrator {a.integrator} --sampling {a.sampling} --sampler {a.sampler}{merging} at {a.spp} spp, "
+    reference_estimator = "+".join(part for part in a.estimator.split("+") if part != "merging")
+    print(f"{a.res}x{a.res}, sample {a.sample}, glassbake --estimator {a.estimator} at {a.spp} spp, "
           f"Mitsuba {a.variant} `path` at equal wall time;")
     print(f"references: each renderer at {a.ref_factor}x the spp, independent seeds; MSE over all pixels and RGB")
     print()
@@ -63,11 +61,9 @@ def main():
           "| glassbake MSE away from emitters | Mitsuba | ratio | glassbake MSE clamped | Mitsuba | ratio |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 
-    def trace(scene, spp, out, image_seed=None, photon_merging=False):
+    def trace(scene, spp, out, estimator, image_seed=None):
         cmd = [a.glassbake, "trace", scene, "--sample", str(a.sample), "--res", str(a.res), "--spp", str(spp),
-               "--max-depth", str(a.max_depth), "--integrator", a.integrator, "--sampling", a.sampling, "--sampler", a.sampler, "--out", out]
-        if photon_merging:
-            cmd.append("--photon-merging")
+               "--max-depth", str(a.max_depth), "--estimator", estimator, "--out", out]
         if image_seed is not None:
             cmd += ["--image-seed", str(image_seed)]
         t0 = time.time()
@@ -77,8 +73,8 @@ def main():
     for name in a.scenes.split(","):
         xml = os.path.join(work, f"{name}.xml")
         subprocess.run([a.glassbake, "scene", "mitsuba", name, "--sample", str(a.sample), "--out", xml], check=True, stdout=subprocess.DEVNULL)
-        gb_time, gb = trace(name, a.spp, os.path.join(work, f"{name}_gb.exr"), photon_merging=a.photon_merging)
-        _, gb_ref = trace(name, a.spp * a.ref_factor, os.path.join(work, f"{name}_gb_ref.exr"), image_seed=1)
+        gb_time, gb = trace(name, a.spp, os.path.join(work, f"{name}_gb.exr"), a.estimator)
+        _, gb_ref = trace(name, a.spp * a.ref_factor, os.path.join(work, f"{name}_gb_ref.exr"), reference_estimator, image_seed=1)
 
         scene = mi.load_file(xml, res=a.res, spp=a.spp, max_depth=a.max_depth)
 

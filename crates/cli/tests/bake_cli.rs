@@ -79,7 +79,8 @@ fn bake_runs_every_stage_then_skips_them_and_eval_scores_with_lpips() {
     let out = dir.path().join("bake");
     // With the biased estimator, which the dataset records; the second run below, without
     // the flag, keeps it (a changed estimator would retrace every frame or be refused).
-    let (code, stdout, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--estimator", "caustic-merged", "--out", path(&out)]);
+    let (code, stdout, err) =
+        glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--estimator", "caustic+merging+adaptive+stratified", "--out", path(&out)]);
     assert_eq!(code, 0, "{err}\n{stdout}");
     for file in [
         "dataset/manifest.json",
@@ -157,7 +158,7 @@ fn bake_runs_every_stage_then_skips_them_and_eval_scores_with_lpips() {
     assert!(err.contains("--preset") && !dir.path().join("b2").exists(), "{err}");
     let (code, _, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--estimator", "noisy", "--out", path(&dir.path().join("b3"))]);
     assert_eq!(code, 2);
-    assert!(err.contains("--estimator") && err.contains("caustic-merged") && !dir.path().join("b3").exists(), "{err}");
+    assert!(err.contains("--estimator") && err.contains("unknown transport") && !dir.path().join("b3").exists(), "{err}");
     let (code, _, err) =
         glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--device", "wgpu", "--estimator", "caustic-merged", "--out", path(&dir.path().join("b4"))]);
     assert_eq!(code, 2);

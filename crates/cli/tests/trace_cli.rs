@@ -79,8 +79,8 @@ fn bad_input_exits_2_with_one_line_and_writes_nothing() {
         &["--camera", "1,2,3"][..],
         &["--set", "no_such_variable=1"][..],
         &["--set", "pane_x=7"][..],
-        // The guided estimator's learning passes sample every pixel alike.
-        &["--sampling", "adaptive", "--integrator", "guided"][..],
+        // Glass pixels get at least --spp samples.
+        &["--spp", "4", "--glass-spp", "2"][..],
     ] {
         let (code, stdout, err) = trace(&out, extra);
         assert_eq!(code, 2, "{extra:?}: {err}");
@@ -89,13 +89,15 @@ fn bad_input_exits_2_with_one_line_and_writes_nothing() {
         assert!(!out.exists() && !out.with_extension("png").exists(), "{extra:?} wrote output");
     }
     // An unknown value is refused by the argument parser (its message has a usage hint).
-    let (code, _, err) = trace(&out, &["--sampling", "sideways"]);
-    assert_eq!(code, 2, "{err}");
-    assert!(err.contains("expected adaptive or uniform") && !out.exists(), "{err}");
+    for (estimator, says) in [("guided", "unknown transport"), ("caustic+sideways", "unknown option"), ("plain+merging", "caustic transport")] {
+        let (code, _, err) = trace(&out, &["--estimator", estimator]);
+        assert_eq!(code, 2, "{err}");
+        assert!(err.contains(says) && !out.exists(), "{estimator}: {err}");
+    }
 }
 
 #[test]
-fn trace_on_the_gpu_is_deterministic_and_refuses_guiding() {
+fn trace_on_the_gpu_is_deterministic_and_refuses_cpu_only_estimators() {
     let dir = tempfile::tempdir().unwrap();
     let one = dir.path().join("gpu-one.exr");
     let (code, stdout, err) = trace(&one, &["--sample", "3", "--spp", "8", "--device", "wgpu"]);
@@ -109,28 +111,19 @@ fn trace_on_the_gpu_is_deterministic_and_refuses_guiding() {
     assert_eq!(code, 0, "{err}");
     assert_eq!(read_rgb(&two), image, "two GPU traces of one sample differ");
 
-    let guided = dir.path().join("guided.exr");
-    let (code, stdout, err) = trace(&guided, &["--integrator", "guided", "--device", "wgpu"]);
-    assert_eq!(code, 2, "{err}");
-    assert!(stdout.is_empty() && err.lines().count() == 1 && err.contains("CPU only"), "{err}");
-    assert!(!guided.exists() && !guided.with_extension("png").exists());
-
-    for cpu_only in [&["--sampling", "adaptive"], &["--sampler", "stratified"]] {
+    for cpu_only in ["caustic", "plain+adaptive", "plain+stratified"] {
         let path = dir.path().join("cpu-only.exr");
-        let mut args = cpu_only.to_vec();
-        args.extend_from_slice(&["--device", "wgpu"]);
-        let (code, stdout, err) = trace(&path, &args);
-        assert_eq!(code, 2, "{cpu_only:?}: {err}");
-        assert!(stdout.is_empty() && err.lines().count() == 1 && err.contains("CPU only"), "{cpu_only:?}: {err}");
-        assert!(!path.exists());
+        let (code, stdout, err) = trace(&path, &["--estimator", cpu_only, "--device", "wgpu"]);
+        assert_eq!(code, 2, "{cpu_only}: {err}");
+        assert!(stdout.is_empty() && err.lines().count() == 1 && err.contains("CPU only"), "{cpu_only}: {err}");
+        assert!(!path.exists() && !path.with_extension("png").exists());
     }
 }
 
-/// Without --sampling the CPU samples adaptively, except for the guided estimator, which
-/// cannot: it is sampled uniformly rather than refused. Without --sampler the values are
-/// stratified.
+/// Without --estimator the CPU traces with the ground truth's default,
+/// `caustic+adaptive+stratified`, and each of its options changes the image.
 #[test]
-fn sampling_defaults_to_adaptive_where_it_can_run() {
+fn the_cpu_traces_with_the_default_estimator_unless_told() {
     let dir = tempfile::tempdir().unwrap();
     let traced = |name: &str, extra: &[&str]| {
         let path = dir.path().join(name);
@@ -141,9 +134,9 @@ fn sampling_defaults_to_adaptive_where_it_can_run() {
         read_rgb(&path)
     };
     let default = traced("default.exr", &[]);
-    assert_eq!(default, traced("adaptive.exr", &["--sampling", "adaptive", "--sampler", "stratified"]));
-    assert_ne!(default, traced("uniform.exr", &["--sampling", "uniform"]));
-    assert_ne!(default, traced("independent.exr", &["--sampler", "independent"]));
-    let guided = traced("guided.exr", &["--integrator", "guided"]);
-    assert_eq!(guided, traced("guided-uniform.exr", &["--integrator", "guided", "--sampling", "uniform"]));
+    assert_eq!(default, traced("named.exr", &["--estimator", "caustic+adaptive+stratified"]));
+    assert_eq!(default, traced("reordered.exr", &["--estimator", "caustic+stratified+adaptive"]));
+    assert_ne!(default, traced("uniform.exr", &["--estimator", "caustic+stratified"]));
+    assert_ne!(default, traced("independent.exr", &["--estimator", "caustic+adaptive"]));
+    assert_ne!(default, traced("plain.exr", &["--estimator", "plain+adaptive+stratified"]));
 }

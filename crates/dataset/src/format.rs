@@ -6,7 +6,7 @@
 use glassbake_core::layout;
 use glassbake_core::{Camera, Error, Result};
 use glassbake_scene::Scene;
-use glassbake_trace::Integrator;
+use glassbake_trace::Estimator;
 use serde::{Deserialize, Serialize};
 
 /// 2: transparency buffers gained `Ld` (19 channels). 3: they gained `Ld_far` (22 channels),
@@ -71,80 +71,48 @@ impl TraceDevice {
     }
 }
 
-/// Which of the path tracer's estimators traces the ground truth
-/// (`glassbake_trace::Integrator`). Both converge to the same images; their random numbers
-/// differ, so a dataset keeps the estimator it was started with.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum GroundTruthEstimator {
-    /// The path tracer alone: datasets made before the caustic estimator, and GPU datasets.
-    #[default]
-    Plain,
-    /// The path tracer plus light tracing of caustic paths (CPU only), every pixel at the
-    /// same spp.
-    Caustic,
-    /// The caustic estimator with adaptive sampling (`glassbake_trace::adaptive`) and
-    /// stratified sample values (`glassbake_trace::qmc`); CPU only, the default there.
-    #[serde(rename = "caustic-adaptive-stratified")]
-    CausticAdaptiveStratified,
-    /// `CausticAdaptiveStratified` with photon merging of what the camera sees through glass
-    /// (`glassbake_trace::photon_merging`): biased (a blur of about a pixel, shrinking as
-    /// the budget grows), much less noisy on glass. CPU only, opt-in.
-    #[serde(rename = "caustic-merged")]
-    CausticMerged,
+impl TraceDevice {
+    /// The estimator a new dataset traced on this device uses unless told otherwise: the
+    /// ground truth's default on the CPU, [`Estimator::PLAIN`] on the GPU (which has no light
+    /// tracer and samples uniformly, with independent random numbers).
+    pub fn default_estimator(self) -> Estimator {
+        match self {
+            TraceDevice::Cpu => Estimator::default(),
+            TraceDevice::Wgpu => Estimator::PLAIN,
+        }
+    }
 }
 
-impl GroundTruthEstimator {
-    pub fn parse(name: &str) -> Result<GroundTruthEstimator> {
-        match name {
-            "plain" => Ok(GroundTruthEstimator::Plain),
-            "caustic" => Ok(GroundTruthEstimator::Caustic),
-            "caustic-adaptive-stratified" => Ok(GroundTruthEstimator::CausticAdaptiveStratified),
-            "caustic-merged" => Ok(GroundTruthEstimator::CausticMerged),
-            other => Err(Error::bad_input("--estimator", other, "expected plain, caustic, caustic-adaptive-stratified or caustic-merged")),
+/// A dataset's estimator as `manifest.json` spells it: its name (`glassbake_trace::estimator`).
+/// The estimator's random numbers are part of the frames, so a dataset keeps the one it was
+/// started with. Manifests older than the caustic estimator have none: they were traced plain.
+mod estimator_name {
+    use glassbake_trace::Estimator;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    /// The two estimators that datasets recorded before options were spelled with `+` keep
+    /// their older names in manifests: a manifest's checksum covers its bytes as this
+    /// glassbake writes them back, and older versions keep reading them.
+    pub fn manifest_name(estimator: &Estimator) -> String {
+        let name = estimator.name();
+        match name.as_str() {
+            "caustic+adaptive+stratified" => "caustic-adaptive-stratified".to_string(),
+            "caustic+merging+adaptive+stratified" => "caustic-merged".to_string(),
+            _ => name,
         }
     }
 
-    pub fn name(self) -> &'static str {
-        match self {
-            GroundTruthEstimator::Plain => "plain",
-            GroundTruthEstimator::Caustic => "caustic",
-            GroundTruthEstimator::CausticAdaptiveStratified => "caustic-adaptive-stratified",
-            GroundTruthEstimator::CausticMerged => "caustic-merged",
-        }
+    pub fn serialize<S: Serializer>(estimator: &Estimator, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(&manifest_name(estimator))
     }
 
-    /// What a new dataset traced on `device` uses unless told otherwise: the caustic
-    /// estimator with adaptive, stratified sampling on the CPU, the plain one on the GPU (which
-    /// has no light tracer and samples uniformly, with independent random numbers).
-    pub fn default_for(device: TraceDevice) -> GroundTruthEstimator {
-        match device {
-            TraceDevice::Cpu => GroundTruthEstimator::CausticAdaptiveStratified,
-            TraceDevice::Wgpu => GroundTruthEstimator::Plain,
-        }
+    pub fn deserialize<'de, D: Deserializer<'de>>(deserializer: D) -> Result<Estimator, D::Error> {
+        let name = String::deserialize(deserializer)?;
+        Estimator::parse(&name).map_err(serde::de::Error::custom)
     }
 
-    pub fn integrator(self) -> Integrator {
-        match self {
-            GroundTruthEstimator::Plain => Integrator::Plain,
-            GroundTruthEstimator::Caustic | GroundTruthEstimator::CausticAdaptiveStratified | GroundTruthEstimator::CausticMerged => Integrator::Caustic,
-        }
-    }
-
-    /// Whether pixels are sampled adaptively (`glassbake_trace::TraceSettings::adaptive`).
-    pub fn adaptive(self) -> bool {
-        matches!(self, GroundTruthEstimator::CausticAdaptiveStratified | GroundTruthEstimator::CausticMerged)
-    }
-
-    /// Whether sample values are stratified (`glassbake_trace::TraceSettings::stratified`).
-    pub fn stratified(self) -> bool {
-        matches!(self, GroundTruthEstimator::CausticAdaptiveStratified | GroundTruthEstimator::CausticMerged)
-    }
-
-    /// Whether what the camera sees through glass is merged from photons
-    /// (`glassbake_trace::TraceSettings::photon_merging`).
-    pub fn photon_merging(self) -> bool {
-        self == GroundTruthEstimator::CausticMerged
+    pub fn traced_plain() -> Estimator {
+        Estimator::PLAIN
     }
 }
 
@@ -177,8 +145,8 @@ pub struct DatasetSpec {
     #[serde(default, skip_serializing_if = "TraceDevice::is_cpu")]
     pub device: TraceDevice,
     /// Absent in manifests older than the caustic estimator: those were traced plain.
-    #[serde(default)]
-    pub estimator: GroundTruthEstimator,
+    #[serde(default = "estimator_name::traced_plain", with = "estimator_name")]
+    pub estimator: Estimator,
 }
 
 impl DatasetSpec {
@@ -249,8 +217,8 @@ impl DatasetSpec {
                 format!("{} frames in all is more than {MAX_FRAMES}, the most one manifest lists (make several datasets)", self.total()),
             ));
         }
-        if self.device == TraceDevice::Wgpu && self.estimator != GroundTruthEstimator::Plain {
-            return Err(Error::bad_input("dataset", "--estimator", format!("{} runs on the CPU only; with --device wgpu use plain", self.estimator.name())));
+        if self.device == TraceDevice::Wgpu && self.estimator != Estimator::PLAIN {
+            return Err(Error::bad_input("dataset", "--estimator", format!("{} runs on the CPU only; with --device wgpu use plain", self.estimator)));
         }
         Ok(())
     }
@@ -417,7 +385,7 @@ impl DatasetManifest {
             ("--train/--val/--test", format!("{}/{}/{}", a.train, a.val, a.test), format!("{}/{}/{}", b.train, b.val, b.test)),
             ("--cache-buffers", a.cache_buffers.to_string(), b.cache_buffers.to_string()),
             ("--device", a.device.name().to_string(), b.device.name().to_string()),
-            ("--estimator", a.estimator.name().to_string(), b.estimator.name().to_string()),
+            ("--estimator", a.estimator.name(), b.estimator.name()),
             ("samples", format!("{}", self.samples.len()), format!("{}", other.samples.len())),
         ];
         for (name, was, now) in fields {
@@ -456,14 +424,31 @@ mod tests {
             test: 0,
             cache_buffers: false,
             device: TraceDevice::Cpu,
-            estimator: GroundTruthEstimator::Caustic,
+            estimator: Estimator::default(),
         };
         let mut json = serde_json::to_value(&spec).unwrap();
-        assert_eq!(json["estimator"], "caustic");
+        // The names manifests recorded before the estimator's options were spelled with `+`
+        // read back and are written back as they were (the manifest's checksum covers them).
+        for (older, meaning) in [
+            ("caustic-adaptive-stratified", "caustic+adaptive+stratified"),
+            ("caustic-merged", "caustic+merging+adaptive+stratified"),
+            ("caustic", "caustic"),
+            ("plain", "plain"),
+        ] {
+            json["estimator"] = older.into();
+            let old: DatasetSpec = serde_json::from_value(json.clone()).unwrap();
+            assert_eq!(old.estimator.name(), meaning);
+            assert_eq!(serde_json::to_value(&old).unwrap(), json, "{older} is not written back as it was read");
+        }
+        json["estimator"] = "caustic+stratified".into();
+        let new: DatasetSpec = serde_json::from_value(json.clone()).unwrap();
+        assert_eq!(serde_json::to_value(&new).unwrap()["estimator"], "caustic+stratified");
+        json["estimator"] = "guided".into();
+        let err = serde_json::from_value::<DatasetSpec>(json.clone()).unwrap_err().to_string();
+        assert!(err.contains("unknown transport"), "{err}");
         json.as_object_mut().unwrap().remove("estimator");
         let old: DatasetSpec = serde_json::from_value(json).unwrap();
-        assert_eq!(old.estimator, GroundTruthEstimator::Plain);
-        assert_eq!(old.estimator.integrator(), Integrator::Plain);
+        assert_eq!(old.estimator, Estimator::PLAIN);
     }
 
     /// Frame counts that would wrap or could not be planned in memory are refused, naming the
@@ -482,7 +467,7 @@ mod tests {
             test: 1,
             cache_buffers: false,
             device: TraceDevice::Cpu,
-            estimator: GroundTruthEstimator::Plain,
+            estimator: Estimator::PLAIN,
         };
         for (train, val) in [(u64::MAX, 0), (u64::MAX, 1), (MAX_FRAMES, 0), (100_000_000, 0)] {
             let err = spec(train, val).validate().unwrap_err();

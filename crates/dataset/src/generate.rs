@@ -122,10 +122,7 @@ fn make_frame(
     let trace = |spp: u32, glass_spp: u32, seed: u64| -> Result<glassbake_trace::TraceOutput> {
         let mut settings = TraceSettings::new(res, res, spp, seed);
         settings.threads = threads;
-        settings.integrator = spec.estimator.integrator();
-        settings.adaptive = spec.estimator.adaptive();
-        settings.stratified = spec.estimator.stratified();
-        settings.photon_merging = spec.estimator.photon_merging();
+        settings.estimator = spec.estimator;
         match gpu_tracer {
             // The GPU tracer draws every pixel at one spp: the glass pixels' for all of them.
             Some(tracer) => {

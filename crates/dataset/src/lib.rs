@@ -14,7 +14,7 @@ pub mod loader;
 pub mod merge;
 pub mod store;
 
-pub use format::{DatasetManifest, DatasetSpec, GroundTruthEstimator, SampleRecord, Split, TraceDevice, FORMAT_VERSION};
+pub use format::{DatasetManifest, DatasetSpec, SampleRecord, Split, TraceDevice, FORMAT_VERSION};
 pub use generate::{generate, upgrade, GenerateOptions, GenerateProgress, GenerateSummary, ShardSpec, UpgradeSummary};
 pub use loader::{Example, Loader, LoaderOptions};
 pub use merge::merge;

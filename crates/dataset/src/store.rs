@@ -15,7 +15,7 @@ use glassbake_core::image::{write_bytes_atomically, ExrPrecision};
 use glassbake_core::layout;
 use glassbake_core::{Error, PlanarImage, Result};
 
-use crate::format::{DatasetManifest, GroundTruthEstimator, Split, TraceDevice, FORMAT_VERSION};
+use crate::format::{DatasetManifest, Split, TraceDevice, FORMAT_VERSION};
 
 pub const MANIFEST_FILE: &str = "manifest.json";
 
@@ -62,7 +62,7 @@ pub struct DatasetInfo {
     /// Where the ground truth was path-traced.
     pub device: TraceDevice,
     /// With which estimator.
-    pub estimator: GroundTruthEstimator,
+    pub estimator: glassbake_trace::Estimator,
     /// By which revision of the tracers (`None`: a dataset from before revisions were recorded).
     pub tracer_revision: Option<u32>,
     /// With which CPU ray caster (`None` for GPU datasets).

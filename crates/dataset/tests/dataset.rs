@@ -9,10 +9,10 @@ use glassbake_core::layout::transparent;
 use glassbake_core::{Error, PlanarImage};
 use glassbake_dataset::store::{checksum_path, FrameStatus};
 use glassbake_dataset::{
-    generate, merge, upgrade, DatasetSpec, DatasetStore, GenerateOptions, GenerateProgress, GroundTruthEstimator, Loader, LoaderOptions, ShardSpec, Split,
-    TraceDevice,
+    generate, merge, upgrade, DatasetSpec, DatasetStore, GenerateOptions, GenerateProgress, Loader, LoaderOptions, ShardSpec, Split, TraceDevice,
 };
 use glassbake_scene::builtin::builtin;
+use glassbake_trace::Estimator;
 
 /// A small dataset whose test frames are traced at 4x the training spp, 6x on glass pixels
 /// (so resume and merge cover the test frames' training-spp copies too), with enough samples
@@ -32,7 +32,7 @@ fn spec(seed: u64) -> DatasetSpec {
         test_glass_spp: Some(384),
         // The CPU default, so that resume and merge cover the light tracer, adaptive sampling
         // and stratified sample values too.
-        estimator: GroundTruthEstimator::CausticAdaptiveStratified,
+        estimator: Estimator::default(),
     }
 }
 
@@ -194,13 +194,8 @@ fn test_frames_are_traced_at_the_test_spp_and_glass_spp_with_an_independent_trai
     assert_eq!((info.spp, info.test_spp, info.test_glass_spp), (64, 256, 384));
     let trace_with_glass = |index: u64, spp: u32, glass_spp: u32, seed: u64| {
         let sample = &store.manifest.samples[index as usize];
-        let settings = glassbake_trace::TraceSettings {
-            glass_spp: Some(glass_spp),
-            integrator: s.estimator.integrator(),
-            adaptive: s.estimator.adaptive(),
-            stratified: s.estimator.stratified(),
-            ..glassbake_trace::TraceSettings::new(8, 8, spp, seed)
-        };
+        let settings =
+            glassbake_trace::TraceSettings { glass_spp: Some(glass_spp), estimator: s.estimator, ..glassbake_trace::TraceSettings::new(8, 8, spp, seed) };
         glassbake_trace::render(&scene.instantiate(&sample.values).unwrap(), &sample.camera, &settings, None).unwrap().image
     };
     let trace = |index: u64, spp: u32, seed: u64| trace_with_glass(index, spp, spp, seed);
@@ -310,9 +305,9 @@ fn a_different_command_on_an_existing_dataset_is_refused() {
         (scene.clone(), DatasetSpec { spp: 4, ..tiny.clone() }, "--spp"),
         (scene.clone(), DatasetSpec { test_spp: Some(512), test_glass_spp: Some(512), ..tiny.clone() }, "--test-spp"),
         (scene.clone(), DatasetSpec { test_glass_spp: Some(512), ..tiny.clone() }, "--test-glass-spp"),
-        (scene.clone(), DatasetSpec { estimator: GroundTruthEstimator::Caustic, ..tiny.clone() }, "--estimator"),
+        (scene.clone(), DatasetSpec { estimator: Estimator::parse("caustic").unwrap(), ..tiny.clone() }, "--estimator"),
         (scene.clone(), DatasetSpec { train: 2, ..tiny.clone() }, "--train"),
-        (scene.clone(), DatasetSpec { estimator: GroundTruthEstimator::Plain, ..tiny.clone() }, "--estimator"),
+        (scene.clone(), DatasetSpec { estimator: Estimator::PLAIN, ..tiny.clone() }, "--estimator"),
         (other_scene, tiny.clone(), "different scene"),
     ];
     for (scene, spec, why) in refusals {
@@ -395,7 +390,7 @@ fn splits_are_disjoint_and_cover_the_set() {
         device: TraceDevice::Cpu,
         test_spp: None,
         test_glass_spp: None,
-        estimator: GroundTruthEstimator::Caustic,
+        estimator: Estimator::parse("caustic").unwrap(),
     };
     let manifest = glassbake_dataset::DatasetManifest::plan(&s, &scene);
     let train = manifest.indices_of(Split::Train);

@@ -70,8 +70,8 @@ struct PathTraced {
     denoise_seconds: f64,
 }
 
-/// Traces `sample` of `scene` at `spp` with a seed of its own (not the ground truth's), then
-/// denoises it with the naive G-buffer's first-surface albedo and normals as guides.
+/// Traces `sample` of `scene` at `spp` with the ground truth's default estimator
+/// (`TraceSettings::new`) and a seed of its own (not the ground truth's), then denoises it with the naive G-buffer's first-surface albedo and normals as guides.
 fn path_traced_baseline(scene: &glassbake_scene::Scene, sample: &SampleRecord, naive: &PlanarImage, spp: u32) -> Result<PathTraced> {
     let (w, h) = (naive.width(), naive.height());
     let instance = scene.instantiate(&sample.values)?;

@@ -11,7 +11,7 @@
 
 use glassbake_raster::RasterizerOptions;
 use glassbake_scene::builtin::{builtin, BUILTIN_NAMES};
-use glassbake_trace::{render, TraceSettings};
+use glassbake_trace::{render, Estimator, TraceSettings};
 use glassbake_trace_gpu::GpuTracer;
 
 fn main() {
@@ -50,9 +50,9 @@ fn main() {
         let scene = builtin(name).expect("built-in scene");
         let sample = scene.sample(0, 0);
         let instance = scene.instantiate(&sample.values).expect("sampled values are in range");
-        let warm_up = TraceSettings::new(16, 16, 1, 1);
+        let warm_up = TraceSettings { estimator: Estimator::PLAIN, ..TraceSettings::new(16, 16, 1, 1) };
         tracer.render(&instance, &sample.camera, &warm_up, None).expect("GPU render");
-        let settings = TraceSettings::new(res, res, spp, 1);
+        let settings = TraceSettings { estimator: Estimator::PLAIN, ..TraceSettings::new(res, res, spp, 1) };
         let gpu = tracer.render(&instance, &sample.camera, &settings, None).expect("GPU render");
         let (gpu_rate, gpu_s) = (gpu.samples_per_second(), gpu.elapsed.as_secs_f64());
         if with_cpu {

@@ -1,7 +1,8 @@
 // The path tracer as one compute kernel per pass: every invocation owns a pixel and traces
-// `sample_count` camera paths into it. The GPU twin of crates/trace/src/{integrator,lights,
-// spherical_rect,render}.rs without path guiding; bsdf.wgsl is prepended. Buffer layouts are
-// written by src/upload.rs (the record sizes below must match its constants).
+// `sample_count` camera paths into it. The GPU twin of the CPU tracer's plain estimator
+// (crates/trace/src/{integrator,lights,render}.rs: lights sampled by area and picked by power,
+// uniform pixels, independent values); src/tracer.rs prepends the constants shared with Rust
+// and bsdf.wgsl. Buffer layouts are written by src/upload.rs.
 
 struct Params {
     camera_position: vec4f,
@@ -29,25 +30,9 @@ struct Params {
     _pad2: u32,
 }
 
-const FLAG_LAMBERTIAN: u32 = 1u;
-const FLAG_SOLID_ANGLE: u32 = 2u;
-
-// Record sizes in vec4s (src/upload.rs).
-const NODE_VEC4S: u32 = 2u;
-const TRIANGLE_VEC4S: u32 = 3u;
-const ATTRIBUTE_VEC4S: u32 = 8u;
-const MATERIAL_VEC4S: u32 = 4u;
-const EMITTER_VEC4S: u32 = 6u;
-
-const NONE: u32 = 0xffffffffu;
-const ATTR_RECT_LIGHT: u32 = 1u;
-const ATTR_HAS_NORMALS: u32 = 2u;
-const ATTR_PASS_THROUGH: u32 = 4u;
-
-const STACK_SIZE: u32 = 64u;
-// SOLID_ANGLE_RANGE (rectangles are sampled by solid angle within this many times their
-// edge-length sum) is the CPU tracer's, prepended by `trace_source` in tracer.rs.
-const MAX_VERTICES: u32 = 4096u;
+// FLAG_LAMBERTIAN, the record sizes (`*_VEC4S`), the attribute flags (`ATTR_*`), NONE,
+// STACK_SIZE and MAX_VERTICES come from Rust: `shared_constants` in src/tracer.rs prepends
+// them from the constants src/upload.rs writes the buffers with and the CPU tracer's own.
 
 @group(0) @binding(0) var<uniform> params: Params;
 // Binary BVH: (min, first child or first triangle), (max, triangle count; 0 = inner node).
@@ -399,100 +384,6 @@ fn emitted(e: Emitter, w: vec3f) -> vec3f {
     return vec3f(0.0);
 }
 
-fn uses_solid_angle(e: Emitter, shading_point: vec3f) -> bool {
-    if (params.flags & FLAG_SOLID_ANGLE) == 0u || !e.rectangle {
-        return false;
-    }
-    let reach = SOLID_ANGLE_RANGE * (length(e.edge1) + length(e.edge2));
-    let d = shading_point - (e.p0 + 0.5 * (e.edge1 + e.edge2));
-    return dot(d, d) < reach * reach;
-}
-
-// Ureña, Fajardo and King 2013, "An Area-Preserving Parametrization for Spherical
-// Rectangles", in f32 (only used close to the light, where the solid angle is large).
-struct SphericalRect {
-    valid: bool,
-    origin: vec3f,
-    x: vec3f,
-    y: vec3f,
-    z: vec3f,
-    x0: f32,
-    x1: f32,
-    y0: f32,
-    y1: f32,
-    z0: f32,
-    b0: f32,
-    b1: f32,
-    k: f32,
-    solid_angle: f32,
-}
-
-fn spherical_rect(e: Emitter, shading_point: vec3f) -> SphericalRect {
-    var r: SphericalRect;
-    r.valid = false;
-    if !e.two_sided && dot(e.normal, shading_point - e.p0) <= 0.0 {
-        return r;
-    }
-    let length_x = length(e.edge1);
-    let length_y = length(e.edge2);
-    r.x = e.edge1 / length_x;
-    r.y = e.edge2 / length_y;
-    r.z = cross(r.x, r.y);
-    let d = e.p0 - shading_point;
-    r.x0 = dot(d, r.x);
-    r.y0 = dot(d, r.y);
-    r.z0 = dot(d, r.z);
-    if r.z0 > 0.0 {
-        r.z0 = -r.z0;
-        r.z = -r.z;
-    }
-    if abs(r.z0) < 1e-6 * (length_x + length_y) {
-        return r;
-    }
-    r.x1 = r.x0 + length_x;
-    r.y1 = r.y0 + length_y;
-    let v00 = vec3f(r.x0, r.y0, r.z0);
-    let v01 = vec3f(r.x0, r.y1, r.z0);
-    let v10 = vec3f(r.x1, r.y0, r.z0);
-    let v11 = vec3f(r.x1, r.y1, r.z0);
-    let n0 = normalize(cross(v00, v10));
-    let n1 = normalize(cross(v10, v11));
-    let n2 = normalize(cross(v11, v01));
-    let n3 = normalize(cross(v01, v00));
-    let g0 = acos(clamp(-dot(n0, n1), -1.0, 1.0));
-    let g1 = acos(clamp(-dot(n1, n2), -1.0, 1.0));
-    let g2 = acos(clamp(-dot(n2, n3), -1.0, 1.0));
-    let g3 = acos(clamp(-dot(n3, n0), -1.0, 1.0));
-    r.k = TAU - g2 - g3;
-    r.solid_angle = g0 + g1 - r.k;
-    if !is_finite_f32(r.solid_angle) || r.solid_angle <= 1e-7 {
-        return r;
-    }
-    r.origin = shading_point;
-    r.b0 = n0.z;
-    r.b1 = n2.z;
-    r.valid = true;
-    return r;
-}
-
-fn spherical_rect_sample(r: SphericalRect, u: vec2f) -> vec3f {
-    let au = u.x * r.solid_angle + r.k;
-    let fu = (cos(au) * r.b0 - r.b1) / sin(au);
-    let cu = clamp(sign_nonzero(fu) / sqrt(fu * fu + r.b0 * r.b0), -1.0, 1.0);
-    let xu = clamp(-(cu * r.z0) / sqrt(max(1.0 - cu * cu, 1e-30)), r.x0, r.x1);
-    let d = sqrt(xu * xu + r.z0 * r.z0);
-    let h0 = r.y0 / sqrt(d * d + r.y0 * r.y0);
-    let h1 = r.y1 / sqrt(d * d + r.y1 * r.y1);
-    let hv = h0 + u.y * (h1 - h0);
-    let hv2 = hv * hv;
-    var yv = r.y1;
-    if hv2 < 1.0 - 1e-6 {
-        yv = (hv * d) / sqrt(1.0 - hv2);
-    }
-    yv = clamp(yv, r.y0, r.y1);
-    return r.origin + xu * r.x + yv * r.y + r.z0 * r.z;
-}
-
 struct LightSample {
     valid: bool,
     point: vec3f,
@@ -526,24 +417,6 @@ fn sample_light(shading_point: vec3f, u_select: f32, u: vec2f) -> LightSample {
     }
     let index = select_emitter(u_select);
     let e = load_emitter(index);
-    if uses_solid_angle(e, shading_point) {
-        let rect = spherical_rect(e, shading_point);
-        if rect.valid {
-            let point = spherical_rect_sample(rect, u);
-            let to_light = point - shading_point;
-            let distance = length(to_light);
-            if distance <= 0.0 {
-                return no_light();
-            }
-            let wi = to_light / distance;
-            let radiance = emitted(e, -wi);
-            let pdf = e.pmf / rect.solid_angle;
-            if all(radiance == vec3f(0.0)) || !(pdf > 0.0) || !is_finite_f32(pdf) {
-                return no_light();
-            }
-            return LightSample(true, point, wi, radiance, pdf);
-        }
-    }
     var point: vec3f;
     if e.triangle {
         let b = uniform_triangle(u);
@@ -572,13 +445,6 @@ fn sample_light(shading_point: vec3f, u_select: f32, u: vec2f) -> LightSample {
 // Density with which sample_light from `shading_point` picks `point` on emitter `index`.
 fn light_pdf(index: u32, shading_point: vec3f, point: vec3f) -> f32 {
     let e = load_emitter(index);
-    if uses_solid_angle(e, shading_point) {
-        let rect = spherical_rect(e, shading_point);
-        if rect.valid {
-            return e.pmf / rect.solid_angle;
-        }
-        return 0.0;
-    }
     let to_light = point - shading_point;
     let distance2 = dot(to_light, to_light);
     let cos_light = abs(dot(e.normal, to_light)) / sqrt(distance2);

@@ -2,12 +2,12 @@
 //!
 //! It owns the GPU side of ground truth: flattening a scene instance into storage buffers
 //! (a binary BVH built by obvhs, triangles, materials, textures, the CPU tracer's emitter
-//! table), the WGSL port of the CPU tracer's BSDFs, light sampling and integrator
-//! (`shaders/`: next-event estimation through smooth thin panes, MIS, solid-angle or area
-//! sampling of rectangles, Russian roulette; no path guiding), and the passes that
-//! accumulate samples per pixel. Images are deterministic on one device (counter-based
-//! random numbers per pixel, sample and dimension) and converge to the CPU tracer's; they
-//! are not bit-identical to it. [`probe`] runs the GPU BSDF on given inputs for tests.
+//! table), the WGSL port of the CPU tracer's BSDFs, light sampling and its `plain` estimator
+//! (`shaders/`: next-event estimation through smooth thin panes, MIS, area sampling of
+//! lights picked by power, Russian roulette), and the passes that accumulate samples per
+//! pixel. Images are deterministic on one device (counter-based random numbers per pixel,
+//! sample and dimension) and converge to the CPU tracer's; they are not bit-identical to it.
+//! [`probe`] runs the GPU BSDF on given inputs for tests.
 
 pub mod probe;
 mod tracer;

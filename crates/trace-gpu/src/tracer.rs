@@ -9,7 +9,7 @@ use glassbake_core::layout::GROUND_TRUTH_CHANNELS;
 use glassbake_core::{Camera, Error, PlanarImage, Result};
 use glassbake_raster::RasterizerOptions;
 use glassbake_scene::Scene;
-use glassbake_trace::{unlit_warning, Integrator, MaterialModel, Progress, TraceOutput, TraceSettings};
+use glassbake_trace::{unlit_warning, Estimator, MaterialModel, Progress, TraceOutput, TraceSettings};
 use wgpu::util::DeviceExt;
 
 use crate::upload::SceneBuffers;
@@ -29,12 +29,11 @@ pub const SAMPLES_PER_THREAD_LAVAPIPE: u32 = 4;
 
 const WORKGROUP_SIDE: u32 = 8;
 const FLAG_LAMBERTIAN: u32 = 1;
-const FLAG_SOLID_ANGLE: u32 = 2;
 
 /// The kernel's uniform block (`Params` in trace.wgsl).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
-struct Params {
+pub(crate) struct Params {
     camera_position: [f32; 4],
     camera_forward: [f32; 4],
     camera_right: [f32; 4],
@@ -49,7 +48,7 @@ struct Params {
     max_depth: u32,
     rr_depth: u32,
     flags: u32,
-    emitter_count: u32,
+    pub(crate) emitter_count: u32,
     texture_table: u32,
     has_panes: u32,
     slots: u32,
@@ -65,11 +64,32 @@ pub struct GpuTracer {
     samples_per_thread: u32,
 }
 
-/// The WGSL source of the trace kernel: the constants it shares with the CPU tracer, the
-/// BSDF, then the integrator.
+/// The WGSL constants the kernel shares with Rust, written from the Rust constants
+/// themselves so that the two cannot drift: the uniform block's flags, the buffer layouts
+/// `upload.rs` writes, and the CPU tracer's path-length guard.
+pub(crate) fn shared_constants() -> String {
+    use crate::upload::*;
+    let constants: [(&str, u64); 12] = [
+        ("FLAG_LAMBERTIAN", FLAG_LAMBERTIAN as u64),
+        ("NODE_VEC4S", NODE_VEC4S as u64),
+        ("TRIANGLE_VEC4S", TRIANGLE_VEC4S as u64),
+        ("ATTRIBUTE_VEC4S", ATTRIBUTE_VEC4S as u64),
+        ("MATERIAL_VEC4S", MATERIAL_VEC4S as u64),
+        ("EMITTER_VEC4S", EMITTER_VEC4S as u64),
+        ("NONE", NONE as u64),
+        ("ATTR_RECT_LIGHT", ATTR_RECT_LIGHT as u64),
+        ("ATTR_HAS_NORMALS", ATTR_HAS_NORMALS as u64),
+        ("ATTR_PASS_THROUGH", ATTR_PASS_THROUGH as u64),
+        ("STACK_SIZE", MAX_BVH_DEPTH as u64),
+        ("MAX_VERTICES", glassbake_trace::prepared::MAX_VERTICES as u64),
+    ];
+    constants.iter().map(|(name, value)| format!("const {name}: u32 = {value}u;\n")).collect()
+}
+
+/// The WGSL source of the trace kernel: the constants it shares with Rust, the BSDF, then
+/// the integrator.
 pub(crate) fn trace_source() -> String {
-    let shared = format!("const SOLID_ANGLE_RANGE: f32 = {:?};", glassbake_trace::lights::SOLID_ANGLE_RANGE);
-    [shared.as_str(), include_str!("../shaders/bsdf.wgsl"), include_str!("../shaders/trace.wgsl")].join("\n")
+    [shared_constants().as_str(), include_str!("../shaders/bsdf.wgsl"), include_str!("../shaders/trace.wgsl")].join("\n")
 }
 
 /// Compile `source` into a compute pipeline with the layout its bindings imply.
@@ -109,31 +129,21 @@ impl GpuTracer {
         (&self.device, &self.queue)
     }
 
-    /// Path trace `scene` as seen by `camera`. `settings.threads` has no meaning here;
-    /// `Integrator::Guided` and `Integrator::Caustic` are refused (CPU only).
+    /// Path trace `scene` as seen by `camera`. `settings.threads` has no meaning here; the
+    /// GPU runs [`Estimator::PLAIN`] only, and refuses any other.
     pub fn render(&self, scene: &Scene, camera: &Camera, settings: &TraceSettings, progress: Option<Progress>) -> Result<TraceOutput> {
         let start = Instant::now();
         settings.validate()?;
         camera.check()?;
-        if matches!(settings.integrator, Integrator::Guided | Integrator::Caustic) {
+        if settings.estimator != Estimator::PLAIN {
             return Err(Error::bad_input(
-                "--integrator",
-                settings.integrator.name(),
-                "path guiding and light tracing run on the CPU only; with --device wgpu use plain or solid-angle",
+                "--estimator",
+                settings.estimator.name(),
+                "the GPU tracer runs the plain estimator only (no light tracer, uniform pixels, independent values); the others run on the CPU only",
             ));
-        }
-        if settings.adaptive {
-            return Err(Error::bad_input("trace settings", "adaptive", "the GPU tracer samples every pixel uniformly; adaptive sampling runs on the CPU only"));
         }
         if settings.path_filter != glassbake_trace::PathFilter::All {
             return Err(Error::bad_input("trace settings", "path_filter", "the GPU tracer renders every path; path filters run on the CPU only"));
-        }
-        if settings.stratified {
-            return Err(Error::bad_input(
-                "trace settings",
-                "stratified",
-                "the GPU tracer draws independent random numbers; stratified sampling runs on the CPU only",
-            ));
         }
         if settings.glass_spp.is_some_and(|glass_spp| glass_spp > settings.spp) {
             return Err(Error::bad_input(
@@ -146,7 +156,7 @@ impl GpuTracer {
         let pixels = width as u64 * height as u64;
         let samples = pixels * settings.spp as u64;
         let mut image = PlanarImage::new(width, height, GROUND_TRUTH_CHANNELS.iter().map(|c| c.to_string()).collect());
-        let buffers = SceneBuffers::build(scene, settings.integrator)?;
+        let buffers = SceneBuffers::build(scene)?;
         if let Some(warning) = unlit_warning(scene, buffers.emitter_count == 0) {
             if let Some(p) = progress {
                 p(samples, samples);
@@ -202,9 +212,6 @@ impl GpuTracer {
         let mut flags = 0;
         if settings.material_model == MaterialModel::Lambertian {
             flags |= FLAG_LAMBERTIAN;
-        }
-        if settings.integrator == Integrator::SolidAngle {
-            flags |= FLAG_SOLID_ANGLE;
         }
         let v4 = |v: Vec3| [v.x, v.y, v.z, 0.0];
         let mut params = Params {
@@ -299,7 +306,6 @@ impl GpuTracer {
             merge_radius: 0.0,
             warnings,
             elapsed: start.elapsed(),
-            learning_spp: 0,
         })
     }
 
@@ -364,7 +370,7 @@ mod tests {
     #[test]
     fn scenes_and_images_over_the_buffer_limit_are_refused_by_name() {
         let scene = builtin("desk").unwrap();
-        let buffers = SceneBuffers::build(&scene, Integrator::Plain).unwrap();
+        let buffers = SceneBuffers::build(&scene).unwrap();
         let largest = buffers.arrays().iter().map(|(_, a)| a.len() as u64 * 16).max().unwrap();
         check_sizes("desk", &buffers, 64, largest, "test GPU").unwrap();
         let err = check_sizes("desk", &buffers, 64, largest - 16, "test GPU").unwrap_err();

@@ -9,20 +9,23 @@ use glassbake_core::{Error, Result};
 use glassbake_scene::Scene;
 use glassbake_trace::geometry::Owner;
 use glassbake_trace::lights::Shape;
-use glassbake_trace::{Integrator, PreparedScene, SurfaceMaterial};
+use glassbake_trace::{PreparedScene, SurfaceMaterial};
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::triangle::Triangle as BvhTriangle;
 use obvhs::BvhBuildParams;
 
-/// Deepest BVH the shader's traversal stack holds (`STACK_SIZE` in trace.wgsl).
+/// Deepest BVH the shader's traversal stack holds (its `STACK_SIZE`).
 pub const MAX_BVH_DEPTH: usize = 64;
 
-const NONE: u32 = u32::MAX;
-const ATTR_RECT_LIGHT: u32 = 1;
-const ATTR_HAS_NORMALS: u32 = 2;
-const ATTR_PASS_THROUGH: u32 = 4;
+/// No texture, emitter or node.
+pub(crate) const NONE: u32 = u32::MAX;
+/// Per-triangle attribute flags.
+pub(crate) const ATTR_RECT_LIGHT: u32 = 1;
+pub(crate) const ATTR_HAS_NORMALS: u32 = 2;
+pub(crate) const ATTR_PASS_THROUGH: u32 = 4;
 
-/// Record sizes in vec4s, as in trace.wgsl.
+/// Record sizes in vec4s. These constants, not copies, reach the shader
+/// (`tracer::shared_constants`).
 pub(crate) const NODE_VEC4S: usize = 2;
 pub(crate) const TRIANGLE_VEC4S: usize = 3;
 pub(crate) const ATTRIBUTE_VEC4S: usize = 8;
@@ -57,10 +60,10 @@ pub struct SceneBuffers {
 }
 
 impl SceneBuffers {
-    /// Flatten `scene` for `integrator`'s light sampling. Fails (naming the scene) when the
-    /// BVH is deeper than the shader's traversal stack.
-    pub fn build(scene: &Scene, integrator: Integrator) -> Result<Self> {
-        let prepared = PreparedScene::for_integrator(scene, integrator);
+    /// Flatten `scene` for the plain estimator's light sampling. Fails (naming the scene) when
+    /// the BVH is deeper than the shader's traversal stack.
+    pub fn build(scene: &Scene) -> Result<Self> {
+        let prepared = PreparedScene::new(scene);
         let attributes_cpu = &prepared.geometry.attributes;
 
         let mut attributes = Vec::with_capacity(attributes_cpu.len() * ATTRIBUTE_VEC4S);
@@ -229,7 +232,7 @@ mod tests {
     #[test]
     fn every_triangle_is_in_exactly_one_leaf_and_inside_its_boxes() {
         let scene = builtin("cornellbox").unwrap();
-        let buffers = SceneBuffers::build(&scene, Integrator::Plain).unwrap();
+        let buffers = SceneBuffers::build(&scene).unwrap();
         let triangle_count = buffers.attributes.len() / ATTRIBUTE_VEC4S;
         assert_eq!(buffers.triangles.len() / TRIANGLE_VEC4S, triangle_count);
         let mut seen = vec![0u32; triangle_count];
@@ -265,7 +268,7 @@ mod tests {
     #[test]
     fn emitter_table_ends_with_a_cumulative_probability_of_one() {
         let scene = builtin("cornellbox").unwrap();
-        let buffers = SceneBuffers::build(&scene, Integrator::SolidAngle).unwrap();
+        let buffers = SceneBuffers::build(&scene).unwrap();
         assert!(buffers.emitter_count > 0);
         let count = buffers.emitter_count as usize;
         let pmf_sum: f32 = (0..count).map(|i| buffers.emitters[EMITTER_VEC4S * i + 3][3]).sum();

@@ -7,14 +7,14 @@
 //!
 //! cargo run --release -p glassbake-trace --example trace_convergence -- \
 //!     [--res 128] [--spp 256] [--glass-spp G] [--sample 0] [--scenes cornellbox,desk] [--out DIR]
-//!     [--estimators plain,solid-angle,guided,caustic,caustic+adaptive+stratified] [--max-depth N] [--rr-depth N]
+//!     [--estimators plain,caustic,caustic+adaptive+stratified] [--max-depth N] [--rr-depth N]
 //!     [--paths all|bent-view|straight-view] [--seeds 2]
 //!
-//! `+adaptive` after an estimator's name turns on adaptive sampling (`TraceSettings::adaptive`),
-//! `+stratified` stratified sample values (`TraceSettings::stratified`), `+merge` photon
-//! merging of what is seen through glass (`TraceSettings::photon_merging`, biased: its row is
-//! followed by its squared bias against the last unbiased estimator listed before it, and its
-//! efficiency by error = variance + squared bias).
+//! Estimators are named as `glassbake trace --estimator` names them (`glassbake_trace::Estimator`):
+//! a transport, `plain` or `caustic`, then `+merging` (photon merging of what is seen through
+//! glass, biased: its row is followed by its squared bias against the last unbiased estimator
+//! listed before it, and its efficiency by error = variance + squared bias), `+adaptive` and
+//! `+stratified`.
 //! `--paths bent-view` renders only the paths whose view from the camera bends at glass,
 //! `straight-view` the rest (`PathFilter`; the two add up to the image): where the noise is.
 //!
@@ -26,7 +26,7 @@
 //! transmissive object (the paths plain NEE cannot take). "Transparent, clamped" is the
 //! transparent set as T.MAE/T.PSNR see it. `--glass-spp` traces the pixels that show glass at
 //! G samples (`TraceSettings::glass_spp`), as a dataset's test split does. Seconds are wall
-//! time of one render with all threads, learning passes and BVH build included.
+//! time of one render with all threads, BVH build included.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -36,7 +36,7 @@ use glassbake_core::{Camera, PlanarImage, Ray};
 use glassbake_scene::builtin::builtin;
 use glassbake_scene::Scene;
 use glassbake_trace::geometry::Owner;
-use glassbake_trace::{render, Integrator, PathFilter, PreparedScene, TraceSettings};
+use glassbake_trace::{render, Estimator, PathFilter, PreparedScene, TraceSettings};
 
 struct Args {
     res: u32,
@@ -51,41 +51,6 @@ struct Args {
     /// Independent renders per estimator (seeds 1 to N), at least 2.
     seeds: u64,
     estimators: Vec<Estimator>,
-}
-
-/// An integrator and the sampling options it runs with.
-#[derive(Clone, Copy)]
-struct Estimator {
-    integrator: Integrator,
-    adaptive: bool,
-    stratified: bool,
-    /// Photon merging of what is seen through glass (`TraceSettings::photon_merging`).
-    merge: bool,
-}
-
-impl Estimator {
-    fn parse(text: &str) -> Option<Self> {
-        let mut parts = text.split('+');
-        let mut estimator = Estimator { integrator: Integrator::parse(parts.next()?)?, adaptive: false, stratified: false, merge: false };
-        for option in parts {
-            match option {
-                "adaptive" => estimator.adaptive = true,
-                "stratified" => estimator.stratified = true,
-                "merge" => estimator.merge = true,
-                _ => return None,
-            }
-        }
-        Some(estimator)
-    }
-
-    fn label(&self) -> String {
-        let options = [(self.merge, "+merge"), (self.adaptive, "+adaptive"), (self.stratified, "+stratified")];
-        options.iter().filter(|(on, _)| *on).fold(self.integrator.name().to_string(), |label, (_, option)| label + option)
-    }
-
-    fn is_plain(&self) -> bool {
-        self.integrator == Integrator::Plain && !self.adaptive && !self.stratified && !self.merge
-    }
 }
 
 fn parse_args() -> Args {
@@ -104,7 +69,7 @@ fn parse_args() -> Args {
     };
     let argv: Vec<String> = std::env::args().skip(1).collect();
     let usage = || -> ! {
-        eprintln!("usage: trace_convergence [--res N] [--spp N] [--glass-spp G] [--sample I] [--scenes a,b] [--estimators plain,solid-angle,guided,caustic,caustic+adaptive+stratified] [--out DIR] [--max-depth N] [--rr-depth N] [--paths all|bent-view|straight-view] [--seeds N]");
+        eprintln!("usage: trace_convergence [--res N] [--spp N] [--glass-spp G] [--sample I] [--scenes a,b] [--estimators plain,caustic,caustic+adaptive+stratified] [--out DIR] [--max-depth N] [--rr-depth N] [--paths all|bent-view|straight-view] [--seeds N]");
         std::process::exit(2)
     };
     let mut i = 0;
@@ -122,7 +87,7 @@ fn parse_args() -> Args {
             "--seeds" => args.seeds = value.parse().ok().filter(|&n| n >= 2).unwrap_or_else(|| usage()),
             "--paths" => args.paths = PathFilter::parse(&value).unwrap_or_else(|| usage()),
             "--estimators" => {
-                args.estimators = value.split(',').map(|e| Estimator::parse(e).unwrap_or_else(|| usage())).collect();
+                args.estimators = value.split(',').map(|e| Estimator::parse(e).unwrap_or_else(|_| usage())).collect();
             }
             _ => usage(),
         }
@@ -299,16 +264,13 @@ fn main() {
         // against.
         let mut unbiased: Option<(String, Vec<PlanarImage>)> = None;
         for estimator in &args.estimators {
-            let Estimator { integrator, adaptive, stratified, merge } = *estimator;
-            let label = estimator.label();
+            let estimator = *estimator;
+            let label = estimator.name();
             let mut images = Vec::new();
             let mut seconds = 0.0;
             for seed in 1..=args.seeds {
                 let settings = TraceSettings {
-                    integrator,
-                    adaptive,
-                    stratified,
-                    photon_merging: merge,
+                    estimator,
                     max_depth: args.max_depth,
                     rr_depth: args.rr_depth,
                     path_filter: args.paths,
@@ -345,7 +307,7 @@ fn main() {
                 let count = mask.map_or(variances.len(), |m| m.iter().filter(|&&b| b).count());
                 let variance = masked_mean(variances, mask);
                 let efficiency = variance.map(|v| 1.0 / (v * seconds));
-                if estimator.is_plain() {
+                if estimator == Estimator::PLAIN {
                     plain_efficiency[k] = efficiency;
                 }
                 let relative = match (efficiency, plain_efficiency[k]) {
@@ -357,7 +319,7 @@ fn main() {
                 cells.push(relative);
             }
             println!("| {name} | {label} | {seconds:.1} | {:.4} | {} |", image_mean(&images), cells.join(" | "));
-            if merge {
+            if estimator.photon_merging() {
                 match &unbiased {
                     Some((reference, reference_images)) => {
                         let bias2 = squared_bias(&images, reference_images);

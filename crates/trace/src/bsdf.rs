@@ -191,14 +191,6 @@ impl Bsdf {
         self.glass_weight > 0.0 && !matches!(self.dielectric, Dielectric::None)
     }
 
-    /// Whether a learned distribution of incident light should steer sampling here: the
-    /// surface is mostly the diffuse-and-glossy base and has no delta lobe (a mirror or a
-    /// smooth pane sends light one way only; nothing learned could help).
-    pub fn suits_guiding(&self) -> bool {
-        let delta_glass = self.glass_weight > 0.0 && self.dielectric.is_delta();
-        self.base_weight >= 0.5 && !delta_glass
-    }
-
     /// GGX alpha of a rough dielectric lobe (rough glass, solid or thin), if there is one.
     pub fn rough_glass_alpha(&self) -> Option<f32> {
         match self.dielectric {

@@ -15,7 +15,7 @@ use std::ffi::CStr;
 use embree::sys::*;
 use glam::Vec3;
 
-use crate::geometry::{Hit, TriangleAttributes};
+use crate::triangle::{Hit, TriangleAttributes};
 
 /// Geometry 0 holds the triangles that block shadow rays, geometry 1 the panes they may pass.
 const BLOCKERS: u32 = 0;

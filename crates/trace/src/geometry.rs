@@ -16,67 +16,7 @@ type Caster = crate::obvhs_caster::ObvhsCaster;
 #[cfg(feature = "embree")]
 type Caster = crate::embree_caster::EmbreeCaster;
 
-/// What a triangle belongs to.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Owner {
-    /// A triangle of scene object `object` with material `material`.
-    Object { object: u32, material: u32 },
-    /// One of the two triangles of rectangle light `light`. Lights only emit: a ray that
-    /// hits one ends there (on its back too), as a black emitter shape would.
-    RectLight { light: u32 },
-}
-
-/// Everything shading needs about one triangle, in world space.
-#[derive(Clone, Debug)]
-pub struct TriangleAttributes {
-    pub positions: [Vec3; 3],
-    /// Per-vertex shading normals; `None` when the mesh has none (flat shading).
-    pub normals: Option<[Vec3; 3]>,
-    pub uvs: [Vec2; 3],
-    pub owner: Owner,
-    /// Index into the light sampler's emitter list, if the triangle emits.
-    pub emitter: Option<u32>,
-    /// The triangle may let shadow rays through (a thin, transmissive pane): occlusion
-    /// queries have to look at its material.
-    pub may_pass_through: bool,
-}
-
-/// Möller & Trumbore 1997, "Fast, Minimum Storage Ray/Triangle Intersection". Returns
-/// (t, b1, b2) with t in (t_min, t_max). The obvhs caster's triangle test, and the brute force
-/// the tests check both casters against.
-#[inline(always)]
-#[cfg_attr(all(feature = "embree", not(test)), allow(dead_code))]
-pub(crate) fn moller_trumbore(v0: Vec3, edge1: Vec3, edge2: Vec3, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
-    let p = direction.cross(edge2);
-    let det = edge1.dot(p);
-    if det == 0.0 {
-        return None;
-    }
-    let inv_det = 1.0 / det;
-    let s = origin - v0;
-    let b1 = s.dot(p) * inv_det;
-    if !(0.0..=1.0).contains(&b1) {
-        return None;
-    }
-    let q = s.cross(edge1);
-    let b2 = direction.dot(q) * inv_det;
-    if b2 < 0.0 || b1 + b2 > 1.0 {
-        return None;
-    }
-    let t = edge2.dot(q) * inv_det;
-    (t > t_min && t < t_max).then_some((t, b1, b2))
-}
-
-/// A closest-hit result.
-#[derive(Clone, Copy, Debug)]
-pub struct Hit {
-    pub t: f32,
-    /// Index into [`SceneGeometry::attributes`].
-    pub triangle: u32,
-    /// Barycentric weights of vertices 1 and 2.
-    pub b1: f32,
-    pub b2: f32,
-}
+pub use crate::triangle::{Hit, Owner, TriangleAttributes};
 
 pub struct SceneGeometry {
     /// `None` when the scene has no triangles.
@@ -156,6 +96,7 @@ impl SceneGeometry {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::triangle::moller_trumbore;
     use glassbake_scene::builtin::builtin;
 
     /// Brute force over all triangles, for checking the BVH.

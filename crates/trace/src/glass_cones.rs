@@ -11,7 +11,7 @@ use std::f32::consts::TAU;
 use glam::{Vec2, Vec3};
 
 use crate::bsdf::MaterialModel;
-use crate::integrator::PreparedScene;
+use crate::prepared::PreparedScene;
 
 /// Most cones a point chooses among (they live on the stack); a scene with more glass
 /// objects gets one sphere around all of them.

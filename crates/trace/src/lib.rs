@@ -1,36 +1,41 @@
 //! glassbake-trace: the ground-truth CPU path tracer.
 //!
 //! It owns everything between a scene instance plus a camera and a linear-RGB radiance
-//! image: the BVH over the scene's triangles (obvhs, or Intel Embree with the `embree` feature), the BSDFs of the scene model (glTF
-//! metallic-roughness, smooth / rough / thin dielectrics), rectangle and emissive-mesh
-//! lights (rectangles sampled by solid angle), a unidirectional path tracer with
-//! next-event estimation, MIS, Russian roulette and path guiding (an SD-tree learned over
-//! the first passes), a light tracer for the light that reaches surfaces through glass
-//! (the `caustic` estimator), adaptive sampling (a pilot pass spreads the samples where
-//! the noise is), stratified (randomized quasi-Monte Carlo) sample values, opt-in photon merging
-//! (biased) of what the camera sees through bending glass, and the tiling over threads that keeps images bit-identical
-//! whatever the thread count. The dataset stage calls [`render`] once per sample; the CLI's `trace`
-//! command wraps it.
+//! image. Read it top-down: [`Estimator`] (`estimator.rs`) names what traces an image and its
+//! `Default` is the ground truth's; [`render`] (`render.rs`, the image driver) runs the passes
+//! over tiles; `integrator.rs` is the plain path tracer (next-event estimation, MIS, Russian
+//! roulette) with the hooks through which the caustic estimator (`caustic_paths.rs`, its light
+//! tracer `light_tracing.rs`, opt-in photon merging `photon_merging.rs`) leaves out the paths
+//! it carries otherwise. Below them: the prepared scene (`prepared.rs`: hits, materials,
+//! shadow segments), the BVH (`geometry.rs`, obvhs, or Intel Embree with the `embree`
+//! feature), BSDFs (`bsdf.rs`, glTF metallic-roughness and smooth / rough / thin dielectrics),
+//! lights (`lights.rs`), adaptive sampling (`adaptive.rs`) and stratified sample values
+//! (`qmc.rs`). Images are bit-identical whatever the thread count. The dataset stage calls
+//! [`render`] once per sample; the CLI's `trace` command wraps it.
 
 pub mod adaptive;
 pub mod bsdf;
+mod caustic_paths;
 #[cfg(feature = "embree")]
 mod embree_caster;
+pub mod estimator;
 pub mod geometry;
 pub mod glass_cones;
-pub mod guiding;
 pub mod integrator;
 pub mod light_tracing;
 pub mod lights;
 pub mod microfacet;
 #[cfg(not(feature = "embree"))]
 mod obvhs_caster;
+pub mod path_class;
 pub mod photon_merging;
+pub mod prepared;
 pub mod qmc;
 pub mod render;
 pub mod rng;
 pub mod sampling;
 pub mod spherical_rect;
+pub mod triangle;
 
 #[cfg(test)]
 mod bsdf_tests;
@@ -43,6 +48,9 @@ mod bsdf_tests;
 pub const TRACER_REVISION: u32 = 1;
 
 pub use bsdf::{Bsdf, MaterialModel, SurfaceMaterial};
+pub use estimator::{Estimator, Transport};
 pub use geometry::RAY_CASTER;
-pub use integrator::{Integrator, PathFilter, PathRadiance, PreparedScene, SurfaceHit};
+pub use integrator::PathRadiance;
+pub use path_class::PathFilter;
+pub use prepared::{PreparedScene, SurfaceHit};
 pub use render::{glass_pixels, render, sample_trace_seed, unlit_warning, Progress, TraceOutput, TraceSettings};

@@ -19,7 +19,7 @@
 //!
 //! (the camera sees an opaque surface, possibly through smooth panes, which a connection can
 //! reach; the light's last bounce before the final opaque vertex was through glass that bends
-//! or reflects light, which next-event estimation cannot follow). [`PathClass`] is the path
+//! or reflects light, which next-event estimation cannot follow). [`crate::path_class::PathClass`] is the path
 //! tracer's side of that rule; [`LightTracer::trace`] produces exactly those paths and no
 //! others: its first segment must end on glass, its first opaque vertex must follow a bending
 //! glass event, and it connects to the camera only from opaque vertices, through panes only.
@@ -39,12 +39,12 @@ use glam::Vec3;
 use glassbake_core::Camera;
 
 use crate::bsdf::Bsdf;
-use crate::geometry::{Hit, Owner};
 use crate::glass_cones::GlassBounds;
-use crate::integrator::{offset_origin, PathSettings, PreparedScene, SurfaceHit, MAX_VERTICES};
 use crate::photon_merging::Photon;
+use crate::prepared::{offset_origin, PathSettings, PreparedScene, SurfaceHit, MAX_VERTICES};
 use crate::rng::Pcg32;
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf, Frame};
+use crate::triangle::{Hit, Owner};
 
 /// Light paths traced per camera sample, before the image's own budget is known: the
 /// progress bar's first estimate. (A fixed one per four was the rule until the budget was
@@ -98,117 +98,6 @@ pub struct LightPilot {
 /// splats are gathered (in path order, so the image does not depend on the thread count).
 pub const PATHS_PER_CHUNK: u64 = 4096;
 
-/// Where a path traced from the camera stands with respect to the light tracer's share.
-/// Updated vertex by vertex; [`PathClass::light_traced`] says whether a path ending in a
-/// light here belongs to the light tracer (and so is left out of the path tracer).
-#[derive(Clone, Copy, Debug, Default)]
-pub struct PathClass {
-    /// The first vertex that is not a straight pane crossing has been met.
-    prefix_decided: bool,
-    /// ... and it was opaque: a light path can connect to the camera there.
-    connectable: bool,
-    /// An opaque vertex has been met since the camera.
-    seen_opaque: bool,
-    /// A glass vertex other than a straight pane crossing follows the last opaque vertex.
-    bent_since_opaque: bool,
-    /// Opaque vertices met since the camera (counted up to 2).
-    opaque_vertices: u8,
-}
-
-impl PathClass {
-    /// Record a vertex before its next-event estimation: `glass` is whether its material has
-    /// a transmissive dielectric lobe ([`Bsdf::is_glass`]).
-    pub fn enter_vertex(&mut self, glass: bool) {
-        if glass {
-            return;
-        }
-        if !self.prefix_decided {
-            self.prefix_decided = true;
-            self.connectable = true;
-        }
-        self.seen_opaque = true;
-        self.bent_since_opaque = false;
-        self.opaque_vertices = (self.opaque_vertices + 1).min(2);
-    }
-
-    /// Record the event sampled at the vertex last entered.
-    pub fn leave_vertex(&mut self, glass: bool, straight_pane_crossing: bool) {
-        if glass && !straight_pane_crossing {
-            self.bent_since_opaque = true;
-            if !self.prefix_decided {
-                self.prefix_decided = true;
-                self.connectable = false;
-            }
-        }
-    }
-
-    /// Whether the path traced so far, ended by the emitter it just hit, is the light
-    /// tracer's.
-    pub fn light_traced(&self) -> bool {
-        self.connectable && self.seen_opaque && self.bent_since_opaque
-    }
-
-    /// Whether a shadow ray from the current vertex (through straight pane crossings only)
-    /// makes a path that is the light tracer's: the vertex is glass, so it bends.
-    pub fn light_traced_by_shadow_ray(&self, glass: bool) -> bool {
-        glass && self.connectable && self.seen_opaque
-    }
-
-    /// Whether an opaque vertex has been met since the camera.
-    pub fn seen_opaque(&self) -> bool {
-        self.seen_opaque
-    }
-
-    /// Whether a vertex about to be entered (`glass`: see [`PathClass::enter_vertex`]) is the
-    /// first opaque one of a path whose view bent at glass: where photon merging
-    /// (`photon_merging.rs`) estimates the light that reached it through bending glass.
-    pub fn first_opaque_of_bent_view(&self, glass: bool) -> bool {
-        !glass && self.prefix_decided && !self.connectable && !self.seen_opaque
-    }
-
-    /// Whether the vertex just entered is the first opaque one of a path that the camera saw
-    /// straight (through panes at most).
-    pub fn at_first_opaque_of_straight_view(&self) -> bool {
-        self.straight_to_one_opaque()
-    }
-
-    /// Whether a vertex about to be entered is the second opaque one of a path that the
-    /// camera saw straight (through panes at most) and that went straight (through panes
-    /// at most) from its first opaque vertex: where photon merging may gather the light that
-    /// scattered since the light (a final gather).
-    pub fn second_opaque_of_straight_view(&self, glass: bool) -> bool {
-        !glass && self.straight_to_one_opaque()
-    }
-
-    /// The camera saw one opaque vertex straight, and nothing has bent the path since.
-    fn straight_to_one_opaque(&self) -> bool {
-        self.connectable && self.opaque_vertices == 1 && !self.bent_since_opaque
-    }
-
-    /// [`PathClass::light_traced`]'s mirror for paths whose view bent: whether the path,
-    /// ended by the emitter it just hit, is one that photon merging takes.
-    pub fn merged(&self) -> bool {
-        self.prefix_decided && !self.connectable && self.seen_opaque && self.bent_since_opaque
-    }
-
-    /// [`PathClass::light_traced_by_shadow_ray`]'s mirror for paths whose view bent.
-    pub fn merged_by_shadow_ray(&self, glass: bool) -> bool {
-        glass && self.prefix_decided && !self.connectable && self.seen_opaque
-    }
-
-    /// Whether the camera's view bent at glass (a reflection, a refraction through solid or
-    /// rough glass) before the path met anything opaque: such paths cannot be the light
-    /// tracer's. For next-event estimation at the current vertex pass `Some(glass)`: a shadow
-    /// ray leaving a glass vertex that decides the view bends there too.
-    pub fn view_bent(&self, shadow_ray_from_glass: Option<bool>) -> bool {
-        if self.prefix_decided {
-            !self.connectable
-        } else {
-            shadow_ray_from_glass == Some(true)
-        }
-    }
-}
-
 /// Which light paths a walk from the lights traces, and where it stops to connect or leave a
 /// photon.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -220,6 +109,13 @@ pub enum LightWalk {
     /// after the first scattering event (light that came straight from the light is next-event
     /// estimation's).
     Global,
+}
+
+/// Where a light path leaves its emitter, and the flux it carries.
+struct Emission {
+    origin: Vec3,
+    direction: Vec3,
+    beta: Vec3,
 }
 
 /// An opaque vertex of a light path, as the light tracer reaches it.
@@ -362,20 +258,19 @@ impl<'a> LightTracer<'a> {
         });
     }
 
-    /// One light path from the stream `rng`, `visit` called at each of its opaque vertices
-    /// that `walk` keeps (for the light tracer: those after the first glass event that bends
-    /// light). Returns the sum of what `visit` returned.
-    fn walk(&self, rng: &mut Pcg32, hits: &mut Vec<Hit>, walk: LightWalk, visit: &mut dyn FnMut(&LightVertex, &mut Vec<Hit>) -> u64) -> u64 {
+    /// A light path's start: an emitter picked by power, a point uniform by area on it, and a
+    /// direction towards the glass (`Caustic`) or cosine-distributed (`Global`); `None` when
+    /// the draw carries no light.
+    fn emit(&self, rng: &mut Pcg32, walk: LightWalk) -> Option<Emission> {
         let lights = &self.prepared.lights;
-        let Some((index, pmf)) = lights.pick(rng.next_f32()) else { return 0 };
+        let (index, pmf) = lights.pick(rng.next_f32())?;
         let emitter = &lights.emitters[index];
         let point = emitter.point_at(rng.next_vec2());
-        let (mut direction, density) = match walk {
+        let (direction, density) = match walk {
             LightWalk::Caustic => {
                 let u_pick = rng.next_f32();
                 let u_direction = rng.next_vec2();
-                let Some(sampled) = self.glass.cones_from(point).sample(u_pick, u_direction) else { return 0 };
-                sampled
+                self.glass.cones_from(point).sample(u_pick, u_direction)?
             }
             LightWalk::Global => {
                 let u_side = rng.next_f32();
@@ -391,12 +286,19 @@ impl<'a> LightTracer<'a> {
         let radiance = emitter.emitted(direction);
         let cos_light = emitter.normal.dot(direction).abs();
         if radiance == Vec3::ZERO || cos_light <= 0.0 || emitter.area <= 0.0 || pmf <= 0.0 {
-            return 0;
+            return None;
         }
         // Flux carried: L cos / (p(emitter) p(point) p(direction)).
-        let mut beta = radiance * (cos_light * emitter.area / (pmf * density));
+        let beta = radiance * (cos_light * emitter.area / (pmf * density));
+        Some(Emission { origin: offset_origin(point, emitter.normal, direction), direction, beta })
+    }
+
+    /// One light path from the stream `rng`, `visit` called at each of its opaque vertices
+    /// that `walk` keeps (for the light tracer: those after the first glass event that bends
+    /// light). Returns the sum of what `visit` returned.
+    fn walk(&self, rng: &mut Pcg32, hits: &mut Vec<Hit>, walk: LightWalk, visit: &mut dyn FnMut(&LightVertex, &mut Vec<Hit>) -> u64) -> u64 {
+        let Some(Emission { mut origin, mut direction, mut beta }) = self.emit(rng, walk) else { return 0 };
         let start = beta.max_element();
-        let mut origin = offset_origin(point, emitter.normal, direction);
         // Segments from the light to the vertex about to be found.
         let mut segments = 1u32;
         // Whether a glass event that bends light has happened (before the first opaque vertex).
@@ -601,13 +503,7 @@ mod tests {
         }
         let prepared = PreparedScene::new(&scene);
         let camera = Camera::look_at(Vec3::new(0.0, 1.0, 5.0), Vec3::ZERO, 50.0);
-        let settings = PathSettings {
-            max_depth: 8,
-            rr_depth: 5,
-            material_model: crate::MaterialModel::Gltf,
-            leave_caustics_to_light_tracing: true,
-            path_filter: crate::PathFilter::All,
-        };
+        let settings = PathSettings { max_depth: 8, rr_depth: 5, material_model: crate::MaterialModel::Gltf, path_filter: crate::PathFilter::All };
         let tracer = LightTracer::new(&prepared, &camera, 8, 8, settings);
         assert_eq!(tracer.glass.spheres.len(), 1);
         let sphere = tracer.glass.spheres[0];

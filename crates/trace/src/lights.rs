@@ -9,9 +9,9 @@ use std::f32::consts::PI;
 use glam::{Vec2, Vec3};
 use glassbake_scene::Scene;
 
-use crate::geometry::Owner;
 use crate::sampling::{luminance, uniform_triangle};
 use crate::spherical_rect::SphericalRect;
+use crate::triangle::Owner;
 
 /// Rectangles are sampled by solid angle from points closer to their centre than this
 /// many times the sum of their edge lengths: there the area density's distance^2 / cos term

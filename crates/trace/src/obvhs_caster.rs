@@ -12,7 +12,7 @@ use obvhs::ray::{Ray as BvhRay, RayHit};
 use obvhs::triangle::Triangle as BvhTriangle;
 use obvhs::BvhBuildParams;
 
-use crate::geometry::{moller_trumbore, Hit, TriangleAttributes};
+use crate::triangle::{moller_trumbore, Hit, TriangleAttributes};
 
 fn to_bvh(v: Vec3) -> BvhVec3 {
     BvhVec3::new(v.x, v.y, v.z)

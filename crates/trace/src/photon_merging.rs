@@ -1,5 +1,5 @@
 //! Photon merging of what the camera sees through bending glass: the `caustic` estimator's
-//! biased, opt-in third part (`TraceSettings::photon_merging`).
+//! biased, opt-in third part (`caustic+merging`, see `estimator.rs`).
 //!
 //! The light tracer (`light_tracing.rs`) takes the caustic paths the camera sees in a
 //! straight line. Caustics seen *in or through* bending glass (light through the frosted
@@ -42,7 +42,11 @@
 use glam::{IVec3, Vec3};
 use rustc_hash::FxHashMap;
 
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, BsdfSample};
+use crate::integrator::{PathScratch, Vertex};
+use crate::path_class::PathClass;
+use crate::prepared::PathSettings;
+use crate::rng::Pcg32;
 
 /// A light path's vertex on an opaque surface: in the caustic map after glass bent the path,
 /// in the global map after the path first scattered.
@@ -223,6 +227,118 @@ fn cell_size_for(photons: &[Photon], radius: f32) -> f32 {
 /// Most photons whose BSDF value one density estimate evaluates (the BSDF evaluations are
 /// most of merging's cost where caustics are bright).
 pub const MAX_PHOTONS_EVALUATED: usize = 8;
+
+/// How wide, in photon radii, a blurred view's footprint must be for a path to take all
+/// scattered light at its first opaque vertex from the global photons: narrower, the
+/// photons' noise is not averaged away (the frosted cylinder, alpha 0.02, close to what it
+/// shows) and merging only the caustics does better.
+const GATHER_FOOTPRINT_IN_RADII: f32 = 4.0;
+
+/// Photon merging's part of one camera path (the caustic estimator's hooks call it,
+/// `caustic_paths.rs`): where the path takes light from the photons, and what it then leaves
+/// out so that nothing is counted twice.
+#[derive(Clone, Copy)]
+pub(crate) struct MergingPath<'a> {
+    caustic: &'a PhotonMap,
+    global: Option<&'a PhotonMap>,
+    /// The path took all light that scattered after its first opaque vertex from the global
+    /// photons: what is left to find is light straight from an emitter (through panes at most).
+    gathered: bool,
+    /// ... at the vertex being left (committed once the path goes on from it).
+    gathering_here: bool,
+    /// The path took the caustics at its first opaque vertex from the caustic photons: the
+    /// paths they carry are left out.
+    caustics_merged: bool,
+    /// The blur of a view that bent: the widest rough glass lobe (GGX alpha) passed before
+    /// anything opaque, and the distance travelled since.
+    blur: (f32, f32),
+    /// The same for a view that met an opaque surface first: that surface's narrowest lobe
+    /// and the distance since it.
+    straight_blur: Option<(f32, f32)>,
+}
+
+impl<'a> MergingPath<'a> {
+    /// A new path's state, merging from `caustic` and, where there is one, `global`.
+    pub fn new(caustic: &'a PhotonMap, global: Option<&'a PhotonMap>) -> Self {
+        MergingPath { caustic, global, gathered: false, gathering_here: false, caustics_merged: false, blur: (0.0, 0.0), straight_blur: None }
+    }
+
+    /// Whether the photons carry the path that the emitter just hit ends.
+    pub fn takes_emitter_hit(&self, class: &PathClass) -> bool {
+        self.caustics_merged && class.merged()
+    }
+
+    /// The light the photons give at `vertex`, or `None` where a gathered path ends (it looks
+    /// for direct light through panes only). Merges at the first opaque vertex of a bent view:
+    /// where the view is blurred, all the light there that scattered since the light (the
+    /// global photons), otherwise the caustics; and a final gather at the second opaque vertex
+    /// of a straight view seen from a surface whose lobes blur it over several radii.
+    pub fn at_surface(&mut self, vertex: &Vertex, settings: &PathSettings, rng: &mut Pcg32, scratch: &mut PathScratch) -> Option<Vec3> {
+        let Vertex { hit, bsdf, glass, .. } = *vertex;
+        if self.gathered && !glass {
+            return None;
+        }
+        let merge_here = vertex.class_on_arrival.first_opaque_of_bent_view(glass);
+        self.blur.1 += hit.distance;
+        if let Some(straight) = &mut self.straight_blur {
+            straight.1 += hit.distance;
+        }
+        // The view's footprint here, about the lobe's angular width (2 alpha for a refraction
+        // through a GGX lobe) times the distance: gather where it spans several photon radii,
+        // so that the pixel averages the photons' noise over many disks.
+        let spans_radii = |(alpha, distance): (f32, f32), photons: &PhotonMap| 2.0 * alpha * distance >= GATHER_FOOTPRINT_IN_RADII * photons.radius();
+        // The light tracer's paths (the light's first opaque vertex after bending glass) stay
+        // with it in a final gather.
+        let final_gather = vertex.class_on_arrival.second_opaque_of_straight_view(glass);
+        let global = self.global.filter(|photons| {
+            bsdf.suits_merging()
+                && ((merge_here && spans_radii(self.blur, photons))
+                    || (final_gather && self.straight_blur.is_some_and(|straight| spans_radii(straight, photons))))
+        });
+        // Caustics only on a surface that suits merging: on a narrow lobe (chrome) the odd
+        // photon's f is huge, and BSDF sampling finds the same light well.
+        let caustic_merge = merge_here && global.is_none() && bsdf.suits_merging();
+        self.caustics_merged |= caustic_merge;
+        self.gathering_here = global.is_some();
+        let mut light = Vec3::ZERO;
+        if let Some(photons) = global.or(Some(self.caustic).filter(|_| caustic_merge)) {
+            let u_subset = rng.next_f32();
+            let query = MergeQuery {
+                position: hit.position,
+                normal: hit.geometric_normal,
+                wo: vertex.wo,
+                max_segments: settings.max_depth - vertex.depth,
+                skip_caustic_starts: !merge_here,
+            };
+            light = vertex.throughput * photons.radiance(&query, bsdf, u_subset, &mut scratch.photons_found);
+        }
+        if !glass && vertex.class.at_first_opaque_of_straight_view() {
+            self.straight_blur = bsdf.suits_merging().then(|| (bsdf.base_alpha(), 0.0));
+        }
+        Some(light)
+    }
+
+    /// Whether `vertex` traces its shadow ray: not once the path gathered, nor for the paths
+    /// whose caustics the photons gave.
+    pub fn traces_shadow_ray(&self, vertex: &Vertex) -> bool {
+        !self.gathered && !(self.caustics_merged && vertex.class.merged_by_shadow_ray(vertex.glass))
+    }
+
+    /// Whether the path goes on from `vertex` along `sample`: a gathered path only through
+    /// panes. Widens the bent view's blur at rough glass.
+    pub fn continues(&mut self, vertex: &Vertex, sample: &BsdfSample) -> bool {
+        if self.gathered && !sample.pass_through {
+            return false;
+        }
+        self.gathered |= self.gathering_here;
+        if !vertex.class.seen_opaque() {
+            if let Some(alpha) = vertex.bsdf.rough_glass_alpha().filter(|_| !sample.delta) {
+                self.blur = (self.blur.0.max(alpha), 0.0);
+            }
+        }
+        true
+    }
+}
 
 #[cfg(test)]
 mod tests {

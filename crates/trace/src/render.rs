@@ -1,16 +1,11 @@
-//! Whole images: settings, validation, tiles over rayon, deterministic per-pixel sampling,
-//! the discarding of non-finite samples, the guided estimator's learning passes, the caustic
-//! estimator's light paths (in chunks of their own streams, splats summed in chunk order),
-//! more samples on the pixels that show glass when asked (`TraceSettings::glass_spp`),
-//! adaptive sampling (`TraceSettings::adaptive`, see `adaptive`) and stratified sample values
-//! (`TraceSettings::stratified`, see `qmc`).
-//!
-//! The guided estimator (opt-in) spends the first quarter of the sample budget learning: passes of
-//! 1, 2, 4, ... samples per pixel, each rendered with the tree the previous one built; the
-//! rest of the budget renders with the last tree, and the image averages every pass's
-//! samples (all are unbiased).
-//! Every pass is deterministic (per-pixel streams, records gathered in tile order), so the
-//! image is bit-identical whatever the thread count.
+//! The image driver: whole images from the path integrator (`integrator.rs`) and, for the
+//! caustic estimator, the light tracer (`light_tracing.rs`) and photon merging's maps. It owns
+//! settings and their validation, the tiles over rayon, deterministic per-pixel sampling, the
+//! discarding of non-finite samples, more samples on the pixels that show glass when asked
+//! (`TraceSettings::glass_spp`), adaptive sampling's pilot pass (`adaptive.rs`), stratified
+//! sample values (`qmc.rs`), and the light paths, traced in chunks of their own streams and
+//! summed in chunk order. Every pass is deterministic (per-pixel streams, results gathered in
+//! tile order), so the image is bit-identical whatever the thread count.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
@@ -23,13 +18,17 @@ use rayon::prelude::*;
 
 use crate::adaptive;
 use crate::bsdf::MaterialModel;
-use crate::geometry::Owner;
-use crate::guiding::{GuidingRecord, SdTree};
-use crate::integrator::{rays_cast, Guide, Integrator, PathFilter, PathScratch, PathSettings, PreparedScene};
+use crate::caustic_paths::CausticPaths;
+use crate::estimator::Estimator;
+use crate::integrator::{PathHooks, PathScratch, PlainPaths};
 use crate::light_tracing::{balanced_light_paths, pilot_light_paths, LightPilot, LightTracer, LightWalk, Splat, LIGHT_PATHS_PER_CAMERA_PATH, PATHS_PER_CHUNK};
+use crate::path_class::PathFilter;
+use crate::photon_merging::MergingPath;
 use crate::photon_merging::{merge_radius, Photon, PhotonMap, MAX_PHOTON_PATHS, PHOTON_PATHS_PER_CAMERA_SAMPLE};
+use crate::prepared::{rays_cast, PathSettings, PreparedScene};
 use crate::qmc::{self, StratifiedPixel};
 use crate::rng::Pcg32;
+use crate::triangle::Owner;
 
 /// Side of the square tiles rayon schedules. Tiles only decide who computes a pixel, never
 /// what it computes.
@@ -57,32 +56,11 @@ pub struct TraceSettings {
     /// Worker threads; `None` uses the current rayon pool. The image does not depend on it.
     pub threads: Option<usize>,
     pub material_model: MaterialModel,
-    pub integrator: Integrator,
-    /// Spread each pixel's budget (`spp`, or `glass_spp`) by the noise a pilot pass measured
-    /// (see [`crate::adaptive`]): the image's total samples stay the same, every pixel stays
-    /// an unbiased mean. Budgets below [`crate::adaptive::MIN_ADAPTIVE_SPP`] are sampled
-    /// uniformly.
-    pub adaptive: bool,
-    /// Take each sample's sub-pixel position and its first vertices' light and BSDF samples
-    /// from scrambled Sobol points (see [`crate::qmc`]) rather than independent random
-    /// numbers: same expectation, less variance.
-    pub stratified: bool,
+    /// The estimator; its `Default` is the ground truth's (`caustic+adaptive+stratified`).
+    pub estimator: Estimator,
     /// Count only some of the paths (an analysis tool; [`PathFilter::All`] otherwise).
     pub path_filter: PathFilter,
-    /// `caustic` only: estimate what the camera sees through bending glass by photon merging
-    /// (see [`crate::photon_merging`]): the caustics seen in or through glass, and all
-    /// scattered light where rough glass blurs the view widely and (a final gather) at the
-    /// second vertex of a straight view, instead of path tracing them. Biased (the kernel's
-    /// blur, shrinking as the budget grows), much less noisy.
-    pub photon_merging: bool,
 }
-
-/// The guided estimator learns over 1/LEARNING_SHARE of the samples (Müller et al. train
-/// for up to about half the budget).
-const LEARNING_SHARE: u32 = 4;
-/// Most camera paths one learning pass may trace: bounds the records held in memory
-/// (about 4 per path, 28 bytes each) at large resolutions.
-const MAX_LEARNING_PATHS: u64 = 1 << 20;
 
 /// The largest image side the tracer accepts: its per-pixel sums (f64) of a 8192 x 8192 image
 /// already take about 4 GB, and a larger request should be refused before it is allocated.
@@ -103,11 +81,8 @@ impl TraceSettings {
             rr_depth: Self::DEFAULT_RR_DEPTH,
             threads: None,
             material_model: MaterialModel::Gltf,
-            integrator: Integrator::default(),
-            adaptive: false,
-            stratified: false,
+            estimator: Estimator::default(),
             path_filter: PathFilter::All,
-            photon_merging: false,
         }
     }
 
@@ -127,22 +102,6 @@ impl TraceSettings {
             if glass_spp < self.spp {
                 return Err(Error::bad_input(SOURCE, "glass_spp", format!("{glass_spp} is below spp {}: glass pixels get at least spp samples", self.spp)));
             }
-            if self.integrator == Integrator::Guided {
-                return Err(Error::bad_input(SOURCE, "glass_spp", "the guided estimator renders every pixel at one spp (its learning passes)"));
-            }
-        }
-        if self.path_filter != PathFilter::All && self.integrator == Integrator::Guided {
-            return Err(Error::bad_input(SOURCE, "path_filter", "the guided estimator learns from the light its paths count; filter another estimator"));
-        }
-        if self.adaptive && self.integrator == Integrator::Guided {
-            return Err(Error::bad_input(SOURCE, "adaptive", "the guided estimator renders every pixel at one spp (its learning passes)"));
-        }
-        if self.photon_merging && self.integrator != Integrator::Caustic {
-            return Err(Error::bad_input(
-                SOURCE,
-                "photon_merging",
-                format!("photon merging is part of the caustic estimator, not of {}", self.integrator.name()),
-            ));
         }
         if self.max_depth == 0 {
             return Err(Error::bad_input(SOURCE, "max_depth", "must be at least 1 (1 = emitters seen directly)"));
@@ -173,7 +132,7 @@ pub struct TraceOutput {
     /// `light_tracing::balanced_light_paths`), and those of its pilot, set aside.
     pub light_paths: u64,
     pub light_pilot_paths: u64,
-    /// Light paths traced for photon merging (`TraceSettings::photon_merging`): for the
+    /// Light paths traced for photon merging (`caustic+merging`): for the
     /// caustic map and for the global one (none without rough glass); the photons both keep
     /// and the merging radius. 0 without merging.
     pub photon_paths: u64,
@@ -183,9 +142,6 @@ pub struct TraceOutput {
     pub warnings: Vec<String>,
     /// Wall time of the render, BVH build included.
     pub elapsed: Duration,
-    /// Samples per pixel the guided estimator traced while learning (part of `spp`, and
-    /// averaged into the image like the others).
-    pub learning_spp: u32,
 }
 
 impl TraceOutput {
@@ -205,7 +161,6 @@ impl TraceOutput {
             merge_radius: 0.0,
             warnings,
             elapsed,
-            learning_spp: 0,
         }
     }
 
@@ -253,6 +208,8 @@ pub fn render(scene: &Scene, camera: &Camera, settings: &TraceSettings, progress
     }
 }
 
+/// A square of pixels that one rayon task computes. Tiles only decide who computes a pixel,
+/// never what it computes.
 struct Tile {
     x0: u32,
     y0: u32,
@@ -260,254 +217,273 @@ struct Tile {
     y1: u32,
 }
 
+impl Tile {
+    /// The image's tiles, row-major.
+    fn cover(width: u32, height: u32) -> Vec<Tile> {
+        let mut tiles = Vec::new();
+        for y0 in (0..height).step_by(TILE as usize) {
+            for x0 in (0..width).step_by(TILE as usize) {
+                tiles.push(Tile { x0, y0, x1: (x0 + TILE).min(width), y1: (y0 + TILE).min(height) });
+            }
+        }
+        tiles
+    }
+
+    fn pixels(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
+        (self.y0..self.y1).flat_map(move |y| (self.x0..self.x1).map(move |x| (x, y)))
+    }
+}
+
 fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, progress: Option<Progress>) -> Result<TraceOutput> {
     let start = Instant::now();
     let (width, height) = (settings.width, settings.height);
     let channels: Vec<String> = GROUND_TRUTH_CHANNELS.iter().map(|c| c.to_string()).collect();
     let mut image = PlanarImage::new(width, height, channels);
-    let total_pixels = width as u64 * height as u64;
-    let mut warnings = Vec::new();
-
-    let prepared = PreparedScene::for_integrator(scene, settings.integrator);
-    // Samples of each pixel in the main pass: spp, or glass_spp where glass shows.
-    let pixel_spp: Vec<u32> = match settings.glass_spp {
-        Some(glass_spp) if glass_spp > settings.spp => {
-            glass_pixels(&prepared, camera, width, height).into_iter().map(|glass| if glass { glass_spp } else { settings.spp }).collect()
-        }
-        _ => vec![settings.spp; total_pixels as usize],
-    };
-    let samples: u64 = pixel_spp.iter().map(|&s| s as u64).sum();
+    let estimator = settings.estimator;
+    let prepared = PreparedScene::for_transport(scene, estimator.transport);
+    let budgets = pixel_budgets(&prepared, camera, settings);
+    let budget: u64 = budgets.iter().map(|&s| s as u64).sum();
     if let Some(warning) = unlit_warning(scene, prepared.lights.is_empty()) {
-        warnings.push(warning);
         if let Some(p) = progress {
-            p(samples, samples);
+            p(budget, budget);
         }
-        return Ok(TraceOutput::unlit(image, samples, warnings, start.elapsed()));
+        return Ok(TraceOutput::unlit(image, budget, vec![warning], start.elapsed()));
     }
 
-    let caustic = settings.integrator == Integrator::Caustic;
-    let path_settings = PathSettings {
-        max_depth: settings.max_depth,
-        rr_depth: settings.rr_depth,
-        material_model: settings.material_model,
-        leave_caustics_to_light_tracing: caustic,
-        path_filter: settings.path_filter,
-    };
-    // Light paths are all straight-view paths.
+    let path_settings =
+        PathSettings { max_depth: settings.max_depth, rr_depth: settings.rr_depth, material_model: settings.material_model, path_filter: settings.path_filter };
     // One tracer of light paths serves the light tracer's splats and photon merging's photons.
-    let tracer = caustic.then(|| LightTracer::new(&prepared, camera, width, height, path_settings));
-    let light_tracer = tracer.as_ref().filter(|_| settings.path_filter != PathFilter::BentView);
+    let tracer = estimator.is_caustic().then(|| LightTracer::new(&prepared, camera, width, height, path_settings));
+    // Light paths are all straight-view paths.
+    let light_tracer = tracer.as_ref().filter(|t| settings.path_filter != PathFilter::BentView && t.has_work());
     // A first estimate, for the progress bar: the budget is balanced after the camera pass.
-    let light_paths_estimate = match &light_tracer {
-        Some(tracer) if tracer.has_work() => ((samples as f64 * LIGHT_PATHS_PER_CAMERA_PATH).ceil() as u64).max(1),
-        _ => 0,
-    };
+    let light_paths_estimate = if light_tracer.is_some() { ((budget as f64 * LIGHT_PATHS_PER_CAMERA_PATH).ceil() as u64).max(1) } else { 0 };
     // Photons first: every camera pass, the adaptive pilot's too, reads them.
-    let photon_tracer = tracer.as_ref().filter(|t| settings.photon_merging && t.has_work());
-    let photon_paths = match photon_tracer {
-        Some(_) => ((samples as f64 * PHOTON_PATHS_PER_CAMERA_SAMPLE).ceil() as u64).clamp(1, MAX_PHOTON_PATHS),
-        None => 0,
-    };
+    let photon_tracer = tracer.as_ref().filter(|t| estimator.photon_merging() && t.has_work());
+    let photon_paths = if photon_tracer.is_some() { ((budget as f64 * PHOTON_PATHS_PER_CAMERA_SAMPLE).ceil() as u64).clamp(1, MAX_PHOTON_PATHS) } else { 0 };
     // Global photons carry the light of the emitters alone: where a background lights the
     // scene too, a gather would miss what of its light scattered before, so none is made.
     let global_photon_paths = if scene.background == Vec3::ZERO { photon_paths } else { 0 };
     let all_photon_paths = photon_paths + global_photon_paths;
-    let work = samples + light_paths_estimate + all_photon_paths;
-    let photons = photon_tracer.map(|photon_tracer| {
-        let radius = merge_radius(photon_tracer.pixel_footprint_at_glass().unwrap_or(0.0), photon_paths);
-        let photon_map = |walk: LightWalk, paths: u64, purpose: &str, done: u64| {
-            let seed = glassbake_core::seed::purpose_seed(settings.seed, purpose);
-            let photons = trace_photons(photon_tracer, walk, paths, seed, &|traced| {
-                if let Some(p) = progress {
-                    p(done + traced, work);
-                }
-            });
-            tracing::debug!("{purpose}: {} photons of {paths} light paths, radius {radius}", photons.len());
-            PhotonMap::new(photons, paths, radius)
-        };
-        let caustic = photon_map(LightWalk::Caustic, photon_paths, "caustic photons", 0);
-        let global = (global_photon_paths > 0).then(|| photon_map(LightWalk::Global, global_photon_paths, "global photons", photon_paths));
-        MergePhotons { paths: photon_paths, caustic, global }
-    });
-    let mut tiles = Vec::new();
-    for y0 in (0..height).step_by(TILE as usize) {
-        for x0 in (0..width).step_by(TILE as usize) {
-            tiles.push(Tile { x0, y0, x1: (x0 + TILE).min(width), y1: (y0 + TILE).min(height) });
-        }
-    }
-    let done = AtomicU64::new(0);
-    // `spp_of(x, y)`: the pass's samples of pixel (x, y).
-    let pass = |spp_of: &(dyn Fn(u32, u32) -> u32 + Sync), seed: u64, tree: Option<&SdTree>, learn: bool| -> Vec<TileResult> {
-        tiles
-            .par_iter()
-            .map(|tile| {
-                let pixel_count = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
-                let mut result = TileResult { pixels: Vec::with_capacity(pixel_count), records: Vec::new() };
-                let mut scratch = PathScratch::default();
-                let mut tile_samples = 0u64;
-                for y in tile.y0..tile.y1 {
-                    for x in tile.x0..tile.x1 {
-                        let mut guide = Guide {
-                            tree,
-                            records: learn.then_some(&mut result.records),
-                            photons: photons.as_ref().map(|m| &m.caustic),
-                            global_photons: photons.as_ref().and_then(|m| m.global.as_ref()),
-                        };
-                        let spp = spp_of(x, y);
-                        let sums = render_pixel(
-                            &prepared,
-                            camera,
-                            (settings.width, settings.height, spp, seed, settings.stratified),
-                            &path_settings,
-                            x,
-                            y,
-                            &mut guide,
-                            &mut scratch,
-                        );
-                        result.pixels.push(sums);
-                        tile_samples += spp as u64;
-                    }
-                }
-                let finished = all_photon_paths + done.fetch_add(tile_samples, Ordering::Relaxed) + tile_samples;
-                if let Some(p) = progress {
-                    p(finished, work);
-                }
-                result
-            })
-            .collect()
-    };
+    let work = budget + light_paths_estimate + all_photon_paths;
+    let photons = photon_tracer.map(|t| trace_merge_photons(t, settings.seed, (photon_paths, global_photon_paths), &|done| report(progress, done, work)));
 
-    // Every pass's samples are unbiased, so the image averages all of them, learning passes
-    // included (per-pixel sums in pass order, so the result is deterministic).
-    let mut sums = vec![PixelSums::default(); total_pixels as usize];
-    let mut accumulate = |results: Vec<TileResult>| {
-        for (tile, result) in tiles.iter().zip(results) {
-            let mut values = result.pixels.into_iter();
-            for y in tile.y0..tile.y1 {
-                for x in tile.x0..tile.x1 {
-                    sums[(y * width + x) as usize].add(&values.next().expect("one value per tile pixel"));
-                }
-            }
-        }
+    let passes = CameraPasses {
+        prepared: &prepared,
+        camera,
+        settings,
+        path_settings,
+        tiles: Tile::cover(width, height),
+        hooks: estimator.is_caustic().then(|| CausticPaths { merging: photons.as_ref().map(|m| MergingPath::new(&m.caustic, m.global.as_ref())) }),
+        progress,
+        done_before: all_photon_paths,
+        done: AtomicU64::new(0),
+        work,
     };
+    let camera_samples = passes.trace(budgets);
+    let samples = camera_samples.pilot_samples + camera_samples.main_spp.iter().map(|&s| s as u64).sum::<u64>();
+    let camera_rays = camera_samples.pilot_rays + camera_samples.sums.iter().map(|pixel| pixel.rays).sum::<u64>();
 
-    // Learning passes (guided only): 1, 2, 4, ... spp within a quarter of the budget.
-    let mut tree = None;
-    let mut learning_spp = 0u32;
-    if settings.integrator == Integrator::Guided {
-        let mut pass_spp = 1u32;
-        let mut index = 0u32;
-        while learning_spp + pass_spp <= settings.spp / LEARNING_SHARE && total_pixels * pass_spp as u64 <= MAX_LEARNING_PATHS {
-            let pass_seed = glassbake_core::seed::purpose_seed(settings.seed, &format!("guiding pass {index}"));
-            let mut results = pass(&|_, _| pass_spp, pass_seed, tree.as_ref(), true);
-            let records: Vec<GuidingRecord> = results.iter_mut().flat_map(|r| std::mem::take(&mut r.records)).collect();
-            accumulate(results);
-            tree = SdTree::build(records);
-            learning_spp += pass_spp;
-            pass_spp *= 2;
-            index += 1;
-        }
-        if let Some(t) = &tree {
-            let (leaves, cells) = t.stats();
-            tracing::debug!("guiding: learned over {learning_spp} spp, {leaves} guiding leaves, {cells} direction nodes");
-        }
-    }
-    // Adaptive sampling: a pilot of its own streams, set aside once it has told where the
-    // noise is; the main pass then draws each pixel's count from the pixel's usual stream.
-    let mut pilot_samples = 0u64;
-    let mut pilot_rays = 0u64;
-    let mut main_spp = pixel_spp;
-    if settings.adaptive && main_spp.iter().any(|&budget| adaptive::pilot_spp(budget) > 0) {
-        let pilot_seed = glassbake_core::seed::purpose_seed(settings.seed, "adaptive pilot");
-        let results = pass(&|x, y| adaptive::pilot_spp(main_spp[(y * width + x) as usize]), pilot_seed, None, false);
-        let mut pilot = vec![adaptive::PilotStats::default(); total_pixels as usize];
-        for (tile, result) in tiles.iter().zip(results) {
-            let mut values = result.pixels.into_iter();
-            for y in tile.y0..tile.y1 {
-                for x in tile.x0..tile.x1 {
-                    let sums = values.next().expect("one value per tile pixel");
-                    pilot_samples += sums.finite + sums.discarded;
-                    pilot_rays += sums.rays;
-                    // The whole image's light whatever the filter, so that a filtered image's
-                    // samples are spread as the full image's are.
-                    pilot[(y * width + x) as usize] = adaptive::PilotStats { sum: sums.all_sum, sum_squares: sums.all_sum_squares, count: sums.finite };
-                }
-            }
-        }
-        let weights = adaptive::noise_weights(&pilot, &main_spp, width, height);
-        let weights = adaptive::pool_by_object(&weights, &transparent_object_per_pixel(&prepared, camera, width, height));
-        main_spp = adaptive::allocate(&main_spp, &weights);
-    }
-    accumulate(pass(&|x, y| main_spp[(y * width + x) as usize] - learning_spp, settings.seed, tree.as_ref(), false));
-    let samples = pilot_samples + main_spp.iter().map(|&s| s as u64).sum::<u64>();
-    let camera_rays = pilot_rays + sums.iter().map(|pixel| pixel.rays).sum::<u64>();
-
-    let mut discarded_samples = 0;
-    let mut light_paths = 0;
-    let mut light_pilot_paths = 0;
-    let light_traced = match &light_tracer {
-        Some(tracer) if light_paths_estimate > 0 => {
-            // How many light paths this image should have: a pilot of light paths, set aside
-            // (so that no light path's value decides how many there are), measures their
-            // variance and cost against the camera samples'. The budget depends on the camera
-            // samples, which are independent of the light paths: each half stays unbiased.
-            let camera_samples = main_spp.iter().map(|&s| s as u64).sum::<u64>();
-            light_pilot_paths = pilot_light_paths(camera_samples);
-            let pilot = trace_light_pilot(tracer, light_pilot_paths, glassbake_core::seed::purpose_seed(settings.seed, "light tracing pilot"));
-            light_paths = light_tracing_budget(&sums, &pilot, camera_samples);
-            let done = all_photon_paths + samples + light_pilot_paths;
-            let work = done + light_paths;
-            if let Some(p) = progress {
-                p(done, work);
-            }
-            let seed = glassbake_core::seed::purpose_seed(settings.seed, "light tracing");
-            let (splats, discarded) = trace_light_paths(tracer, light_paths, seed, &|paths| {
-                if let Some(p) = progress {
-                    p(done + paths, work);
-                }
-            });
-            discarded_samples += discarded;
-            splats
-        }
-        _ => Vec::new(),
+    let light = match light_tracer {
+        Some(tracer) => trace_light(tracer, &camera_samples, settings.seed, all_photon_paths + samples, progress),
+        None => LightTraced::default(),
     };
-    for y in 0..height {
-        for x in 0..width {
-            let index = (y * width + x) as usize;
-            let pixel = &sums[index];
-            discarded_samples += pixel.discarded;
-            let mut value = pixel.mean();
-            if let Some(light) = light_traced.get(index) {
-                value += Vec3::new(light[0] as f32, light[1] as f32, light[2] as f32) / light_paths as f32;
-            }
-            for (channel, component) in value.to_array().into_iter().enumerate() {
-                image.set(channel, x, y, component);
-            }
+    let mut discarded_samples = light.discarded;
+    for (index, pixel) in camera_samples.sums.iter().enumerate() {
+        discarded_samples += pixel.discarded;
+        let mut value = pixel.mean();
+        if let Some(sum) = light.sums.get(index) {
+            value += Vec3::new(sum[0] as f32, sum[1] as f32, sum[2] as f32) / light.paths as f32;
+        }
+        let (x, y) = (index as u32 % width, index as u32 / width);
+        for (channel, component) in value.to_array().into_iter().enumerate() {
+            image.set(channel, x, y, component);
         }
     }
+    let mut warnings = Vec::new();
     if discarded_samples > 0 {
         let warning = format!("{discarded_samples} of {samples} samples were NaN or infinite and were discarded");
         tracing::warn!("{warning}");
         warnings.push(warning);
     }
     let (photon_paths, merge_radius) = photons.as_ref().map_or((0, 0.0), |m| (m.paths, m.caustic.radius()));
-    let photons = photons.as_ref().map_or(0, |m| (m.caustic.len() + m.global.as_ref().map_or(0, PhotonMap::len)) as u64);
     Ok(TraceOutput {
         image,
         discarded_samples,
         samples,
-        pilot_samples,
+        pilot_samples: camera_samples.pilot_samples,
         camera_rays,
-        light_paths,
-        light_pilot_paths,
+        light_paths: light.paths,
+        light_pilot_paths: light.pilot_paths,
         photon_paths,
         global_photon_paths,
-        photons,
+        photons: photons.as_ref().map_or(0, |m| (m.caustic.len() + m.global.as_ref().map_or(0, PhotonMap::len)) as u64),
         merge_radius,
         warnings,
         elapsed: start.elapsed(),
-        learning_spp,
     })
+}
+
+fn report(progress: Option<Progress>, done: u64, work: u64) {
+    if let Some(p) = progress {
+        p(done, work);
+    }
+}
+
+/// Samples of each pixel, row-major: `spp`, or `glass_spp` where glass shows.
+fn pixel_budgets(prepared: &PreparedScene, camera: &Camera, settings: &TraceSettings) -> Vec<u32> {
+    let (width, height) = (settings.width, settings.height);
+    match settings.glass_spp {
+        Some(glass_spp) if glass_spp > settings.spp => {
+            glass_pixels(prepared, camera, width, height).into_iter().map(|glass| if glass { glass_spp } else { settings.spp }).collect()
+        }
+        _ => vec![settings.spp; width as usize * height as usize],
+    }
+}
+
+/// Photon merging's maps: the caustic one of `paths.0` light paths and, where `paths.1` is
+/// not 0, the global one. `progress(done)` counts the light paths traced.
+fn trace_merge_photons(
+    tracer: &LightTracer,
+    image_seed: u64,
+    (photon_paths, global_photon_paths): (u64, u64),
+    progress: &(dyn Fn(u64) + Sync),
+) -> MergePhotons {
+    let radius = merge_radius(tracer.pixel_footprint_at_glass().unwrap_or(0.0), photon_paths);
+    let photon_map = |walk: LightWalk, paths: u64, purpose: &str, done: u64| {
+        let seed = glassbake_core::seed::purpose_seed(image_seed, purpose);
+        let photons = trace_photons(tracer, walk, paths, seed, &|traced| progress(done + traced));
+        tracing::debug!("{purpose}: {} photons of {paths} light paths, radius {radius}", photons.len());
+        PhotonMap::new(photons, paths, radius)
+    };
+    let caustic = photon_map(LightWalk::Caustic, photon_paths, "caustic photons", 0);
+    let global = (global_photon_paths > 0).then(|| photon_map(LightWalk::Global, global_photon_paths, "global photons", photon_paths));
+    MergePhotons { paths: photon_paths, caustic, global }
+}
+
+/// The camera's passes over the image: the adaptive pilot, when sampling adaptively, then
+/// the main pass.
+struct CameraPasses<'a> {
+    prepared: &'a PreparedScene<'a>,
+    camera: &'a Camera,
+    settings: &'a TraceSettings,
+    path_settings: PathSettings,
+    tiles: Vec<Tile>,
+    /// The caustic estimator's hooks; `None` traces plain paths.
+    hooks: Option<CausticPaths<'a>>,
+    progress: Option<Progress<'a>>,
+    /// Work reported done before the passes, samples traced by them since, and all the work.
+    done_before: u64,
+    done: AtomicU64,
+    work: u64,
+}
+
+/// What the camera's passes traced.
+struct CameraSamples {
+    /// The main pass's sums per pixel, row-major.
+    sums: Vec<PixelSums>,
+    /// Samples of each pixel in the main pass (the budgets, or adaptive sampling's allocation).
+    main_spp: Vec<u32>,
+    /// Samples and rays of the adaptive pilot, set aside.
+    pilot_samples: u64,
+    pilot_rays: u64,
+}
+
+impl CameraPasses<'_> {
+    fn trace(&self, budgets: Vec<u32>) -> CameraSamples {
+        let width = self.settings.width;
+        let (mut pilot_samples, mut pilot_rays, mut main_spp) = (0, 0, budgets);
+        // Adaptive sampling: a pilot of its own streams, set aside once it has told where the
+        // noise is; the main pass then draws each pixel's count from the pixel's usual stream.
+        if self.settings.estimator.adaptive && main_spp.iter().any(|&budget| adaptive::pilot_spp(budget) > 0) {
+            let pilot_seed = glassbake_core::seed::purpose_seed(self.settings.seed, "adaptive pilot");
+            let pilot = self.pass(&|x, y| adaptive::pilot_spp(main_spp[(y * width + x) as usize]), pilot_seed);
+            pilot_samples = pilot.iter().map(|sums| sums.finite + sums.discarded).sum();
+            pilot_rays = pilot.iter().map(|sums| sums.rays).sum();
+            main_spp = self.allocate_by_noise(&pilot, &main_spp);
+        }
+        let sums = self.pass(&|x, y| main_spp[(y * width + x) as usize], self.settings.seed);
+        CameraSamples { sums, main_spp, pilot_samples, pilot_rays }
+    }
+
+    /// The budgets spread by the noise the pilot measured (`adaptive.rs`).
+    fn allocate_by_noise(&self, pilot: &[PixelSums], budgets: &[u32]) -> Vec<u32> {
+        let (width, height) = (self.settings.width, self.settings.height);
+        // The whole image's light whatever the filter, so that a filtered image's samples are
+        // spread as the full image's are.
+        let stats: Vec<_> =
+            pilot.iter().map(|sums| adaptive::PilotStats { sum: sums.all_sum, sum_squares: sums.all_sum_squares, count: sums.finite }).collect();
+        let weights = adaptive::noise_weights(&stats, budgets, width, height);
+        let weights = adaptive::pool_by_object(&weights, &transparent_object_per_pixel(self.prepared, self.camera, width, height));
+        adaptive::allocate(budgets, &weights)
+    }
+
+    /// One pass: `spp_of(x, y)` samples of each pixel from the streams of `seed`; the sums
+    /// per pixel, row-major.
+    fn pass(&self, spp_of: &(dyn Fn(u32, u32) -> u32 + Sync), seed: u64) -> Vec<PixelSums> {
+        let tiles = match self.hooks {
+            Some(hooks) => self.pass_with(spp_of, seed, hooks),
+            None => self.pass_with(spp_of, seed, PlainPaths),
+        };
+        let width = self.settings.width as usize;
+        let mut sums = vec![PixelSums::default(); width * self.settings.height as usize];
+        for (tile, pixels) in self.tiles.iter().zip(tiles) {
+            for ((x, y), pixel) in tile.pixels().zip(pixels) {
+                sums[y as usize * width + x as usize] = pixel;
+            }
+        }
+        sums
+    }
+
+    fn pass_with<H: PathHooks + Sync>(&self, spp_of: &(dyn Fn(u32, u32) -> u32 + Sync), seed: u64, hooks: H) -> Vec<Vec<PixelSums>> {
+        let pass = PixelPass { width: self.settings.width, height: self.settings.height, seed, stratified: self.settings.estimator.stratified };
+        self.tiles
+            .par_iter()
+            .map(|tile| {
+                let mut scratch = PathScratch::default();
+                let mut tile_samples = 0u64;
+                let pixels = tile
+                    .pixels()
+                    .map(|(x, y)| {
+                        let spp = spp_of(x, y);
+                        tile_samples += spp as u64;
+                        render_pixel(self.prepared, self.camera, &pass, &self.path_settings, (x, y, spp), hooks, &mut scratch)
+                    })
+                    .collect();
+                let finished = self.done_before + self.done.fetch_add(tile_samples, Ordering::Relaxed) + tile_samples;
+                report(self.progress, finished, self.work);
+                pixels
+            })
+            .collect()
+    }
+}
+
+/// The light tracer's part of an image: per-pixel sums of `paths` light paths (empty when none
+/// ran), the paths of its pilot, and the splats left out as not finite.
+#[derive(Default)]
+struct LightTraced {
+    sums: Vec<[f64; 3]>,
+    paths: u64,
+    pilot_paths: u64,
+    discarded: u64,
+}
+
+/// Light tracing after the camera's passes (`done` of the work already reported). How many
+/// light paths the image should have: a pilot of light paths, set aside (so that no light
+/// path's value decides how many there are), measures their variance and cost against the
+/// camera samples'. The budget depends on the camera samples, which are independent of the
+/// light paths: each half stays unbiased.
+fn trace_light(tracer: &LightTracer, camera: &CameraSamples, image_seed: u64, done: u64, progress: Option<Progress>) -> LightTraced {
+    let camera_samples = camera.main_spp.iter().map(|&s| s as u64).sum::<u64>();
+    let pilot_paths = pilot_light_paths(camera_samples);
+    let pilot = trace_light_pilot(tracer, pilot_paths, glassbake_core::seed::purpose_seed(image_seed, "light tracing pilot"));
+    let paths = light_tracing_budget(&camera.sums, &pilot, camera_samples);
+    let done = done + pilot_paths;
+    let work = done + paths;
+    report(progress, done, work);
+    let seed = glassbake_core::seed::purpose_seed(image_seed, "light tracing");
+    let (sums, discarded) = trace_light_paths(tracer, paths, seed, &|traced| report(progress, done + traced, work));
+    LightTraced { sums, paths, pilot_paths, discarded }
 }
 
 /// Trace `paths` light paths of the stream `seed` and sum, per pixel, each path's
@@ -679,18 +655,12 @@ fn first_transparent_object(prepared: &PreparedScene, ray: &glassbake_core::Ray)
     }
 }
 
-/// Photon merging's photons (`TraceSettings::photon_merging`): of `paths` caustic light
-/// paths, and of as many light paths of all light where the scene has rough glass.
+/// Photon merging's photons: of `paths` caustic light paths, and of as many light paths of
+/// all light where the background is black.
 struct MergePhotons {
     paths: u64,
     caustic: PhotonMap,
     global: Option<PhotonMap>,
-}
-
-/// One tile's pixels of one pass, and its guiding records when learning.
-struct TileResult {
-    pixels: Vec<PixelSums>,
-    records: Vec<GuidingRecord>,
 }
 
 /// A pixel's finite samples summed in f64 (and their squares, which adaptive sampling's pilot
@@ -710,24 +680,6 @@ struct PixelSums {
 }
 
 impl PixelSums {
-    fn add(&mut self, other: &PixelSums) {
-        for (s, o) in self.sum.iter_mut().zip(other.sum) {
-            *s += o;
-        }
-        for (s, o) in self.sum_squares.iter_mut().zip(other.sum_squares) {
-            *s += o;
-        }
-        self.finite += other.finite;
-        self.discarded += other.discarded;
-        self.rays += other.rays;
-        for (s, o) in self.all_sum.iter_mut().zip(other.all_sum) {
-            *s += o;
-        }
-        for (s, o) in self.all_sum_squares.iter_mut().zip(other.all_sum_squares) {
-            *s += o;
-        }
-    }
-
     fn mean(&self) -> Vec3 {
         if self.finite == 0 {
             return Vec3::ZERO;
@@ -737,19 +689,27 @@ impl PixelSums {
     }
 }
 
-/// One pixel: its own random stream, its samples in a fixed order, a box filter over the
-/// pixel. `(image width, height, spp, seed, stratified)` of the pass.
-#[allow(clippy::too_many_arguments)]
-fn render_pixel(
+/// What every pixel of a pass shares: the image size, the pass's seed, and whether sample
+/// values are stratified.
+struct PixelPass {
+    width: u32,
+    height: u32,
+    seed: u64,
+    stratified: bool,
+}
+
+/// One pixel `(x, y)`, `spp` samples: its own random stream, its samples in a fixed order, a
+/// box filter over the pixel.
+fn render_pixel<H: PathHooks>(
     prepared: &PreparedScene,
     camera: &Camera,
-    (width, height, spp, seed, stratified): (u32, u32, u32, u64, bool),
+    pass: &PixelPass,
     path_settings: &PathSettings,
-    x: u32,
-    y: u32,
-    guide: &mut Guide,
+    (x, y, spp): (u32, u32, u32),
+    hooks: H,
     scratch: &mut PathScratch,
 ) -> PixelSums {
+    let PixelPass { width, height, seed, stratified } = *pass;
     let pixel_index = y as u64 * width as u64 + x as u64;
     let mut rng = Pcg32::for_pixel(seed, pixel_index);
     let mut sums = PixelSums::default();
@@ -762,7 +722,7 @@ fn render_pixel(
             None => rng.next_vec2(),
         };
         let ray = camera.ray(x as f32 + jitter.x, y as f32 + jitter.y, width, height);
-        let path = prepared.trace_path(&ray, &mut rng, stratified_sample.as_ref(), path_settings, guide, scratch);
+        let path = prepared.trace_path(&ray, &mut rng, stratified_sample.as_ref(), path_settings, hooks, scratch);
         if path.all.is_finite() {
             for (c, (counted, all)) in path.counted.to_array().into_iter().zip(path.all.to_array()).enumerate() {
                 sums.sum[c] += counted as f64;

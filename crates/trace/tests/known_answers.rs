@@ -9,7 +9,20 @@ use glam::{Affine3A, Vec2, Vec3};
 use glassbake_core::{Camera, Error};
 use glassbake_scene::shapes::{rect, uv_sphere};
 use glassbake_scene::{Material, Mesh, Object, RectLight, Scene};
-use glassbake_trace::{render, Integrator, MaterialModel, PathFilter, PreparedScene, TraceSettings};
+use glassbake_trace::{render, Estimator, MaterialModel, PathFilter, PreparedScene, TraceSettings};
+
+/// Settings for the plain estimator (the path tracer alone, uniform pixels, independent
+/// values): the known answers below test the path tracer itself, and the estimators that
+/// build on it are tested against it.
+fn plain_settings(width: u32, height: u32, spp: u32, seed: u64) -> TraceSettings {
+    TraceSettings { estimator: Estimator::PLAIN, ..TraceSettings::new(width, height, spp, seed) }
+}
+
+#[test]
+fn library_callers_get_the_ground_truth_estimator_by_default() {
+    assert_eq!(TraceSettings::new(8, 8, 4, 0).estimator, Estimator::default());
+    assert_eq!(Estimator::default().name(), "caustic+adaptive+stratified");
+}
 
 /// The exact value of a box-filtered pixel of a Lambertian `object` (albedo `albedo`, facing
 /// `normal`) lit only by the polygon `corners` of radiance `radiance`: the mean over a 4x4
@@ -118,7 +131,7 @@ fn white_furnace_inside_an_emitting_sphere() {
         let mut scene = empty_scene("furnace");
         let material = Material { emission: Vec3::ONE, ..Material::diffuse("shell", Vec3::splat(albedo)) };
         add_object(&mut scene, "shell", inward_sphere(), material);
-        let settings = TraceSettings { max_depth, rr_depth, material_model: MaterialModel::Lambertian, ..TraceSettings::new(8, 8, 128, 3) };
+        let settings = TraceSettings { max_depth, rr_depth, material_model: MaterialModel::Lambertian, ..plain_settings(8, 8, 128, 3) };
         let out = render(&scene, &camera, &settings, None).unwrap();
         assert_eq!(out.discarded_samples, 0);
         for channel in 0..3 {
@@ -146,7 +159,7 @@ fn white_furnace_with_an_environment() {
         let mut scene = empty_scene(name);
         scene.background = Vec3::ONE;
         add_object(&mut scene, name, mesh, material);
-        let settings = TraceSettings { material_model: model, ..TraceSettings::new(12, 12, 64, 9) };
+        let settings = TraceSettings { material_model: model, ..plain_settings(12, 12, 64, 9) };
         let out = render(&scene, &camera, &settings, None).unwrap();
         let (mean, lo, hi) = mean_and_extremes(out.image.plane(1));
         eprintln!("environment furnace, {name}: mean {mean:.5}, pixels in [{lo:.4}, {hi:.4}]");
@@ -158,7 +171,7 @@ fn white_furnace_with_an_environment() {
     let mut scene = empty_scene("rough glass");
     scene.background = Vec3::ONE;
     add_object(&mut scene, "sphere", uv_sphere(1.0, 48, 24), white_glass(0.3, false));
-    let out = render(&scene, &camera, &TraceSettings::new(12, 12, 64, 9), None).unwrap();
+    let out = render(&scene, &camera, &plain_settings(12, 12, 64, 9), None).unwrap();
     let (mean, _, _) = mean_and_extremes(out.image.plane(1));
     eprintln!("environment furnace, rough glass sphere: mean {mean:.5}");
     assert!(mean < 1.01 && mean > 0.85, "rough glass sphere: mean {mean}");
@@ -203,14 +216,14 @@ impl PlaneUnderLight {
 fn diffuse_plane_under_a_rectangle_light_matches_exact_irradiance() {
     let PlaneUnderLight { albedo, radiance, corners, camera } = PlaneUnderLight::new();
     let (w, h) = (32u32, 32u32);
-    for (light_kind, integrator, adaptive, stratified) in [
-        ("rect light", Integrator::Plain, false, false),
-        ("rect light", Integrator::SolidAngle, false, false),
-        ("rect light", Integrator::Guided, false, false),
-        ("rect light", Integrator::Caustic, true, false),
-        ("rect light", Integrator::Caustic, true, true),
-        ("emissive mesh", Integrator::Plain, false, true),
+    for (light_kind, estimator) in [
+        ("rect light", "plain"),
+        ("rect light", "caustic"),
+        ("rect light", "caustic+adaptive"),
+        ("rect light", "caustic+adaptive+stratified"),
+        ("emissive mesh", "plain+stratified"),
     ] {
+        let estimator = Estimator::parse(estimator).unwrap();
         let mut scene = empty_scene(light_kind);
         let plane =
             add_object(&mut scene, "plane", rect(Vec3::ZERO, Vec3::X * 20.0, Vec3::NEG_Z * 20.0, Vec2::ONE), Material::diffuse("plane", Vec3::splat(albedo)));
@@ -228,13 +241,12 @@ fn diffuse_plane_under_a_rectangle_light_matches_exact_irradiance() {
             // rect() faces u x v = X x Z = -Y: down, onto the plane.
             add_object(&mut scene, "emitter", rect(Vec3::new(0.0, 1.0, 0.0), Vec3::X, Vec3::Z, Vec2::ONE), emitter);
         }
-        let settings = TraceSettings { material_model: MaterialModel::Lambertian, integrator, adaptive, stratified, ..TraceSettings::new(w, h, 256, 17) };
+        let settings = TraceSettings { material_model: MaterialModel::Lambertian, estimator, ..plain_settings(w, h, 256, 17) };
         let out = render(&scene, &camera, &settings, None).unwrap();
         assert_eq!(out.discarded_samples, 0);
-        assert_eq!(out.pilot_samples > 0, adaptive);
+        assert_eq!(out.pilot_samples > 0, estimator.adaptive);
         let prepared = PreparedScene::new(&scene);
-        let light_kind =
-            format!("{light_kind}, {}{}{}", integrator.name(), if adaptive { " adaptive" } else { "" }, if stratified { " stratified" } else { "" });
+        let light_kind = format!("{light_kind}, {estimator}");
         let (mut relative_sum, mut count, mut worst) = (0.0f64, 0, 0.0f64);
         for (expected, rendered) in lit_pixels(&out.image, &prepared, &camera, plane, Vec3::Y, &corners, radiance, albedo) {
             let relative = rendered as f64 / expected - 1.0;
@@ -264,7 +276,7 @@ fn diffuse_plane_under_two_lights_matches_exact_irradiance() {
     let small_corners =
         [small_corner, small_corner + Vec3::X * small_side, small_corner + (Vec3::X + Vec3::Z) * small_side, small_corner + Vec3::Z * small_side];
     let (w, h) = (32u32, 32u32);
-    for (integrator, adaptive) in [(Integrator::Plain, false), (Integrator::Caustic, true)] {
+    for estimator in [Estimator::PLAIN, Estimator::default()] {
         let mut scene = empty_scene("two lights");
         let plane =
             add_object(&mut scene, "plane", rect(Vec3::ZERO, Vec3::X * 20.0, Vec3::NEG_Z * 20.0, Vec2::ONE), Material::diffuse("plane", Vec3::splat(albedo)));
@@ -278,7 +290,7 @@ fn diffuse_plane_under_two_lights_matches_exact_irradiance() {
                 two_sided: false,
             });
         }
-        let settings = TraceSettings { material_model: MaterialModel::Lambertian, integrator, adaptive, stratified: true, ..TraceSettings::new(w, h, 256, 23) };
+        let settings = TraceSettings { material_model: MaterialModel::Lambertian, estimator, ..plain_settings(w, h, 256, 23) };
         let out = render(&scene, &camera, &settings, None).unwrap();
         let prepared = PreparedScene::new(&scene);
         let (mut relative_sum, mut count, mut worst) = (0.0f64, 0, 0.0f64);
@@ -297,10 +309,10 @@ fn diffuse_plane_under_two_lights_matches_exact_irradiance() {
                 count += 1;
             }
         }
-        assert!(count > 300, "{}: only {count} plane pixels", integrator.name());
+        assert!(count > 300, "{estimator}: only {count} plane pixels");
         let bias = relative_sum / count as f64;
-        eprintln!("two lights, {}: {count} pixels, mean relative error {bias:+.5}, worst {worst:.4}", integrator.name());
-        assert!(bias.abs() < 0.01, "{}: mean relative error {bias}", integrator.name());
+        eprintln!("two lights, {estimator}: {count} pixels, mean relative error {bias:+.5}, worst {worst:.4}");
+        assert!(bias.abs() < 0.01, "{estimator}: mean relative error {bias}");
         worst_pixels.push(worst);
     }
     // As in the one-light test: a pixel's centre against its box-filtered value, plus noise.
@@ -326,7 +338,7 @@ fn specular_factor_zero_plane_matches_exact_irradiance() {
         two_sided: false,
     });
     // Direct light only: the plane sees nothing else but the black background.
-    let settings = TraceSettings { max_depth: 2, ..TraceSettings::new(w, h, 1024, 23) };
+    let settings = TraceSettings { max_depth: 2, ..plain_settings(w, h, 1024, 23) };
     let out = render(&scene, &camera, &settings, None).unwrap();
     let prepared = PreparedScene::new(&scene);
     let (mut relative_sum, mut count) = (0.0f64, 0);
@@ -356,7 +368,7 @@ fn primary_rays_follow_the_camera_convention() {
     };
     scene.rect_lights.push(light.clone());
     add_object(&mut scene, "backdrop", rect(Vec3::new(0.0, 0.0, -1.0), Vec3::X * 20.0, Vec3::Y * 20.0, Vec2::ONE), Material::diffuse("grey", Vec3::splat(0.5)));
-    let settings = TraceSettings { max_depth: 1, ..TraceSettings::new(w, h, 16, 1) };
+    let settings = TraceSettings { max_depth: 1, ..plain_settings(w, h, 16, 1) };
     let out = render(&scene, &camera, &settings, None).unwrap();
 
     let inside_light = |p: Vec3| {
@@ -414,7 +426,7 @@ fn images_are_bit_identical_whatever_the_thread_count() {
     let scene = glassbake_scene::builtin::builtin("cornell-glass").unwrap();
     let camera = scene.sample(0, 0).camera;
     // Not a multiple of the tile size, to include partial tiles.
-    let base = TraceSettings::new(24, 20, 2, 42);
+    let base = plain_settings(24, 20, 2, 42);
     let images: Vec<Vec<u32>> = [Some(1), Some(2), Some(3)]
         .into_iter()
         .map(|threads| bits(&render(&scene, &camera, &TraceSettings { threads, ..base.clone() }, None).unwrap().image))
@@ -434,8 +446,7 @@ fn glass_pixels_get_glass_spp_and_match_a_uniform_render_at_it() {
     let scene = glassbake_scene::builtin::builtin("cornell-glass").unwrap();
     let camera = scene.sample(0, 0).camera;
     let (w, h) = (24, 20);
-    let render_at =
-        |spp: u32, glass_spp: Option<u32>| render(&scene, &camera, &TraceSettings { glass_spp, ..TraceSettings::new(w, h, spp, 42) }, None).unwrap();
+    let render_at = |spp: u32, glass_spp: Option<u32>| render(&scene, &camera, &TraceSettings { glass_spp, ..plain_settings(w, h, spp, 42) }, None).unwrap();
     let (low, high, mixed) = (render_at(2, None), render_at(6, None), render_at(2, Some(6)));
     let glass = glassbake_trace::glass_pixels(&PreparedScene::new(&scene), &camera, w, h);
     let glass_count = glass.iter().filter(|&&g| g).count();
@@ -508,21 +519,8 @@ fn renders_on_1_2_3_threads_and_plain(scene: &str, base: &TraceSettings) -> (Vec
         .into_iter()
         .map(|threads| render(&instance, &sample.camera, &TraceSettings { threads, ..base.clone() }, None).unwrap())
         .collect();
-    let plain = render(&instance, &sample.camera, &TraceSettings { integrator: Integrator::Plain, ..base.clone() }, None).unwrap();
+    let plain = render(&instance, &sample.camera, &TraceSettings { estimator: Estimator::PLAIN, ..base.clone() }, None).unwrap();
     (renders, plain)
-}
-
-/// The guided estimator's learned tree is built from records gathered in tile order, so its
-/// images do not depend on the thread count either.
-#[test]
-fn guided_images_are_bit_identical_whatever_the_thread_count() {
-    // 16 spp: learning passes of 1 and 2 spp, then 13 spp with the tree.
-    let base = TraceSettings { integrator: Integrator::Guided, ..TraceSettings::new(40, 36, 16, 5) };
-    let (renders, plain) = renders_on_1_2_3_threads_and_plain("cornellbox", &base);
-    assert_eq!(renders[0].learning_spp, 3);
-    assert_eq!(bits(&renders[0].image), bits(&renders[1].image));
-    assert_eq!(bits(&renders[0].image), bits(&renders[2].image));
-    assert_ne!(bits(&renders[0].image), bits(&plain.image), "the guided estimator must differ from the plain one");
 }
 
 /// The light tracer's paths are traced in chunks of their own streams and summed in chunk
@@ -531,7 +529,7 @@ fn guided_images_are_bit_identical_whatever_the_thread_count() {
 fn caustic_images_are_bit_identical_whatever_the_thread_count() {
     // 40 x 36 x 24 camera samples, a quarter as many light paths: 8,640, three chunks of
     // 4,096, the last one short.
-    let base = TraceSettings { integrator: Integrator::Caustic, ..TraceSettings::new(40, 36, 24, 5) };
+    let base = TraceSettings { estimator: Estimator::parse("caustic").unwrap(), ..plain_settings(40, 36, 24, 5) };
     let (renders, plain) = renders_on_1_2_3_threads_and_plain("cornellbox8", &base);
     assert_eq!(bits(&renders[0].image), bits(&renders[1].image));
     assert_eq!(bits(&renders[0].image), bits(&renders[2].image));
@@ -545,15 +543,15 @@ fn caustic_images_are_bit_identical_whatever_the_thread_count() {
 #[test]
 fn adaptive_stratified_images_are_bit_identical_whatever_the_thread_count() {
     // 256 spp: a pilot of 16 per pixel, then 240 per pixel on average, 64 to 4,096 each.
-    let base = TraceSettings { integrator: Integrator::Caustic, adaptive: true, stratified: true, ..TraceSettings::new(24, 20, 256, 5) };
+    let base = TraceSettings { estimator: Estimator::default(), ..plain_settings(24, 20, 256, 5) };
     let (renders, _) = renders_on_1_2_3_threads_and_plain("desk", &base);
     assert_eq!(renders[0].pilot_samples, 24 * 20 * 16);
     assert_eq!(renders[0].samples, 24 * 20 * 256);
     assert_eq!(bits(&renders[0].image), bits(&renders[1].image));
     assert_eq!(bits(&renders[0].image), bits(&renders[2].image));
-    let uniform = render_sample("desk", &TraceSettings { adaptive: false, threads: Some(2), ..base.clone() });
+    let uniform = render_sample("desk", &TraceSettings { estimator: Estimator { adaptive: false, ..base.estimator }, threads: Some(2), ..base.clone() });
     assert_ne!(bits(&renders[0].image), bits(&uniform.image), "adaptive sampling must change the image");
-    let independent = render_sample("desk", &TraceSettings { stratified: false, threads: Some(2), ..base.clone() });
+    let independent = render_sample("desk", &TraceSettings { estimator: Estimator { stratified: false, ..base.estimator }, threads: Some(2), ..base.clone() });
     assert_ne!(bits(&renders[0].image), bits(&independent.image), "stratified values must change the image");
 }
 
@@ -564,7 +562,7 @@ fn merged_images_are_bit_identical_whatever_the_thread_count() {
     let scene = glassbake_scene::builtin::builtin("cornellbox").unwrap();
     let sample = scene.sample(0, 0);
     let instance = scene.instantiate(&sample.values).unwrap();
-    let base = TraceSettings { integrator: Integrator::Caustic, adaptive: true, stratified: true, photon_merging: true, ..TraceSettings::new(24, 20, 128, 5) };
+    let base = TraceSettings { estimator: Estimator::parse("caustic+merging+adaptive+stratified").unwrap(), ..plain_settings(24, 20, 128, 5) };
     let renders: Vec<_> =
         [1, 2, 3].map(|threads| render(&instance, &sample.camera, &TraceSettings { threads: Some(threads), ..base.clone() }, None).unwrap()).into();
     // 0.1 light paths per camera sample (the pilot's samples included).
@@ -574,11 +572,9 @@ fn merged_images_are_bit_identical_whatever_the_thread_count() {
     assert!(renders[0].merge_radius > 0.0);
     assert_eq!(bits(&renders[0].image), bits(&renders[1].image));
     assert_eq!(bits(&renders[0].image), bits(&renders[2].image));
-    let unmerged = render(&instance, &sample.camera, &TraceSettings { photon_merging: false, threads: Some(2), ..base.clone() }, None).unwrap();
+    let unmerged = render(&instance, &sample.camera, &TraceSettings { estimator: Estimator::default(), threads: Some(2), ..base.clone() }, None).unwrap();
     assert_eq!(unmerged.photon_paths, 0);
     assert_ne!(bits(&renders[0].image), bits(&unmerged.image), "merging must change the image");
-    let plain = TraceSettings { integrator: Integrator::Plain, ..base.clone() };
-    assert!(plain.validate().is_err(), "merging is part of the caustic estimator");
     // The desk's background lights it too, and a gather of the lights' photons would miss
     // what of that light scattered: no global map there.
     let desk = render_sample("desk", &TraceSettings { threads: Some(2), ..base.clone() });
@@ -608,14 +604,8 @@ fn merging_quiets_what_is_seen_through_glass_and_keeps_its_light() {
         let estimate = |photon_merging: bool, seed_base: u64| {
             let images: Vec<_> = (seed_base..seed_base + RENDERS)
                 .map(|seed| {
-                    let settings = TraceSettings {
-                        integrator: Integrator::Caustic,
-                        adaptive: true,
-                        stratified: true,
-                        photon_merging,
-                        path_filter,
-                        ..TraceSettings::new(32, 32, 256, seed)
-                    };
+                    let estimator = Estimator { transport: glassbake_trace::Transport::Caustic { photon_merging }, ..Estimator::default() };
+                    let settings = TraceSettings { estimator, path_filter, ..plain_settings(32, 32, 256, seed) };
                     render(&instance, &sample.camera, &settings, None).unwrap().image
                 })
                 .collect();
@@ -649,7 +639,7 @@ fn merging_quiets_what_is_seen_through_glass_and_keeps_its_light() {
 /// both parts carry light.
 #[test]
 fn path_filters_split_the_image_exactly() {
-    let base = TraceSettings { integrator: Integrator::Caustic, adaptive: true, stratified: true, ..TraceSettings::new(24, 20, 256, 3) };
+    let base = TraceSettings { estimator: Estimator::default(), ..plain_settings(24, 20, 256, 3) };
     let [all, bent, straight] = [PathFilter::All, PathFilter::BentView, PathFilter::StraightView]
         .map(|path_filter| render_sample("cornellbox", &TraceSettings { path_filter, ..base.clone() }).image);
     let (mut bent_sum, mut straight_sum) = (0.0f64, 0.0f64);
@@ -665,8 +655,6 @@ fn path_filters_split_the_image_exactly() {
     }
     assert!(bent_sum > 0.0 && straight_sum > 0.0, "bent {bent_sum}, straight {straight_sum}");
     assert!(bent_sum < straight_sum, "the view bends on a few glass objects only: bent {bent_sum}, straight {straight_sum}");
-    let guided = TraceSettings { integrator: Integrator::Guided, adaptive: false, path_filter: PathFilter::BentView, ..base.clone() };
-    assert!(guided.validate().is_err(), "the guided estimator learns from what its paths count: no filter");
 }
 
 /// The light tracer's budget follows where it pays: on cornell-glass (a light seen in a
@@ -675,7 +663,7 @@ fn path_filters_split_the_image_exactly() {
 /// paths are reported.
 #[test]
 fn the_light_tracing_budget_follows_where_it_pays() {
-    let settings = TraceSettings { integrator: Integrator::Caustic, stratified: true, ..TraceSettings::new(32, 32, 128, 7) };
+    let settings = TraceSettings { estimator: Estimator::parse("caustic+stratified").unwrap(), ..plain_settings(32, 32, 128, 7) };
     let rate = |scene: &str| {
         let output = render_sample(scene, &settings);
         assert_eq!(output.samples, 32 * 32 * 128);
@@ -705,7 +693,8 @@ fn stratified_sampling_lowers_the_variance_of_direct_light() {
     });
     let variance = |stratified: bool| {
         let [a, b] = [3u64, 4].map(|seed| {
-            let settings = TraceSettings { material_model: MaterialModel::Lambertian, stratified, ..TraceSettings::new(32, 32, 64, seed) };
+            let estimator = Estimator { stratified, ..Estimator::PLAIN };
+            let settings = TraceSettings { material_model: MaterialModel::Lambertian, estimator, ..plain_settings(32, 32, 64, seed) };
             render(&scene, &camera, &settings, None).unwrap().image
         });
         a.data().iter().zip(b.data()).map(|(&x, &y)| (x as f64 - y as f64).powi(2) / 2.0).sum::<f64>() / a.data().len() as f64
@@ -730,8 +719,10 @@ fn render_sample(scene: &str, settings: &TraceSettings) -> glassbake_trace::Trac
 #[test]
 fn adaptive_sampling_lowers_the_variance_of_an_uneven_image() {
     let clamped_variance = |adaptive: bool| {
-        let [a, b] = [11u64, 12]
-            .map(|seed| render_sample("desk", &TraceSettings { integrator: Integrator::Caustic, adaptive, ..TraceSettings::new(32, 32, 256, seed) }).image);
+        let [a, b] = [11u64, 12].map(|seed| {
+            let estimator = Estimator { adaptive, ..Estimator::parse("caustic").unwrap() };
+            render_sample("desk", &TraceSettings { estimator, ..plain_settings(32, 32, 256, seed) }).image
+        });
         let clamp = |v: f32| v.clamp(0.0, 1.0) as f64;
         a.data().iter().zip(b.data()).map(|(&x, &y)| (clamp(x) - clamp(y)).powi(2) / 2.0).sum::<f64>() / a.data().len() as f64
     };
@@ -740,11 +731,12 @@ fn adaptive_sampling_lowers_the_variance_of_an_uneven_image() {
     assert!(adaptive < 0.75 * uniform, "adaptive {adaptive:.3e} vs uniform {uniform:.3e}");
 }
 
-/// No bias: on every built-in scene the solid-angle, guided and caustic estimators (the
-/// last also with adaptive sampling and stratified values) converge to the plain one's
-/// image, in every region and channel: the pixels that show glass, the other pixels of each
-/// image quadrant (so a bias confined to the light seen through or cast by one glass object
-/// shows in its quadrant), and the whole image.
+/// No bias: on every built-in scene the caustic estimator (also with adaptive sampling and
+/// stratified values) converges to the plain one's image, in every region and channel: the
+/// pixels that show glass, the pixels lit through glass (the surface seen at the pixel's
+/// centre reaches a rectangle light's centre only through a transparent object: where the
+/// light tracer's caustics land), the other pixels of each image quadrant, and the whole
+/// image.
 ///
 /// A Welch t-test on the region means of independent renders. The standard error comes from
 /// the spread between whole renders, not from per-pixel differences: the `caustic`
@@ -765,30 +757,49 @@ fn every_estimator_converges_to_the_same_image_in_every_region() {
         let scene = glassbake_scene::builtin::builtin(name).unwrap();
         let sample = scene.sample(0, 0);
         let instance = scene.instantiate(&sample.values).unwrap();
-        let glass = glassbake_trace::glass_pixels(&PreparedScene::new(&instance), &sample.camera, SIZE, SIZE);
-        // Region of each pixel: 0 glass, 1-4 the image quadrants' other pixels.
+        let prepared = PreparedScene::new(&instance);
+        let glass = glassbake_trace::glass_pixels(&prepared, &sample.camera, SIZE, SIZE);
+        let transparent = |hit: &glassbake_trace::SurfaceHit| matches!(hit.owner, glassbake_trace::geometry::Owner::Object { object, .. } if instance.objects[object as usize].transparent);
+        let lit_through_glass: Vec<bool> = (0..SIZE * SIZE)
+            .map(|index| {
+                let ray = sample.camera.ray((index % SIZE) as f32 + 0.5, (index / SIZE) as f32 + 0.5, SIZE, SIZE);
+                let Some(hit) = prepared.intersect(&ray).filter(|hit| !transparent(hit)) else { return false };
+                instance.rect_lights.iter().any(|light| {
+                    let centre = light.corner + 0.5 * (light.edge_u + light.edge_v);
+                    let direction = (centre - hit.position).normalize();
+                    let origin = glassbake_trace::prepared::offset_origin(hit.position, hit.geometric_normal, direction);
+                    prepared.intersect(&glassbake_core::Ray { origin, direction }).is_some_and(|blocker| transparent(&blocker))
+                })
+            })
+            .collect();
+        // Region of each pixel: 0 glass, 1 lit through glass, 2-5 the image quadrants' other
+        // pixels.
         let region_of = |index: usize| {
             let (x, y) = (index as u32 % SIZE, index as u32 / SIZE);
             if glass[index] {
                 0
+            } else if lit_through_glass[index] {
+                1
             } else {
-                1 + (x >= SIZE / 2) as usize + 2 * (y >= SIZE / 2) as usize
+                2 + (x >= SIZE / 2) as usize + 2 * (y >= SIZE / 2) as usize
             }
         };
-        let labels = ["glass pixels", "top-left", "top-right", "bottom-left", "bottom-right", "whole image"];
+        let labels = ["glass pixels", "lit through glass", "top-left", "top-right", "bottom-left", "bottom-right", "whole image"];
+        const REGIONS: usize = 7;
+        const WHOLE: usize = REGIONS - 1;
         // Per region (and the whole image last) and channel: the mean over the renders of the
         // region mean, and the variance of that mean. Each estimator gets seeds of its own:
         // shared random streams would correlate the errors and hide a bias.
-        let estimate = |integrator: Integrator, adaptive: bool, stratified: bool, seed_base: u64| {
-            let region_means: Vec<[[f64; 3]; 6]> = (seed_base..seed_base + RENDERS)
+        let estimate = |estimator: Estimator, seed_base: u64| {
+            let region_means: Vec<[[f64; 3]; REGIONS]> = (seed_base..seed_base + RENDERS)
                 .map(|seed| {
-                    let settings = TraceSettings { integrator, adaptive, stratified, ..TraceSettings::new(SIZE, SIZE, 256, seed) };
+                    let settings = TraceSettings { estimator, ..plain_settings(SIZE, SIZE, 256, seed) };
                     let image = render(&instance, &sample.camera, &settings, None).unwrap().image;
                     let plane = (SIZE * SIZE) as usize;
-                    let mut sums = [[0.0f64; 3]; 6];
-                    let mut counts = [0usize; 6];
+                    let mut sums = [[0.0f64; 3]; REGIONS];
+                    let mut counts = [0usize; REGIONS];
                     for index in 0..plane {
-                        for region in [region_of(index), 5] {
+                        for region in [region_of(index), WHOLE] {
                             counts[region] += 1;
                             for (c, sum) in sums[region].iter_mut().enumerate() {
                                 *sum += image.data()[c * plane + index] as f64;
@@ -798,9 +809,10 @@ fn every_estimator_converges_to_the_same_image_in_every_region() {
                     std::array::from_fn(|r| sums[r].map(|s| s / counts[r].max(1) as f64))
                 })
                 .collect();
-            let counts: [usize; 6] = std::array::from_fn(|r| if r == 5 { 1 } else { (0..(SIZE * SIZE) as usize).filter(|&i| region_of(i) == r).count() });
+            let counts: [usize; REGIONS] =
+                std::array::from_fn(|r| if r == WHOLE { 1 } else { (0..(SIZE * SIZE) as usize).filter(|&i| region_of(i) == r).count() });
             let n = RENDERS as f64;
-            std::array::from_fn::<_, 6, _>(|r| {
+            std::array::from_fn::<_, REGIONS, _>(|r| {
                 std::array::from_fn::<_, 3, _>(|c| {
                     let mean = region_means.iter().map(|m| m[r][c]).sum::<f64>() / n;
                     let variance = region_means.iter().map(|m| (m[r][c] - mean).powi(2)).sum::<f64>() / (n - 1.0);
@@ -808,19 +820,12 @@ fn every_estimator_converges_to_the_same_image_in_every_region() {
                 })
             })
         };
-        let plain = estimate(Integrator::Plain, false, false, 20);
-        let others = [
-            (Integrator::SolidAngle, false, false, 30),
-            (Integrator::Guided, false, false, 40),
-            (Integrator::Caustic, false, false, 50),
-            (Integrator::Caustic, true, false, 60),
-            (Integrator::Caustic, true, true, 70),
-        ];
-        for (integrator, adaptive, stratified, seed_base) in others {
-            let other = estimate(integrator, adaptive, stratified, seed_base);
-            let label = format!("{}{}{}", integrator.name(), if adaptive { " adaptive" } else { "" }, if stratified { " stratified" } else { "" });
+        let plain = estimate(Estimator::PLAIN, 20);
+        let others = [("caustic", 50), ("caustic+adaptive", 60), ("caustic+adaptive+stratified", 70)];
+        for (label, seed_base) in others {
+            let other = estimate(Estimator::parse(label).unwrap(), seed_base);
             let mut worst = (0.0f64, String::new());
-            for r in 0..6 {
+            for r in 0..REGIONS {
                 if other[r][0].2 == 0 {
                     continue;
                 }
@@ -840,7 +845,7 @@ fn every_estimator_converges_to_the_same_image_in_every_region() {
                         100.0 * (o / p - 1.0),
                         100.0 * standard_error / p
                     );
-                    if r == 5 && c == 1 {
+                    if r == WHOLE && c == 1 {
                         eprintln!("{name}: {line}");
                     }
                     assert!(t < 7.0, "{name}: {line}");
@@ -858,9 +863,9 @@ fn every_estimator_converges_to_the_same_image_in_every_region() {
 fn bad_input_is_refused() {
     let scene = glassbake_scene::builtin::builtin("cornell-glass").unwrap();
     let camera = scene.camera.middle();
-    let guided_adaptive = TraceSettings { integrator: Integrator::Guided, adaptive: true, ..TraceSettings::new(8, 8, 64, 0) };
-    let huge = TraceSettings::new(100_000, 8, 4, 0);
-    for settings in [TraceSettings::new(0, 8, 4, 0), TraceSettings::new(8, 0, 4, 0), TraceSettings::new(8, 8, 0, 0), guided_adaptive, huge] {
+    let glass_below_spp = TraceSettings { glass_spp: Some(32), ..plain_settings(8, 8, 64, 0) };
+    let huge = plain_settings(100_000, 8, 4, 0);
+    for settings in [plain_settings(0, 8, 4, 0), plain_settings(8, 0, 4, 0), plain_settings(8, 8, 0, 0), glass_below_spp, huge] {
         match render(&scene, &camera, &settings, None) {
             Err(e @ Error::BadInput { .. }) => assert!(e.is_user_error()),
             Err(e) => panic!("expected bad input, got {e}"),
@@ -869,7 +874,7 @@ fn bad_input_is_refused() {
     }
     let looking_up = Camera { target: camera.position + Vec3::Y, ..camera };
     for degenerate in [Camera { target: camera.position, ..camera }, looking_up, Camera { fov_x_deg: 0.0, ..camera }] {
-        assert!(matches!(render(&scene, &degenerate, &TraceSettings::new(4, 4, 1, 0), None), Err(Error::BadInput { .. })), "{degenerate:?}");
+        assert!(matches!(render(&scene, &degenerate, &plain_settings(4, 4, 1, 0), None), Err(Error::BadInput { .. })), "{degenerate:?}");
     }
 }
 
@@ -878,7 +883,7 @@ fn a_scene_without_lights_renders_black_with_a_warning() {
     let mut scene = empty_scene("dark");
     add_object(&mut scene, "plane", rect(Vec3::ZERO, Vec3::X, Vec3::NEG_Z, Vec2::ONE), Material::diffuse("grey", Vec3::splat(0.5)));
     let camera = Camera::look_at(Vec3::new(0.0, 1.0, 1.0), Vec3::ZERO, 50.0);
-    let out = render(&scene, &camera, &TraceSettings::new(8, 8, 4, 0), None).unwrap();
+    let out = render(&scene, &camera, &plain_settings(8, 8, 4, 0), None).unwrap();
     assert!(out.image.data().iter().all(|&v| v == 0.0));
     assert!(out.warnings.iter().any(|w| w.contains("no light")), "{:?}", out.warnings);
 }
@@ -898,7 +903,7 @@ fn non_finite_samples_are_discarded_and_counted() {
         two_sided: false,
     });
     let camera = Camera::look_at(Vec3::new(0.0, 1.0, 3.0), Vec3::new(0.0, 1.0, 0.0), 60.0);
-    let settings = TraceSettings { max_depth: 1, ..TraceSettings::new(8, 8, 4, 0) };
+    let settings = TraceSettings { max_depth: 1, ..plain_settings(8, 8, 4, 0) };
     let out = render(&scene, &camera, &settings, None).unwrap();
     assert!(out.image.data().iter().all(|v| v.is_finite()));
     // With max depth 1, exactly the camera rays that miss everything are NaN: the upper half.
@@ -912,7 +917,7 @@ fn builtin_scenes_render_finite_and_lit() {
         let scene = glassbake_scene::builtin::builtin(name).unwrap();
         let sample = scene.sample(7, 0);
         let instance = scene.instantiate(&sample.values).unwrap();
-        let out = render(&instance, &sample.camera, &TraceSettings::new(8, 8, 2, 1), None).unwrap();
+        let out = render(&instance, &sample.camera, &plain_settings(8, 8, 2, 1), None).unwrap();
         assert_eq!(out.discarded_samples, 0, "{name}");
         let mean: f32 = out.image.data().iter().sum::<f32>() / out.image.data().len() as f32;
         assert!(mean > 0.01 && mean.is_finite(), "{name}: mean {mean}");
@@ -952,9 +957,9 @@ fn direct_light_through_a_thin_pane_matches_quadrature() {
     let (w, h) = (16u32, 16u32);
     // Direct light only: camera -> plane -> pane -> light is three segments (a pane
     // crossing counts, as in Mitsuba). With two the plane receives nothing through the pane.
-    let two_segments = render(&scene, &camera, &TraceSettings { max_depth: 2, ..TraceSettings::new(w, h, 64, 6) }, None).unwrap();
+    let two_segments = render(&scene, &camera, &TraceSettings { max_depth: 2, ..plain_settings(w, h, 64, 6) }, None).unwrap();
     assert!(two_segments.image.data().iter().all(|&v| v == 0.0), "max_depth 2 must not reach the light through the pane");
-    let settings = TraceSettings { max_depth: 3, ..TraceSettings::new(w, h, 4096, 6) };
+    let settings = TraceSettings { max_depth: 3, ..plain_settings(w, h, 4096, 6) };
     let out = render(&scene, &camera, &settings, None).unwrap();
     let surface = SurfaceMaterial::new(Vec3::splat(0.5), 0.6, 0.0, None);
     let bsdf = Bsdf::new(&surface, Vec3::Y, MaterialModel::Gltf);
@@ -1045,7 +1050,7 @@ fn rectangle_lights_emit_from_their_back_only_when_two_sided() {
             two_sided,
         });
         assert!(scene.rect_lights[0].normal().y < 0.0, "the light's front faces down");
-        let settings = TraceSettings { material_model: MaterialModel::Lambertian, max_depth: 2, ..TraceSettings::new(w, h, 128, 5) };
+        let settings = TraceSettings { material_model: MaterialModel::Lambertian, max_depth: 2, ..plain_settings(w, h, 128, 5) };
         let out = render(&scene, &camera, &settings, None).unwrap();
         let prepared = PreparedScene::new(&scene);
         let (mut relative_sum, mut count, mut largest) = (0.0f64, 0, 0.0f32);
@@ -1105,12 +1110,12 @@ fn a_light_reflected_by_a_thin_pane_matches_quadrature() {
     // light path lands in one pixel or another, so pixels' errors are not independent).
     let totals: Vec<f64> = (0..4u64)
         .map(|seed| {
-            let settings = TraceSettings { max_depth: 3, integrator: Integrator::Caustic, ..TraceSettings::new(w, h, 4096, 8 + seed) };
+            let settings = TraceSettings { max_depth: 3, estimator: Estimator::parse("caustic").unwrap(), ..plain_settings(w, h, 4096, 8 + seed) };
             let out = render(&scene, &camera, &settings, None).unwrap();
             (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| out.image.get(1, x, y) as f64).sum()
         })
         .collect();
-    let plain = render(&scene, &camera, &TraceSettings { max_depth: 3, ..TraceSettings::new(w, h, 64, 20) }, None).unwrap();
+    let plain = render(&scene, &camera, &TraceSettings { max_depth: 3, ..plain_settings(w, h, 64, 20) }, None).unwrap();
     let bsdf = Bsdf::new(&SurfaceMaterial::new(Vec3::splat(0.5), 0.6, 0.0, None), Vec3::Y, MaterialModel::Gltf);
     let blocked_by_light = |p: Vec3, wi: Vec3| {
         let t = (light.corner.y - p.y) / wi.y;

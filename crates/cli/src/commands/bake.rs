@@ -50,11 +50,11 @@ pub struct BakeArgs {
     #[arg(long)]
     pub threads: Option<usize>,
     /// The ground truth's estimator, as `glassbake dataset --estimator`: by default
-    /// `caustic-adaptive-stratified` on the CPU (unbiased) and `plain` with `--device wgpu`;
-    /// `caustic-merged` trades a blur of about a pixel for much less noise behind glass
-    /// (docs/trace.md). A bake being continued keeps its dataset's estimator.
+    /// `caustic+adaptive+stratified` on the CPU (unbiased) and `plain` with `--device wgpu`;
+    /// `caustic+merging+adaptive+stratified` trades a blur of about a pixel for much less
+    /// noise behind glass (docs/trace.md). A bake being continued keeps its dataset's estimator.
     #[arg(long, value_parser = super::dataset::parse_estimator)]
-    pub estimator: Option<glassbake_dataset::GroundTruthEstimator>,
+    pub estimator: Option<glassbake_trace::Estimator>,
 }
 
 /// Dataset size and training preset of a bake preset.
@@ -119,11 +119,11 @@ pub fn run(args: BakeArgs) -> Result<()> {
     }
     let trace_device = if args.device == "wgpu" { glassbake_dataset::TraceDevice::Wgpu } else { glassbake_dataset::TraceDevice::Cpu };
     if let Some(estimator) = args.estimator {
-        if trace_device == glassbake_dataset::TraceDevice::Wgpu && estimator != glassbake_dataset::GroundTruthEstimator::Plain {
+        if trace_device == glassbake_dataset::TraceDevice::Wgpu && estimator != glassbake_trace::Estimator::PLAIN {
             return Err(Error::bad_input(
                 "bake",
                 "--estimator",
-                format!("{} runs on the CPU only; a bake with --device wgpu traces its ground truth plain on the GPU", estimator.name()),
+                format!("{estimator} runs on the CPU only; a bake with --device wgpu traces its ground truth plain on the GPU"),
             )
             .into());
         }

@@ -7,10 +7,9 @@ use std::time::Duration;
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use glassbake_core::Error;
-use glassbake_dataset::{
-    generate, merge, upgrade, DatasetSpec, DatasetStore, GenerateOptions, GenerateProgress, GroundTruthEstimator, ShardSpec, TraceDevice, FORMAT_VERSION,
-};
+use glassbake_dataset::{generate, merge, upgrade, DatasetSpec, DatasetStore, GenerateOptions, GenerateProgress, ShardSpec, TraceDevice, FORMAT_VERSION};
 use glassbake_scene::load_scene;
+use glassbake_trace::Estimator;
 use indicatif::{ProgressBar, ProgressStyle};
 
 #[derive(Args)]
@@ -89,21 +88,21 @@ pub struct MakeArgs {
     #[arg(long)]
     pub threads: Option<usize>,
     /// Where to path-trace the ground truth: `cpu` (bit-identical for any thread count on one machine; other CPUs may differ in the last bits) or `wgpu`
-    /// (the GPU tracer on a Vulkan adapter, deterministic on one device). A dataset keeps the
-    /// device it was started with.
+    /// (the GPU tracer on a Vulkan adapter, deterministic on one device; it runs the `plain`
+    /// estimator only). A dataset keeps the device it was started with.
     #[arg(long, default_value = "cpu", value_parser = parse_trace_device)]
     pub device: TraceDevice,
-    /// The ground truth's estimator: `caustic-adaptive-stratified` (the default on the CPU: the path
-    /// tracer plus light tracing of the light that reaches surfaces through glass, so no
-    /// caustic fireflies, with adaptive sampling from 256 spp, where a pilot of 1/16 of the
-    /// samples decides where the rest go, and stratified sample values), `caustic` (the path tracer
-    /// and light tracer alone, every pixel at --spp), `caustic-merged` (the default's
-    /// sampling plus photon merging of what the camera sees through glass: biased, a blur
-    /// of about a pixel, much less noise on glass; docs/trace.md) or `plain` (the path
-    /// tracer alone; the only one with --device wgpu). Continuing a dataset keeps the
-    /// estimator it was started with.
+    /// The ground truth's estimator, `TRANSPORT[+merging][+adaptive][+stratified]`
+    /// (docs/trace.md): TRANSPORT is `caustic` (the path tracer plus a light tracer for the
+    /// light that reaches surfaces through glass) or `plain` (the path tracer alone, the only
+    /// one with --device wgpu); `+merging` (caustic only) takes what the camera sees through
+    /// bending glass from photons: biased, a blur of about a pixel, much less noise on glass;
+    /// `+adaptive` spreads the samples by the noise a pilot pass of 1/16 of them measured
+    /// (from 256 spp); `+stratified` draws sample values from scrambled Sobol points. Default:
+    /// `caustic+adaptive+stratified` on the CPU (unbiased), `plain` with --device wgpu.
+    /// Continuing a dataset keeps the estimator it was started with.
     #[arg(long, value_parser = parse_estimator)]
-    pub estimator: Option<GroundTruthEstimator>,
+    pub estimator: Option<Estimator>,
 }
 
 /// The test split's ground truth is traced at this many times the training spp by default:
@@ -126,8 +125,9 @@ pub fn default_test_glass_spp(test_spp: u32) -> u32 {
     test_spp.saturating_mul(DEFAULT_TEST_GLASS_SPP_FACTOR)
 }
 
-pub(super) fn parse_estimator(name: &str) -> std::result::Result<GroundTruthEstimator, String> {
-    GroundTruthEstimator::parse(name).map_err(|_| format!("unknown estimator {name:?}: expected plain, caustic, caustic-adaptive-stratified or caustic-merged"))
+/// `--estimator` of `trace`, `dataset` and `bake`: one vocabulary (`glassbake_trace::estimator`).
+pub(super) fn parse_estimator(name: &str) -> std::result::Result<Estimator, String> {
+    Estimator::parse(name)
 }
 
 /// clap's parser for `--device` of `dataset` and `trace`.
@@ -163,7 +163,7 @@ pub fn run(args: DatasetArgs) -> Result<()> {
                     (false, false) => String::new(),
                 },
                 info.device.name(),
-                info.estimator.name(),
+                info.estimator,
                 match (info.tracer_revision, &info.ray_caster) {
                     (None, _) => "tracer revision not recorded".to_string(),
                     (Some(r), None) => format!("tracer revision {r}"),
@@ -268,7 +268,7 @@ pub fn make_dataset(args: &MakeArgs, bar: &ProgressBar) -> Result<bool> {
         // A dataset being continued keeps its estimator; a new one gets the device's default.
         estimator: args.estimator.unwrap_or_else(|| match DatasetStore::open(&args.out) {
             Ok(existing) => existing.manifest.spec.estimator,
-            Err(_) => GroundTruthEstimator::default_for(args.device),
+            Err(_) => args.device.default_estimator(),
         }),
     };
     let options = GenerateOptions { shard, threads: args.threads, ..Default::default() };

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use super::camera_arg::parse_camera;
-use super::dataset::parse_trace_device;
+use super::dataset::{parse_estimator, parse_trace_device};
 use anyhow::{Context, Result};
 use clap::Args;
 use glassbake_core::image::ExrPrecision;
@@ -12,7 +12,7 @@ use glassbake_core::seed::purpose_seed;
 use glassbake_dataset::TraceDevice;
 use glassbake_raster::RasterizerOptions;
 use glassbake_scene::load_scene;
-use glassbake_trace::{render, sample_trace_seed, Integrator, TraceSettings};
+use glassbake_trace::{render, sample_trace_seed, Estimator, TraceSettings};
 use glassbake_trace_gpu::GpuTracer;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -51,71 +51,31 @@ pub struct TraceArgs {
     /// Longest path in segments (1 = emitters seen directly, 2 = direct light).
     #[arg(long, default_value_t = TraceSettings::DEFAULT_MAX_DEPTH)]
     max_depth: u32,
-    /// Light-transport estimator: `caustic` (the path tracer plus light tracing of the light
-    /// that reaches surfaces through glass; the default on the CPU, and what new CPU datasets
-    /// use), `plain` (the path tracer alone, area light sampling; the default with --device
-    /// wgpu), `solid-angle` (rectangle lights sampled by solid angle) or `guided` (solid angle
-    /// plus path guiding learned over the first quarter of the samples). All converge to the
-    /// same image; docs/trace.md has their measured efficiency.
-    #[arg(long, value_parser = parse_integrator)]
-    integrator: Option<Integrator>,
-    /// `adaptive` (the default on the CPU, and what new CPU datasets use): a pilot pass of
-    /// 1/16 of the samples measures where the noise is and the rest go there, each pixel
-    /// keeping at least a quarter of its share (from 256 spp; below, pixels are sampled
-    /// uniformly); or `uniform` (every pixel --spp; the only choice with --device wgpu and
-    /// --integrator guided). Same total of samples, same converged image.
-    #[arg(long, value_parser = parse_sampling)]
-    sampling: Option<bool>,
-    /// `stratified` (the default on the CPU, and what new CPU datasets use): each sample's
-    /// position in its pixel and its first vertices' light and BSDF samples come from
-    /// scrambled Sobol points, so a pixel's samples cover them evenly; or `independent`
-    /// (independent random numbers; the only choice with --device wgpu). Same converged image.
-    #[arg(long, value_parser = parse_sampler)]
-    sampler: Option<bool>,
-    /// With `--integrator caustic` (CPU): photon merging of what the camera sees through
-    /// bending glass: the caustics seen in or through glass, and where rough glass blurs the
-    /// view widely (a frosted partition) all light that scattered, from photons' density
-    /// estimates instead of path tracing; and, in scenes with a black background, the light
-    /// of many bounces by a final gather at the second vertex. Biased (a blur of about a
-    /// pixel, shrinking as --spp grows), far less noise on glass; docs/trace.md.
-    #[arg(long)]
-    photon_merging: bool,
+    /// The estimator, `TRANSPORT[+merging][+adaptive][+stratified]` (docs/trace.md):
+    /// TRANSPORT is `caustic` (the path tracer plus a light tracer for the light that reaches
+    /// surfaces through glass) or `plain` (the path tracer alone, the only one with --device
+    /// wgpu); `+merging` (caustic only) takes what the camera sees through bending glass from
+    /// photons: biased, a blur of about a pixel, much less noise on glass; `+adaptive` spreads
+    /// the samples by the noise a pilot pass of 1/16 of them measured (from 256 spp);
+    /// `+stratified` draws sample values from scrambled Sobol points. Default:
+    /// `caustic+adaptive+stratified` on the CPU, what datasets trace (unbiased), and `plain`
+    /// with --device wgpu. All but `+merging` converge to the same image.
+    #[arg(long, value_parser = parse_estimator)]
+    estimator: Option<Estimator>,
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long, conflicts_with = "device")]
     threads: Option<usize>,
     /// `cpu` (the default; bit-identical for any thread count on one machine, other CPUs
     /// may differ in the last bits) or `wgpu`: the GPU tracer on a Vulkan adapter (chosen as
-    /// the rasterizer's: `WGPU_ADAPTER_NAME`, else a discrete GPU first). The GPU has no light
-    /// tracer, adaptive sampling or stratified values; its default estimator is `plain`: the
-    /// same converged image as the CPU's default, with more noise at equal samples and other
-    /// random numbers.
+    /// the rasterizer's: `WGPU_ADAPTER_NAME`, else a discrete GPU first). The GPU runs the
+    /// `plain` estimator only (no light tracer, uniform pixels, independent values): the same
+    /// converged image as the CPU's default, with more noise at equal samples and other random
+    /// numbers.
     #[arg(long, default_value = "cpu", value_parser = parse_trace_device)]
     device: TraceDevice,
     /// Output EXR; the PNG preview goes beside it with the extension .png.
     #[arg(long)]
     out: PathBuf,
-}
-
-/// Whether `--sampling` asks for adaptive sampling.
-fn parse_sampling(name: &str) -> std::result::Result<bool, String> {
-    match name {
-        "adaptive" => Ok(true),
-        "uniform" => Ok(false),
-        other => Err(format!("unknown sampling {other:?}: expected adaptive or uniform")),
-    }
-}
-
-/// Whether `--sampler` asks for stratified sample values.
-fn parse_sampler(name: &str) -> std::result::Result<bool, String> {
-    match name {
-        "stratified" => Ok(true),
-        "independent" => Ok(false),
-        other => Err(format!("unknown sampler {other:?}: expected stratified or independent")),
-    }
-}
-
-fn parse_integrator(name: &str) -> std::result::Result<Integrator, String> {
-    Integrator::parse(name).ok_or_else(|| format!("unknown estimator {name:?}: expected plain, solid-angle, guided or caustic"))
 }
 
 pub fn run(args: TraceArgs) -> Result<()> {
@@ -146,25 +106,16 @@ pub fn run(args: TraceArgs) -> Result<()> {
         }
     };
     let instance = scene.instantiate(&values)?;
-    let integrator = args.integrator.unwrap_or(match args.device {
-        TraceDevice::Cpu => Integrator::Caustic,
-        TraceDevice::Wgpu => Integrator::Plain,
-    });
-    // Adaptive by default where it can run: the CPU, an estimator without learning passes.
-    let adaptive = args.sampling.unwrap_or(args.device == TraceDevice::Cpu && integrator != Integrator::Guided);
-    let stratified = args.sampler.unwrap_or(args.device == TraceDevice::Cpu);
+    let estimator = args.estimator.unwrap_or(args.device.default_estimator());
     let settings = TraceSettings {
         max_depth: args.max_depth,
         threads: args.threads,
-        integrator,
-        adaptive,
-        stratified,
+        estimator,
         glass_spp: args.glass_spp,
-        photon_merging: args.photon_merging,
         ..TraceSettings::new(args.res, args.res, args.spp, image_seed)
     };
 
-    // In pixel samples, learning passes included.
+    // In pixel samples; the tracer re-scales it as it learns the real work.
     let bar = ProgressBar::new(args.res as u64 * args.res as u64 * args.spp as u64);
     bar.set_style(
         ProgressStyle::with_template("{msg} [{bar:40}] {percent:>3}%  {elapsed_precise} elapsed, ETA {eta_precise}")
@@ -176,14 +127,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
         TraceDevice::Cpu => None,
     };
     let on = gpu_tracer.as_ref().map_or_else(|| format!("CPU, rays cast by {}", glassbake_trace::RAY_CASTER), |t| t.adapter_name().to_string());
-    let sampling = match (adaptive, stratified) {
-        (true, true) => "adaptive, stratified",
-        (true, false) => "adaptive",
-        (false, true) => "stratified",
-        (false, false) => "uniform, independent",
-    };
-    let sampling = if args.photon_merging { format!("{sampling}, photon merging") } else { sampling.to_string() };
-    bar.set_message(format!("tracing {} {}x{} @ {} spp ({}, {sampling}, {on})", scene.name, args.res, args.res, args.spp, integrator.name()));
+    bar.set_message(format!("tracing {} {}x{} @ {} spp ({estimator}, {on})", scene.name, args.res, args.res, args.spp));
     let progress = |done: u64, total: u64| {
         bar.set_length(total);
         bar.set_position(done);
