@@ -7,7 +7,7 @@
 //! lights picked by power, Russian roulette), and the passes that accumulate samples per
 //! pixel. Images are deterministic on one device (counter-based random numbers per pixel,
 //! sample and dimension) and converge to the CPU tracer's; they are not bit-identical to it.
-//! [`probe`] runs the GPU BSDF on given inputs for tests.
+//! [`probe`] runs the GPU BSDF and light sampler on given inputs for tests.
 
 pub mod probe;
 mod tracer;

@@ -1,5 +1,5 @@
-//! Running the GPU BSDF (`shaders/bsdf.wgsl`) on chosen inputs, so that it can be checked
-//! against the CPU BSDF it ports, case by case.
+//! Running the GPU BSDF (`shaders/bsdf.wgsl`) and light sampler (`shaders/trace.wgsl`) on
+//! chosen inputs, so that they can be checked against the CPU code they port, case by case.
 
 use glam::{Vec2, Vec3};
 use glassbake_core::Result;
@@ -124,6 +124,102 @@ pub fn probe_bsdf(tracer: &GpuTracer, cases: &[ProbeCase]) -> Result<Vec<ProbeRe
                 }),
                 pass_through: (r[3][3] >= 0.0).then(|| (xyz(r[3]), r[3][3])),
             }
+        })
+        .collect())
+}
+
+/// One light sample from a shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct LightProbeCase {
+    pub shading_point: Vec3,
+    pub u_select: f32,
+    pub u: Vec2,
+}
+
+/// What the GPU light sampler drew for a [`LightProbeCase`], and the density its `light_pdf`
+/// gives the picked emitter at the drawn point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightProbeResult {
+    /// `None` when no sample was drawn (the point faces away from the light, say).
+    pub sample: Option<LightProbeSample>,
+    /// The emitter picked (an index into the emitter table the CPU light sampler built).
+    pub emitter: u32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightProbeSample {
+    pub point: Vec3,
+    pub wi: Vec3,
+    pub radiance: Vec3,
+    /// Solid-angle density of the sample, selection included.
+    pub pdf: f32,
+    /// `light_pdf(emitter, shading point, point)`: what MIS reads for a BSDF-sampled hit.
+    pub pdf_at_point: f32,
+}
+
+/// Sample the GPU light sampler of `scene` (the kernel's own code and emitter table) for
+/// every case.
+pub fn probe_lights(tracer: &GpuTracer, scene: &glassbake_scene::Scene, cases: &[LightProbeCase]) -> Result<Vec<LightProbeResult>> {
+    if cases.is_empty() {
+        return Ok(Vec::new());
+    }
+    let buffers = crate::upload::SceneBuffers::build(scene)?;
+    let (device, queue) = tracer.device();
+    let source = [crate::tracer::trace_source().as_str(), include_str!("../shaders/light_probe.wgsl")].join("\n");
+    let pipeline = compute_pipeline(device, "light_probe.wgsl", source, "light_probe")?;
+    let mut params: crate::tracer::Params = bytemuck::Zeroable::zeroed();
+    params.emitter_count = buffers.emitter_count;
+    let mut inputs: Vec<[f32; 4]> = Vec::with_capacity(cases.len() * 2);
+    for c in cases {
+        inputs.push(v4(c.shading_point, c.u_select));
+        inputs.push([c.u.x, c.u.y, 0.0, 0.0]);
+    }
+    let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
+        device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
+    };
+    let uniform = init("light probe params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
+    // Bindings cannot be empty: an empty table travels as one unused vec4.
+    let emitters: &[[f32; 4]] = if buffers.emitters.is_empty() { &[[0.0; 4]] } else { &buffers.emitters };
+    let emitters = init("light probe emitters", bytemuck::cast_slice(emitters), wgpu::BufferUsages::STORAGE);
+    let input = init("light probe inputs", bytemuck::cast_slice(&inputs), wgpu::BufferUsages::STORAGE);
+    let output_bytes = (cases.len() * 4 * 16) as u64;
+    let output = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("light probe outputs"),
+        size: output_bytes,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("light probe readback"),
+        size: output_bytes,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("light probe"),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 6, resource: emitters.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 9, resource: input.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 10, resource: output.as_entire_binding() },
+        ],
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("light probe") });
+    {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("light probe"), timestamp_writes: None });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups((cases.len() as u32).div_ceil(64), 1, 1);
+    }
+    queue.submit([encoder.finish()]);
+    let out: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&tracer.read(&output, &readback, output_bytes)?);
+    let xyz = |v: [f32; 4]| Vec3::new(v[0], v[1], v[2]);
+    Ok(out
+        .chunks_exact(4)
+        .map(|r| LightProbeResult {
+            sample: (r[1][3] != 0.0).then(|| LightProbeSample { point: xyz(r[0]), wi: xyz(r[1]), radiance: xyz(r[2]), pdf: r[0][3], pdf_at_point: r[2][3] }),
+            emitter: r[3][0] as u32,
         })
         .collect())
 }

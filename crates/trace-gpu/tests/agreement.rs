@@ -13,7 +13,7 @@ use glassbake_raster::RasterizerOptions;
 use glassbake_scene::builtin::{builtin, BUILTIN_NAMES};
 use glassbake_scene::Transmission;
 use glassbake_trace::{glass_pixels, render, Bsdf, Estimator, MaterialModel, PreparedScene, SurfaceMaterial, TraceSettings};
-use glassbake_trace_gpu::probe::{probe_bsdf, ProbeCase};
+use glassbake_trace_gpu::probe::{probe_bsdf, probe_lights, LightProbeCase, ProbeCase};
 use glassbake_trace_gpu::GpuTracer;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -143,6 +143,52 @@ fn gpu_bsdf_matches_the_cpu_bsdf_on_the_same_inputs() {
     eprintln!("{} cases: {samples_compared} samples compared, {flipped} took another event", cases.len());
     assert!(flipped * 200 <= cases.len(), "{flipped} of {} samples took another event on the GPU", cases.len());
     assert!(samples_compared * 2 > cases.len(), "only {samples_compared} samples could be compared");
+}
+
+/// The GPU light sampler against the CPU's (the plain estimator's: by area, picked by power)
+/// on identical inputs: from points on the surfaces each built-in scene's camera sees, the
+/// same emitter, point, direction, radiance and density, and `light_pdf` (what MIS reads for
+/// a BSDF-sampled hit of the light) equal to the sample's density.
+#[test]
+fn gpu_light_sampling_matches_the_cpu_light_sampler() {
+    let mut rng = ChaCha8Rng::seed_from_u64(31);
+    for name in BUILTIN_NAMES {
+        let scene = builtin(name).unwrap();
+        let sample = scene.sample(0, 2);
+        let instance = scene.instantiate(&sample.values).unwrap();
+        let prepared = PreparedScene::new(&instance);
+        let cases: Vec<LightProbeCase> = (0..2000)
+            .filter_map(|_| {
+                let ray = sample.camera.ray(rng.random_range(0.0..64.0), rng.random_range(0.0..64.0), 64, 64);
+                let hit = prepared.intersect(&ray)?;
+                let shading_point = glassbake_trace::prepared::offset_origin(hit.position, hit.geometric_normal, -ray.direction);
+                Some(LightProbeCase { shading_point, u_select: rng.random(), u: Vec2::new(rng.random(), rng.random()) })
+            })
+            .collect();
+        let gpu = probe_lights(tracer(), &instance, &cases).unwrap();
+        let (mut compared, mut flipped) = (0, 0);
+        for (case, gpu) in cases.iter().zip(&gpu) {
+            let cpu = prepared.lights.sample(case.shading_point, case.u_select, case.u);
+            let (Some(cpu), Some(g)) = (cpu, gpu.sample) else {
+                // A sample right at a light's horizon may be drawn on one side only.
+                flipped += (cpu.is_some() != gpu.sample.is_some()) as usize;
+                continue;
+            };
+            compared += 1;
+            let scale = case.shading_point.abs().max_element().max(1.0);
+            let what = format!("{name}, {case:?}: CPU {cpu:?}, GPU {g:?}");
+            assert!((cpu.point - g.point).length() < 1e-4 * scale, "point: {what}");
+            assert!(cpu.wi.dot(g.wi) > 1.0 - 1e-5, "direction: {what}");
+            assert!(close3(cpu.radiance, g.radiance, 1e-5), "radiance: {what}");
+            assert!(close(cpu.pdf, g.pdf, 1e-3), "pdf: {what}");
+            assert!(close(g.pdf_at_point, g.pdf, 1e-3), "light_pdf at the sampled point: {what}");
+            let cpu_pdf_at_point = prepared.lights.pdf(gpu.emitter, case.shading_point, cpu.point);
+            assert!(close(cpu_pdf_at_point, cpu.pdf, 1e-3), "the GPU picked emitter {} but the CPU another: {what}", gpu.emitter);
+        }
+        eprintln!("{name}: {} light samples, {compared} compared, {flipped} drawn on one side only", cases.len());
+        assert!(compared * 2 > cases.len(), "{name}: only {compared} of {} samples could be compared", cases.len());
+        assert!(flipped * 200 <= cases.len(), "{name}: {flipped} samples drawn on one side only");
+    }
 }
 
 /// Two renders with independent seeds: per channel and pixel, their average and the variance
