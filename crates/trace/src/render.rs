@@ -190,8 +190,9 @@ pub fn unlit_warning(scene: &Scene, no_emitters: bool) -> Option<String> {
     Some(warning)
 }
 
-/// Progress callback: (pixel samples done, pixel samples in all, learning passes included).
-/// Called from worker threads.
+/// Progress callback: (work done, work in all), counting camera samples, light paths and
+/// photon paths; the total grows once the light tracer's budget is set. Called from worker
+/// threads.
 pub type Progress<'a> = &'a (dyn Fn(u64, u64) + Sync);
 
 /// Path trace `scene` as seen by `camera`.
