@@ -321,7 +321,8 @@ impl<'a> MergingPath<'a> {
     /// Whether `vertex` traces its shadow ray: not once the path gathered, nor for the paths
     /// whose caustics the photons gave.
     pub fn traces_shadow_ray(&self, vertex: &Vertex) -> bool {
-        !self.gathered && !(self.caustics_merged && vertex.class.merged_by_shadow_ray(vertex.glass))
+        let carried_by_photons = self.caustics_merged && vertex.class.merged_by_shadow_ray(vertex.glass);
+        !self.gathered && !carried_by_photons
     }
 
     /// Whether the path goes on from `vertex` along `sample`: a gathered path only through
