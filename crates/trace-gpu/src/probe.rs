@@ -74,37 +74,7 @@ pub fn probe_bsdf(tracer: &GpuTracer, cases: &[ProbeCase]) -> Result<Vec<ProbeRe
         contents: bytemuck::cast_slice(&inputs),
         usage: wgpu::BufferUsages::STORAGE,
     });
-    let output_bytes = (cases.len() * OUTPUT_VEC4S * 16) as u64;
-    let output = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("probe outputs"),
-        size: output_bytes,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let readback = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("probe readback"),
-        size: output_bytes,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("probe"),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: input.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 1, resource: output.as_entire_binding() },
-        ],
-    });
-    let (device, queue) = tracer.device();
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("probe") });
-    {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("probe"), timestamp_writes: None });
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind_group, &[]);
-        pass.dispatch_workgroups((cases.len() as u32).div_ceil(64), 1, 1);
-    }
-    queue.submit([encoder.finish()]);
-    let out: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&tracer.read(&output, &readback, output_bytes)?);
+    let out = run_probe(tracer, &pipeline, "probe", &[(0, &input)], 1, cases.len(), OUTPUT_VEC4S)?;
     let xyz = |v: [f32; 4]| Vec3::new(v[0], v[1], v[2]);
     Ok(out
         .chunks_exact(OUTPUT_VEC4S)
@@ -164,7 +134,7 @@ pub fn probe_lights(tracer: &GpuTracer, scene: &glassbake_scene::Scene, cases: &
         return Ok(Vec::new());
     }
     let buffers = crate::upload::SceneBuffers::build(scene)?;
-    let (device, queue) = tracer.device();
+    let (device, _) = tracer.device();
     let source = [crate::tracer::trace_source().as_str(), include_str!("../shaders/light_probe.wgsl")].join("\n");
     let pipeline = compute_pipeline(device, "light_probe.wgsl", source, "light_probe")?;
     let mut params: crate::tracer::Params = bytemuck::Zeroable::zeroed();
@@ -182,38 +152,7 @@ pub fn probe_lights(tracer: &GpuTracer, scene: &glassbake_scene::Scene, cases: &
     let emitters: &[[f32; 4]] = if buffers.emitters.is_empty() { &[[0.0; 4]] } else { &buffers.emitters };
     let emitters = init("light probe emitters", bytemuck::cast_slice(emitters), wgpu::BufferUsages::STORAGE);
     let input = init("light probe inputs", bytemuck::cast_slice(&inputs), wgpu::BufferUsages::STORAGE);
-    let output_bytes = (cases.len() * 4 * 16) as u64;
-    let output = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("light probe outputs"),
-        size: output_bytes,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let readback = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("light probe readback"),
-        size: output_bytes,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("light probe"),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 6, resource: emitters.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 9, resource: input.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 10, resource: output.as_entire_binding() },
-        ],
-    });
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("light probe") });
-    {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("light probe"), timestamp_writes: None });
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind_group, &[]);
-        pass.dispatch_workgroups((cases.len() as u32).div_ceil(64), 1, 1);
-    }
-    queue.submit([encoder.finish()]);
-    let out: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&tracer.read(&output, &readback, output_bytes)?);
+    let out = run_probe(tracer, &pipeline, "light probe", &[(0, &uniform), (6, &emitters), (9, &input)], 10, cases.len(), 4)?;
     let xyz = |v: [f32; 4]| Vec3::new(v[0], v[1], v[2]);
     Ok(out
         .chunks_exact(4)
@@ -222,4 +161,36 @@ pub fn probe_lights(tracer: &GpuTracer, scene: &glassbake_scene::Scene, cases: &
             emitter: r[3][0] as u32,
         })
         .collect())
+}
+
+/// Run `pipeline` once per case (workgroups of 64) with `inputs` bound at their bindings and an
+/// output of `output_vec4s` vec4s per case at `output_binding`; the outputs, read back.
+fn run_probe(
+    tracer: &GpuTracer,
+    pipeline: &wgpu::ComputePipeline,
+    label: &str,
+    inputs: &[(u32, &wgpu::Buffer)],
+    output_binding: u32,
+    cases: usize,
+    output_vec4s: usize,
+) -> Result<Vec<[f32; 4]>> {
+    let (device, queue) = tracer.device();
+    let output_bytes = (cases * output_vec4s * 16) as u64;
+    let buffer =
+        |usage: wgpu::BufferUsages| device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: output_bytes, usage, mapped_at_creation: false });
+    let output = buffer(wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC);
+    let readback = buffer(wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST);
+    let mut entries: Vec<wgpu::BindGroupEntry> =
+        inputs.iter().map(|(binding, buffer)| wgpu::BindGroupEntry { binding: *binding, resource: buffer.as_entire_binding() }).collect();
+    entries.push(wgpu::BindGroupEntry { binding: output_binding, resource: output.as_entire_binding() });
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(label), layout: &pipeline.get_bind_group_layout(0), entries: &entries });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+    {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups((cases as u32).div_ceil(64), 1, 1);
+    }
+    queue.submit([encoder.finish()]);
+    Ok(bytemuck::pod_collect_to_vec(&tracer.read(&output, &readback, output_bytes)?))
 }

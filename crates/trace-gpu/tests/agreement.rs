@@ -12,7 +12,7 @@ use glassbake_core::PlanarImage;
 use glassbake_raster::RasterizerOptions;
 use glassbake_scene::builtin::{builtin, BUILTIN_NAMES};
 use glassbake_scene::Transmission;
-use glassbake_trace::{glass_pixels, render, Bsdf, Estimator, MaterialModel, PreparedScene, SurfaceMaterial, TraceSettings};
+use glassbake_trace::{glass_pixels, render, transparent_object_per_pixel, Bsdf, Estimator, MaterialModel, PreparedScene, SurfaceMaterial, TraceSettings};
 use glassbake_trace_gpu::probe::{probe_bsdf, probe_lights, LightProbeCase, ProbeCase};
 use glassbake_trace_gpu::GpuTracer;
 use rand::{Rng, SeedableRng};
@@ -309,15 +309,7 @@ fn compare_with_cpu(name: &str) -> usize {
     // a cube of 100 pixels was |z| 3.8 there); the rest.
     let prepared = PreparedScene::new(&instance);
     let glass = glass_pixels(&prepared, &sample.camera, res, res);
-    let first_seen: Vec<Option<u32>> = (0..res * res)
-        .map(|i| {
-            let ray = sample.camera.ray((i % res) as f32 + 0.5, (i / res) as f32 + 0.5, res, res);
-            match prepared.intersect(&ray)?.owner {
-                glassbake_trace::geometry::Owner::Object { object, .. } if instance.objects[object as usize].transparent => Some(object),
-                _ => None,
-            }
-        })
-        .collect();
+    let first_seen = transparent_object_per_pixel(&prepared, &sample.camera, res, res);
     let mut regions = vec![("glass pixels".to_string(), glass.clone()), ("other pixels".to_string(), glass.iter().map(|g| !g).collect())];
     for (k, object) in instance.objects.iter().enumerate().filter(|(_, o)| o.transparent) {
         regions.push((format!("seen through {}", object.name), first_seen.iter().map(|&o| o == Some(k as u32)).collect()));

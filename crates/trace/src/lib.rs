@@ -53,4 +53,4 @@ pub use geometry::RAY_CASTER;
 pub use integrator::PathRadiance;
 pub use path_class::PathFilter;
 pub use prepared::{PreparedScene, SurfaceHit};
-pub use render::{glass_pixels, render, sample_trace_seed, unlit_warning, Progress, TraceOutput, TraceSettings};
+pub use render::{glass_pixels, render, sample_trace_seed, transparent_object_per_pixel, unlit_warning, Progress, TraceOutput, TraceSettings};

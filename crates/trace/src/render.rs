@@ -23,8 +23,7 @@ use crate::estimator::Estimator;
 use crate::integrator::{PathHooks, PathScratch, PlainPaths};
 use crate::light_tracing::{balanced_light_paths, pilot_light_paths, LightPilot, LightTracer, LightWalk, Splat, LIGHT_PATHS_PER_CAMERA_PATH, PATHS_PER_CHUNK};
 use crate::path_class::PathFilter;
-use crate::photon_merging::MergingPath;
-use crate::photon_merging::{merge_radius, Photon, PhotonMap, MAX_PHOTON_PATHS, PHOTON_PATHS_PER_CAMERA_SAMPLE};
+use crate::photon_merging::{merge_radius, MergingPath, Photon, PhotonMap, MAX_PHOTON_PATHS, PHOTON_PATHS_PER_CAMERA_SAMPLE};
 use crate::prepared::{rays_cast, PathSettings, PreparedScene};
 use crate::qmc::{self, StratifiedPixel};
 use crate::rng::Pcg32;
@@ -637,7 +636,7 @@ pub fn glass_pixels(prepared: &PreparedScene, camera: &Camera, width: u32, heigh
 
 /// The transparent object (one that gets a transparency buffer) that a ray through each
 /// pixel's centre meets first, if any; row-major.
-fn transparent_object_per_pixel(prepared: &PreparedScene, camera: &Camera, width: u32, height: u32) -> Vec<Option<u32>> {
+pub fn transparent_object_per_pixel(prepared: &PreparedScene, camera: &Camera, width: u32, height: u32) -> Vec<Option<u32>> {
     (0..width * height)
         .into_par_iter()
         .map(|index| {
