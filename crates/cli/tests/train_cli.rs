@@ -1,5 +1,5 @@
 //! `glassbake train` and `train-sr` end to end on a tiny dataset: model directory contents,
-//! previews, resume of a finished run, super-sampler, and bad input.
+//! previews, resume of a finished run, super-sampler and its evaluation, and bad input.
 
 use std::path::Path;
 use std::process::Command;
@@ -60,6 +60,23 @@ fn trains_resumes_super_samples_and_refuses_bad_input() {
     let (code, out, err) = glassbake(&["train-sr", path(&data), "--glassnet", path(&model), "--preset", "tiny", "--steps", "3", "--out", path(&sr)]);
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("trained 3 steps") && sr.join("super_sampler.safetensors").is_file(), "{out}");
+
+    // eval scores the super-sampler: GlassNet at half resolution brought up by it and
+    // bilinearly, beside GlassNet at full resolution.
+    let eval = dir.path().join("eval");
+    let (code, _, err) = glassbake(&["eval", path(&model), path(&data), "--split", "val", "--super-sampler", path(&sr), "--out", path(&eval)]);
+    assert_eq!(code, 0, "{err}");
+    let metrics: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(eval.join("metrics.json")).unwrap()).unwrap();
+    let rows: Vec<(String, f64)> =
+        metrics["models"].as_array().unwrap().iter().map(|m| (m["model"].as_str().unwrap().to_string(), m["psnr"].as_f64().unwrap())).collect();
+    let names: Vec<&str> = rows.iter().map(|(name, _)| name.as_str()).collect();
+    assert_eq!(names, ["model", "model@half+sr", "model@half+bilinear"], "{rows:?}");
+    assert!(rows.iter().all(|(_, psnr)| psnr.is_finite()), "{rows:?}");
+    assert_ne!(rows[1].1, rows[2].1, "the super-sampled and the bilinear rows are different images");
+    // A GlassNet directory where the super-sampler belongs is refused, naming it.
+    let (code, _, err) = glassbake(&["eval", path(&model), path(&data), "--split", "val", "--super-sampler", path(&model), "--out", path(&eval)]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("not a super-sampler"), "{err}");
 
     let (code, _, err) = glassbake(&["train", path(&data), "--model", "transformer", "--out", path(&dir.path().join("x"))]);
     assert_eq!(code, 2);

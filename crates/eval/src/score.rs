@@ -11,7 +11,8 @@ use glassbake_core::layout::{self, GROUND_TRUTH_CHANNELS};
 use glassbake_core::seed::purpose_seed;
 use glassbake_core::{Error, PlanarImage, Result};
 use glassbake_dataset::{DatasetSpec, DatasetStore, Loader, LoaderOptions, SampleRecord, Split};
-use glassbake_net::{select_device, DeviceChoice, FrameRef, ModelKind, TrainedModel};
+use glassbake_net::super_sampler::downsample_box2;
+use glassbake_net::{select_device, DeviceChoice, FrameRef, ModelKind, TrainedModel, TrainedSuperSampler};
 use glassbake_trace::TraceSettings;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
@@ -38,6 +39,10 @@ pub struct ScoreOptions {
     pub workers: usize,
     /// Also path trace each frame at this spp and denoise it (rows `ptSPP`, `ptSPP+oidn`).
     pub path_traced_baseline: Option<u32>,
+    /// A trained x2 super-sampler (`glassbake train-sr`): the first GlassNet among `models`
+    /// also renders each frame at half resolution, brought up by the super-sampler and, for
+    /// comparison, bilinearly (rows [`half_resolution_rows`]).
+    pub super_sampler: Option<PathBuf>,
 }
 
 /// What a scoring run produced: the summary, and the report's index page.
@@ -49,6 +54,76 @@ pub struct Scored {
 /// The metrics rows of the path-traced baseline at `spp`: traced, then traced and denoised.
 pub fn path_traced_rows(spp: u32) -> [String; 2] {
     [format!("pt{spp}"), format!("pt{spp}+oidn")]
+}
+
+/// The metrics rows of model `name` rendered at half resolution and brought up to the
+/// dataset's: by the super-sampler, and bilinearly.
+pub fn half_resolution_rows(name: &str) -> [String; 2] {
+    [format!("{name}@half+sr"), format!("{name}@half+bilinear")]
+}
+
+/// A model rendering frames at half resolution (from box-filtered buffers, as `train-sr`
+/// trains the super-sampler on) and the super-sampler that brings them up.
+struct HalfResolution {
+    sampler: TrainedSuperSampler,
+    /// Index of the model among the scored ones.
+    model: usize,
+}
+
+/// One frame at half resolution: super-sampled and bilinearly enlarged, with the seconds
+/// each took (the half-resolution render included in both).
+struct HalfResolutionFrame {
+    super_sampled: RgbImage,
+    super_sampled_seconds: f64,
+    bilinear: RgbImage,
+    bilinear_seconds: f64,
+}
+
+impl HalfResolution {
+    fn render(&self, model: &TrainedModel, gbuffer: &PlanarImage, transparent: &[PlanarImage], values: &[f32]) -> Result<HalfResolutionFrame> {
+        let low_gbuffer = downsample_box2(gbuffer)?;
+        let low_transparent = transparent.iter().map(downsample_box2).collect::<Result<Vec<_>>>()?;
+        let started = Instant::now();
+        let low = model.render(FrameRef { gbuffer: &low_gbuffer, transparent: &low_transparent, values, ground_truth: None })?;
+        let low_seconds = started.elapsed().as_secs_f64();
+        let started = Instant::now();
+        let super_sampled = RgbImage::from_planar(&self.sampler.upsample(&low, gbuffer)?)?;
+        let super_sampled_seconds = low_seconds + started.elapsed().as_secs_f64();
+        let started = Instant::now();
+        let bilinear = RgbImage::from_planar(&low)?.bilinear_x2();
+        let bilinear_seconds = low_seconds + started.elapsed().as_secs_f64();
+        Ok(HalfResolutionFrame { super_sampled, super_sampled_seconds, bilinear, bilinear_seconds })
+    }
+}
+
+/// Loads the super-sampler of `options` for the first GlassNet among `models`, checking that
+/// it was trained on this scene and that the frames halve to a size GlassNet takes.
+fn half_resolution(options: &ScoreOptions, models: &[TrainedModel], scene_hash: &str, resolution: u32) -> Result<Option<HalfResolution>> {
+    let Some(dir) = &options.super_sampler else { return Ok(None) };
+    let model = models
+        .iter()
+        .position(|m| m.kind() == ModelKind::Glassnet)
+        .ok_or_else(|| Error::bad_input("--super-sampler", "models", "needs a GlassNet among the models: it brings up GlassNet's half-resolution image"))?;
+    let sampler = TrainedSuperSampler::load(dir, &models[model].device)?;
+    if sampler.files.config.data.scene_hash != scene_hash {
+        return Err(Error::bad_input(
+            dir.join("config.json").display(),
+            "data.scene_hash",
+            format!(
+                "the super-sampler was trained on scene {} ({}), the dataset holds scene hash {scene_hash}",
+                sampler.files.config.data.scene, sampler.files.config.data.scene_hash
+            ),
+        ));
+    }
+    let multiple = 2 * models[model].config().size_multiple() as u32;
+    if !resolution.is_multiple_of(multiple) {
+        return Err(Error::bad_input(
+            "--super-sampler",
+            "resolution",
+            format!("{resolution} px frames halve to a size GlassNet cannot take (need a multiple of {multiple})"),
+        ));
+    }
+    Ok(Some(HalfResolution { sampler, model }))
 }
 
 /// The metrics row of the noise floor, where `split` of the dataset has one: its ground truth
@@ -160,6 +235,10 @@ pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn
         names.push(name);
         models.push(model);
     }
+    let half = half_resolution(options, &models, &store.manifest.scene.hash, store.manifest.spec.resolution)?;
+    if let Some(half) = &half {
+        names.extend(half_resolution_rows(&names[half.model]));
+    }
     let lpips = options.lpips_weights.as_deref().map(Lpips::load).transpose()?;
     let needs_naive = options.path_traced_baseline.is_some() || models.iter().any(|m| m.kind().reads_naive_gbuffer());
     // The scene: to rasterize uncached buffers (the loader checks it then) and to path trace.
@@ -216,6 +295,11 @@ pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn
                 let image = model.render(FrameRef { gbuffer, transparent, values: &e.values, ground_truth: None })?;
                 seconds.push(Some(started.elapsed().as_secs_f64()));
                 predictions.push(RgbImage::from_planar(&image)?);
+            }
+            if let Some(half) = &half {
+                let frame = half.render(&models[half.model], &e.opaque, &e.transparent, &e.values)?;
+                predictions.extend([frame.super_sampled, frame.bilinear]);
+                seconds.extend([Some(frame.super_sampled_seconds), Some(frame.bilinear_seconds)]);
             }
             if let (Some(spp), Some(scene)) = (options.path_traced_baseline, &scene) {
                 let sample = store

@@ -98,3 +98,26 @@ impl TrainedSuperSampler {
         Ok(TrainedSuperSampler { net, files, device: device.clone() })
     }
 }
+
+impl TrainedSuperSampler {
+    /// Brings `low` (R, G, B at half the size of `gbuffer`, as [`TrainedModel::render`] gives
+    /// it) up to the size of `gbuffer`, the opaque G-buffer at full resolution; clamped to
+    /// [0, 1] as `render` is.
+    pub fn upsample(&self, low: &PlanarImage, gbuffer: &PlanarImage) -> Result<PlanarImage> {
+        let (w, h) = (gbuffer.width() as usize, gbuffer.height() as usize);
+        if low.width() as usize * 2 != w || low.height() as usize * 2 != h {
+            return Err(Error::Internal(format!(
+                "the super-sampler takes an image of half the G-buffer's size: {}x{} for a {w}x{h} G-buffer",
+                low.width(),
+                low.height()
+            )));
+        }
+        let mut planes = Vec::with_capacity(3 * low.pixel_count());
+        for name in glassbake_core::layout::GROUND_TRUTH_CHANNELS {
+            planes.extend_from_slice(low.plane_by_name(name).ok_or_else(|| Error::Internal(format!("low-resolution image without channel {name}")))?);
+        }
+        let low = Tensor::from_data(TensorData::new(planes, [1, 3, h / 2, w / 2]), &self.device);
+        let batch = HostBatch::from_frames(&[FrameRef { gbuffer, transparent: &[], values: &[], ground_truth: None }])?;
+        image_from_tensor(&self.net.forward(low, batch.gbuffer_tensor(&self.device)).clamp(0.0, 1.0), 0)
+    }
+}

@@ -233,6 +233,7 @@ pub fn run(args: BakeArgs) -> Result<()> {
         device: args.device.clone(),
         workers: 2,
         path_traced_baseline,
+        super_sampler: None,
     };
     let mut summary = None;
     let mut extra_rows: Vec<String> = path_traced_baseline.map(|spp| path_traced_rows(spp).to_vec()).unwrap_or_default();

@@ -39,6 +39,11 @@ pub struct EvalArgs {
     /// `ptSPP+oidn` (the paper used 32). Needs a build with the `oidn` feature (docs/eval.md).
     #[arg(long, value_name = "SPP")]
     pub path_traced_baseline: Option<u32>,
+    /// A trained x2 super-sampler (`glassbake train-sr`): the first GlassNet listed also
+    /// renders each frame at half resolution (box-filtered buffers), brought up by the
+    /// super-sampler and, for comparison, bilinearly (rows `NAME@half+sr`, `NAME@half+bilinear`).
+    #[arg(long, value_name = "SR_DIR")]
+    pub super_sampler: Option<PathBuf>,
 }
 
 pub fn run(args: EvalArgs) -> Result<()> {
@@ -67,6 +72,7 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
         device: DeviceChoice::parse(&args.device)?,
         workers: args.workers,
         path_traced_baseline: args.path_traced_baseline,
+        super_sampler: args.super_sampler.clone(),
     };
     bar.set_style(frame_style());
     bar.set_position(0);
