@@ -1,0 +1,114 @@
+"""Where a model's whole-image error sits: the one-pixel ring around directly seen lights.
+
+    pip install mitsuba numpy          # mitsuba only to read multi-layer EXR files
+    python3 tools/emitter-edges/analyze.py --glassbake target/release/glassbake \
+        --dataset bake/dataset --eval bake/eval [--factor 4]
+
+A frame's ground truth is box-filtered over each pixel (the path tracer jitters its camera
+rays across the pixel) while the G-buffer samples the pixel's centre once. A light is far
+brighter than 1, so every pixel that a light covers even a few percent of is white in the
+clamped ground truth, yet the G-buffer says nothing about the light there unless the centre
+is on it. This script measures how much of each model's squared error (clamped linear RGB,
+as eval's PSNR) lies in the rings around the pixels whose G-buffer L_d is at least 1 in every
+channel (a light seen directly), and what a model's PSNR would be if each pixel's light
+coverage were known: the frame's buffers are rasterized again at --factor times the
+resolution (`glassbake buffers`), and each prediction p becomes min(1, E + (1 - c) p), with c
+the fraction of the pixel's sub-samples that see a light and E their mean L_d over the pixel.
+
+Reads eval's frames/NNNNNN_{ground_truth,MODEL}.png (8-bit sRGB, decoded to linear) and the
+dataset's cached buffers; prints a Markdown table.
+"""
+import argparse
+import glob
+import json
+import os
+import subprocess
+import tempfile
+
+import mitsuba as mi
+import numpy as np
+
+mi.set_variant("scalar_rgb")
+
+
+def linear_png(path):
+    a = np.array(mi.Bitmap(path)).astype(np.float64) / 255.0
+    return np.where(a <= 0.04045, a / 12.92, ((a + 0.055) / 1.055) ** 2.4)
+
+
+def opaque_ld(exr):
+    bitmap = mi.Bitmap(exr)
+    names = [bitmap.struct_()[i].name for i in range(bitmap.channel_count())]
+    a = np.array(bitmap).astype(np.float64)
+    return np.stack([a[..., names.index(f"opaque.Ld.{c}")] for c in "RGB"], -1)
+
+
+def dilate(mask):
+    out = mask.copy()
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            shifted = np.zeros_like(mask)
+            ys = slice(max(dy, 0), mask.shape[0] + min(dy, 0))
+            yd = slice(max(-dy, 0), mask.shape[0] + min(-dy, 0))
+            xs = slice(max(dx, 0), mask.shape[1] + min(dx, 0))
+            xd = slice(max(-dx, 0), mask.shape[1] + min(-dx, 0))
+            shifted[yd, xd] = mask[ys, xs]
+            out |= shifted
+    return out
+
+
+def psnr(squared_error_sum, pixels):
+    return 10.0 * np.log10(pixels / squared_error_sum)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--glassbake", required=True)
+    parser.add_argument("--dataset", required=True)
+    parser.add_argument("--eval", required=True)
+    parser.add_argument("--factor", type=int, default=4)
+    args = parser.parse_args()
+    manifest = json.load(open(os.path.join(args.dataset, "manifest.json")))
+    spec = manifest["spec"]
+    res, factor = spec["resolution"], args.factor
+    truths = sorted(glob.glob(os.path.join(args.eval, "frames", "*_ground_truth.png")))
+    models = sorted({os.path.basename(p)[7:-4] for p in glob.glob(os.path.join(args.eval, "frames", "*.png"))} - {"ground_truth"})
+    totals = {m: {"all": 0.0, "ring": 0.0, "composite": 0.0} for m in models}
+    pixels = ring_pixels = 0
+    with tempfile.TemporaryDirectory() as tmp:
+        for truth_path in truths:
+            index = int(os.path.basename(truth_path)[:6])
+            truth = linear_png(truth_path)
+            seen_light = opaque_ld(os.path.join(args.dataset, "buffers", f"{index:06}.exr")).min(-1) >= 1.0
+            ring = dilate(seen_light) & ~seen_light
+            fine_exr = os.path.join(tmp, f"{index}.exr")
+            subprocess.run(
+                [args.glassbake, "buffers", spec["scene"], "--sample", str(index), "--seed", str(spec["seed"]), "--res", str(res * factor), "--out", fine_exr],
+                check=True,
+                capture_output=True,
+            )
+            fine = opaque_ld(fine_exr)
+            fine_light = fine.min(-1) >= 1.0
+            coverage = fine_light.reshape(res, factor, res, factor).mean((1, 3))
+            light = (fine * fine_light[..., None]).reshape(res, factor, res, factor, 3).mean((1, 3))
+            pixels += truth.shape[0] * truth.shape[1]
+            ring_pixels += ring.sum()
+            for m in models:
+                prediction = linear_png(truth_path.replace("ground_truth", m))
+                error = ((truth - prediction) ** 2).mean(-1)
+                composite = np.minimum(1.0, light + (1.0 - coverage)[..., None] * prediction)
+                totals[m]["all"] += error.sum()
+                totals[m]["ring"] += error[ring].sum()
+                totals[m]["composite"] += ((truth - composite) ** 2).mean(-1).sum()
+    print(f"{len(truths)} frames, {res} px; ring: {ring_pixels} of {pixels} pixels ({100.0 * ring_pixels / pixels:.2f}%)\n")
+    print(f"| model | PSNR | share of squared error in the ring | PSNR without the ring | PSNR with light coverage at {factor}x{factor} |")
+    print("|---|---|---|---|---|")
+    for m in models:
+        t = totals[m]
+        # A traced image (the noise floor's gt-SPPspp) already holds the light's coverage.
+        composite = "-" if m.startswith("gt-") else f"{psnr(t['composite'], pixels):.2f}"
+        print(f"| {m} | {psnr(t['all'], pixels):.2f} | {t['ring'] / t['all']:.3f} | {psnr(t['all'] - t['ring'], pixels - ring_pixels):.2f} | {composite} |")
+
+
+if __name__ == "__main__":
+    main()
