@@ -7,11 +7,13 @@
 //! `glassbake_core::layout` (docs/design.md §3); the direct light L_d from rectangle lights
 //! (diffuse: exact polygon form factor; GGX specular: Linearly Transformed Cosines, fitted by
 //! [`ltc`]) with shadow maps, plus emission; Vulkan adapter selection (lavapipe on CPU-only
-//! machines); [`composition`], the share of glass pixels with textured detail behind them.
+//! machines); [`composition`], the share of glass pixels with textured detail behind them;
+//! [`light_coverage`], the share of each pixel that sees a light, from a finer rasterization.
 //! Buffer semantics are documented on [`Rasterizer`] and in `shaders/gbuffer.wgsl`.
 
 pub mod composition;
 pub mod device;
+pub mod light_coverage;
 pub mod ltc;
 mod rasterizer;
 mod resources;

@@ -1,0 +1,71 @@
+//! Light coverage: how much of each pixel sees a light directly, and the light it sees there.
+//!
+//! The ground truth averages every pixel over its area (the path tracer jitters its camera
+//! rays across the pixel), and a light is so much brighter than 1 that a pixel it covers by a
+//! few percent is white after the tone map's clamp. The G-buffer samples only the pixel's
+//! centre, so at a light's edge nothing tells a network how much of the pixel the light covers:
+//! in the default cornellbox bake that one-pixel ring (0.5% of the pixels) holds 87% of
+//! GlassNet's squared error over the whole frame (docs/benchmarks.md).
+//!
+//! [`light_coverage`] rasterizes the opaque G-buffer at `factor` x `factor` the resolution and
+//! reduces it per pixel: `coverage` is the share of sub-samples whose L_d alone reaches 1 in
+//! every channel (a light seen directly, or a surface lit so strongly that the clamp makes it
+//! white: the rule by which GlassNet already saturates whole pixels), and `light` the L_d of
+//! those sub-samples summed and divided by all `factor^2`. An image p of everything else then
+//! becomes [`composite`]: min(1, light + (1 - coverage) p), the box-filtered pixel the ground
+//! truth holds.
+
+use glassbake_core::layout::opaque;
+use glassbake_core::{Camera, Error, PlanarImage, Result};
+use glassbake_scene::Scene;
+
+use crate::Rasterizer;
+
+/// The planes of [`light_coverage`]'s image.
+pub const LIGHT_COVERAGE_CHANNELS: [&str; 4] = ["coverage.Y", "light.R", "light.G", "light.B"];
+
+/// Per pixel of a `width` x `height` frame: the share of it that sees a light, and the
+/// light seen, from the opaque G-buffer rasterized at `factor` times the resolution.
+pub fn light_coverage(rasterizer: &mut Rasterizer, scene: &Scene, camera: &Camera, width: u32, height: u32, factor: u32) -> Result<PlanarImage> {
+    if factor == 0 {
+        return Err(Error::bad_input(&scene.name, "light coverage factor", "must be at least 1"));
+    }
+    let (fine_width, fine_height) = (width.checked_mul(factor), height.checked_mul(factor));
+    let (Some(fine_width), Some(fine_height)) = (fine_width, fine_height) else {
+        return Err(Error::bad_input(&scene.name, "light coverage factor", format!("{width}x{height} times {factor} overflows")));
+    };
+    let fine = rasterizer.begin_frame(scene, camera, fine_width, fine_height)?.opaque()?;
+    let ld = [0, 1, 2].map(|c| fine.plane(opaque::LD + c));
+    let (w, h, k) = (width as usize, height as usize, factor as usize);
+    let mut planes = vec![0.0f32; 4 * w * h];
+    let share = 1.0 / (k * k) as f32;
+    for y in 0..h {
+        for x in 0..w {
+            let (mut covered, mut light) = (0.0f32, [0.0f32; 3]);
+            for sy in 0..k {
+                for sx in 0..k {
+                    let at = (y * k + sy) * fine_width as usize + x * k + sx;
+                    let sample = ld.map(|plane| plane[at]);
+                    if sample.iter().all(|&v| v >= 1.0) {
+                        covered += share;
+                        for c in 0..3 {
+                            light[c] += sample[c] * share;
+                        }
+                    }
+                }
+            }
+            let pixel = y * w + x;
+            planes[pixel] = covered;
+            for c in 0..3 {
+                planes[(1 + c) * w * h + pixel] = light[c];
+            }
+        }
+    }
+    PlanarImage::from_planes(width, height, LIGHT_COVERAGE_CHANNELS.iter().map(|c| c.to_string()).collect(), planes)
+}
+
+/// The pixel the ground truth holds, from a pixel's light coverage and light and the value
+/// `rest` of everything else in it (all linear RGB, the result clamped to [0, 1]).
+pub fn composite(coverage: f32, light: [f32; 3], rest: [f32; 3]) -> [f32; 3] {
+    [0, 1, 2].map(|c| (light[c] + (1.0 - coverage) * rest[c]).clamp(0.0, 1.0))
+}
