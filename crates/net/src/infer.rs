@@ -97,9 +97,7 @@ impl TrainedSuperSampler {
         read_weights(&mut net, &files.weights_path())?;
         Ok(TrainedSuperSampler { net, files, device: device.clone() })
     }
-}
 
-impl TrainedSuperSampler {
     /// Brings `low` (R, G, B at half the size of `gbuffer`, as [`TrainedModel::render`] gives
     /// it) up to the size of `gbuffer`, the opaque G-buffer at full resolution; clamped to
     /// [0, 1] as `render` is.
