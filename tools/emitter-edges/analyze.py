@@ -16,7 +16,8 @@ resolution (`glassbake buffers`), and each prediction p becomes min(1, E + (1 - 
 the fraction of the pixel's sub-samples that see a light and E their mean L_d over the pixel.
 
 Reads eval's frames/NNNNNN_{ground_truth,MODEL}.png (8-bit sRGB, decoded to linear) and the
-dataset's cached buffers; prints a Markdown table.
+dataset's cached buffers; prints a Markdown table. PSNRs are per frame, then averaged over the
+frames, as eval's are; the ring's share is of the squared error summed over all frames.
 """
 import argparse
 import glob
@@ -58,7 +59,8 @@ def dilate(mask):
 
 
 def psnr(squared_error_sum, pixels):
-    return 10.0 * np.log10(pixels / squared_error_sum)
+    # eval's floor on the mean squared error (metrics::psnr_from_mse).
+    return 10.0 * np.log10(1.0 / max(squared_error_sum / pixels, 1e-10))
 
 
 def main():
@@ -73,7 +75,7 @@ def main():
     res, factor = spec["resolution"], args.factor
     truths = sorted(glob.glob(os.path.join(args.eval, "frames", "*_ground_truth.png")))
     models = sorted({os.path.basename(p)[7:-4] for p in glob.glob(os.path.join(args.eval, "frames", "*.png"))} - {"ground_truth"})
-    totals = {m: {"all": 0.0, "ring": 0.0, "composite": 0.0} for m in models}
+    totals = {m: {"all": 0.0, "ring": 0.0, "psnr": [], "outside": [], "composite": []} for m in models}
     pixels = ring_pixels = 0
     with tempfile.TemporaryDirectory() as tmp:
         for truth_path in truths:
@@ -99,15 +101,17 @@ def main():
                 composite = np.minimum(1.0, light + (1.0 - coverage)[..., None] * prediction)
                 totals[m]["all"] += error.sum()
                 totals[m]["ring"] += error[ring].sum()
-                totals[m]["composite"] += ((truth - composite) ** 2).mean(-1).sum()
+                totals[m]["psnr"].append(psnr(error.sum(), error.size))
+                totals[m]["outside"].append(psnr(error[~ring].sum(), (~ring).sum()))
+                totals[m]["composite"].append(psnr(((truth - composite) ** 2).mean(-1).sum(), error.size))
     print(f"{len(truths)} frames, {res} px; ring: {ring_pixels} of {pixels} pixels ({100.0 * ring_pixels / pixels:.2f}%)\n")
     print(f"| model | PSNR | share of squared error in the ring | PSNR without the ring | PSNR with light coverage at {factor}x{factor} |")
     print("|---|---|---|---|---|")
     for m in models:
         t = totals[m]
         # A traced image (the noise floor's gt-SPPspp) already holds the light's coverage.
-        composite = "-" if m.startswith("gt-") else f"{psnr(t['composite'], pixels):.2f}"
-        print(f"| {m} | {psnr(t['all'], pixels):.2f} | {t['ring'] / t['all']:.3f} | {psnr(t['all'] - t['ring'], pixels - ring_pixels):.2f} | {composite} |")
+        composite = "-" if m.startswith("gt-") else f"{np.mean(t['composite']):.2f}"
+        print(f"| {m} | {np.mean(t['psnr']):.2f} | {t['ring'] / t['all']:.3f} | {np.mean(t['outside']):.2f} | {composite} |")
 
 
 if __name__ == "__main__":
