@@ -11,7 +11,6 @@ use glassbake_core::layout::{self, GROUND_TRUTH_CHANNELS};
 use glassbake_core::seed::purpose_seed;
 use glassbake_core::{Error, PlanarImage, Result};
 use glassbake_dataset::{DatasetSpec, DatasetStore, Loader, LoaderOptions, SampleRecord, Split};
-use glassbake_net::super_sampler::downsample_box2;
 use glassbake_net::{select_device, DeviceChoice, FrameRef, ModelKind, TrainedModel, TrainedSuperSampler};
 use glassbake_trace::TraceSettings;
 use rand::seq::SliceRandom;
@@ -62,8 +61,8 @@ pub fn half_resolution_rows(name: &str) -> [String; 2] {
     [format!("{name}@half+sr"), format!("{name}@half+bilinear")]
 }
 
-/// A model rendering frames at half resolution (from box-filtered buffers, as `train-sr`
-/// trains the super-sampler on) and the super-sampler that brings them up.
+/// A model rendering frames at half resolution ([`TrainedModel::render_half`]) and the
+/// super-sampler that brings them up.
 struct HalfResolution {
     sampler: TrainedSuperSampler,
     /// Index of the model among the scored ones.
@@ -81,10 +80,8 @@ struct HalfResolutionFrame {
 
 impl HalfResolution {
     fn render(&self, model: &TrainedModel, gbuffer: &PlanarImage, transparent: &[PlanarImage], values: &[f32]) -> Result<HalfResolutionFrame> {
-        let low_gbuffer = downsample_box2(gbuffer)?;
-        let low_transparent = transparent.iter().map(downsample_box2).collect::<Result<Vec<_>>>()?;
         let started = Instant::now();
-        let low = model.render(FrameRef { gbuffer: &low_gbuffer, transparent: &low_transparent, values, ground_truth: None })?;
+        let low = model.render_half(FrameRef { gbuffer, transparent, values, ground_truth: None })?;
         let low_seconds = started.elapsed().as_secs_f64();
         let started = Instant::now();
         let super_sampled = RgbImage::from_planar(&self.sampler.upsample(&low, gbuffer)?)?;

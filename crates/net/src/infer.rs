@@ -12,7 +12,7 @@ use crate::batch::{image_from_tensor, FrameRef, HostBatch};
 use crate::config::{ModelKind, NetConfig};
 use crate::model::GlassNet;
 use crate::model_dir::{read_weights, ModelFiles, Network};
-use crate::super_sampler::SuperSampler;
+use crate::super_sampler::{downsample_box2, SuperSampler};
 use crate::train::Trainable;
 
 /// A trained GlassNet (or baseline) ready to render on one device.
@@ -50,6 +50,16 @@ impl TrainedModel {
         let batch = HostBatch::from_frames(&[FrameRef { ground_truth: None, ..frame }])?;
         let prediction = self.render_streaming(&batch, |k| Some(batch.transparent_tensor(k, &self.device)));
         image_from_tensor(&prediction.clamp(0.0, 1.0), 0)
+    }
+
+    /// Renders one frame at half its resolution, from its buffers 2x2-averaged: the image the
+    /// x2 super-sampler brings up (train-sr trains on it, eval scores it). `frame.gbuffer` as
+    /// for [`Self::render`]; the transparency buffers are dropped for the naive-G-buffer models.
+    pub fn render_half(&self, frame: FrameRef) -> Result<PlanarImage> {
+        let gbuffer = downsample_box2(frame.gbuffer)?;
+        let transparent =
+            if self.kind().reads_naive_gbuffer() { Vec::new() } else { frame.transparent.iter().map(downsample_box2).collect::<Result<Vec<_>>>()? };
+        self.render(FrameRef { gbuffer: &gbuffer, transparent: &transparent, values: frame.values, ground_truth: None })
     }
 
     /// The unclamped prediction of one frame, [3, H, W] flattened: for exact comparisons

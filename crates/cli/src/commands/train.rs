@@ -9,7 +9,6 @@ use clap::Args;
 use glassbake_core::Error;
 use glassbake_dataset::{DatasetInfo, DatasetStore, Example, Loader, LoaderOptions, Split};
 use glassbake_net::model_dir::{DataSource, ModelConfig, ModelFiles, Network, FORMAT_VERSION};
-use glassbake_net::super_sampler::downsample_box2;
 use glassbake_net::{
     select_device, train, DeviceChoice, FrameRef, GlassNet, HostBatch, ModelKind, NetConfig, RunOptions, SuperSampler, SuperSamplerConfig, TrainConfig,
     TrainEvent, TrainedModel, TrainingData,
@@ -243,10 +242,8 @@ fn host_batch(examples: &[Example], naive: bool, low_res: Option<&TrainedModel>)
     if let Some(model) = low_res {
         let mut low = Vec::new();
         for e in examples {
-            let gbuffer = downsample_box2(if model.kind().reads_naive_gbuffer() { e.naive.as_ref().expect("naive buffers") } else { &e.opaque })?;
-            let transparent = e.transparent.iter().map(downsample_box2).collect::<glassbake_core::Result<Vec<_>>>()?;
-            let transparent = if model.kind().reads_naive_gbuffer() { Vec::new() } else { transparent };
-            let image = model.render(FrameRef { gbuffer: &gbuffer, transparent: &transparent, values: &e.values, ground_truth: None })?;
+            let gbuffer = if model.kind().reads_naive_gbuffer() { e.naive.as_ref().expect("naive buffers") } else { &e.opaque };
+            let image = model.render_half(FrameRef { gbuffer, transparent: &e.transparent, values: &e.values, ground_truth: None })?;
             for name in glassbake_core::layout::GROUND_TRUTH_CHANNELS {
                 low.extend_from_slice(image.plane_by_name(name).expect("render writes R, G, B"));
             }
