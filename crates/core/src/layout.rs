@@ -61,6 +61,23 @@ pub const TRANSPARENT_ATTRIBUTES: [Attribute; 10] = [
 pub const OPAQUE_CHANNELS: usize = 17;
 pub const TRANSPARENT_CHANNELS: usize = 22;
 
+/// Light coverage of a G-buffer (opaque or naive): how much of each pixel sees a light, and
+/// the light it sees there, from the G-buffer rasterized at several samples per pixel (see
+/// `glassbake_raster::light_coverage`). 4 channels.
+///
+/// The ground truth averages every pixel over its area, and a light is so much brighter than
+/// 1 that a pixel it covers by a few percent is white after the clamp; a G-buffer sampled at
+/// the pixel's centre cannot say how much of the pixel that is.
+pub const LIGHT_COVERAGE_ATTRIBUTES: [Attribute; 2] = [Attribute { name: "coverage", components: SCALAR }, Attribute { name: "light", components: RGB }];
+
+pub const LIGHT_COVERAGE_CHANNELS: usize = 4;
+
+/// Channel offsets within a light coverage image.
+pub mod light_coverage {
+    pub const COVERAGE: usize = 0;
+    pub const LIGHT: usize = 1;
+}
+
 /// Channel offsets within the opaque (and naive) G-buffer.
 pub mod opaque {
     pub const NORMAL: usize = 0;
@@ -90,6 +107,10 @@ pub mod transparent {
 pub const OPAQUE_LAYER: &str = "opaque";
 /// EXR layer of the naive G-buffer (glass overwrites what is behind it; the paper's baseline).
 pub const NAIVE_LAYER: &str = "naive";
+/// EXR layer of the opaque G-buffer's light coverage.
+pub const OPAQUE_LIGHT_COVERAGE_LAYER: &str = "opaque_light";
+/// EXR layer of the naive G-buffer's light coverage.
+pub const NAIVE_LIGHT_COVERAGE_LAYER: &str = "naive_light";
 /// Channel names of path-traced ground truth images.
 pub const GROUND_TRUTH_CHANNELS: [&str; 3] = ["R", "G", "B"];
 
@@ -112,6 +133,14 @@ pub fn naive_channel_names() -> Vec<String> {
 
 pub fn transparent_channel_names(k: usize) -> Vec<String> {
     channel_names(&transparent_layer(k), &TRANSPARENT_ATTRIBUTES)
+}
+
+pub fn opaque_light_coverage_channel_names() -> Vec<String> {
+    channel_names(OPAQUE_LIGHT_COVERAGE_LAYER, &LIGHT_COVERAGE_ATTRIBUTES)
+}
+
+pub fn naive_light_coverage_channel_names() -> Vec<String> {
+    channel_names(NAIVE_LIGHT_COVERAGE_LAYER, &LIGHT_COVERAGE_ATTRIBUTES)
 }
 
 #[cfg(test)]
@@ -151,5 +180,9 @@ mod tests {
         assert_eq!(transparent_channel_names(1)[18], "transparent.1.Ld.B");
         assert_eq!(transparent_channel_names(2)[14], "transparent.2.relative_depth.Y");
         assert_eq!(opaque_channel_names()[14], "opaque.Ld.R");
+        assert_eq!(opaque_light_coverage_channel_names().len(), LIGHT_COVERAGE_CHANNELS);
+        assert_eq!(offset_of(&LIGHT_COVERAGE_ATTRIBUTES, "coverage"), light_coverage::COVERAGE);
+        assert_eq!(offset_of(&LIGHT_COVERAGE_ATTRIBUTES, "light"), light_coverage::LIGHT);
+        assert_eq!(naive_light_coverage_channel_names()[1], "naive_light.light.R");
     }
 }

@@ -10,9 +10,10 @@ use glassbake_trace::Estimator;
 use serde::{Deserialize, Serialize};
 
 /// 2: transparency buffers gained `Ld` (19 channels). 3: they gained `Ld_far` (22 channels),
-/// and smooth surfaces' `Ld` is averaged over the pixel. An older dataset is still read: its
+/// and smooth surfaces' `Ld` is averaged over the pixel. 4: cached buffers gained the G-buffers'
+/// light coverage (layers `opaque_light`, `naive_light`). An older dataset is still read: its
 /// ground truth is good, and its cached buffers, which are not today's, are rasterized again.
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 
 /// The most frames one dataset holds: its manifest lists every frame's camera and values
 /// (about 200 bytes each), and is planned in memory before any frame is traced.

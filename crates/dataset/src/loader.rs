@@ -14,6 +14,7 @@ use std::time::Duration;
 use glassbake_core::layout::{self, transparent};
 use glassbake_core::seed::{mix64, sample_seed};
 use glassbake_core::{Error, PlanarImage, Result};
+use glassbake_raster::light_coverage::LightCoverage;
 use glassbake_raster::{Rasterizer, RasterizerOptions};
 use glassbake_scene::Scene;
 use rand::seq::SliceRandom;
@@ -65,12 +66,26 @@ pub struct Example {
     pub naive: Option<PlanarImage>,
     /// One per transparent object, each with `layout::transparent_channel_names(k)`.
     pub transparent: Vec<PlanarImage>,
+    /// How much of each pixel sees a light, for the opaque and the naive G-buffer.
+    pub light_coverage: LightCoverage,
     /// Linear RGB.
     pub ground_truth: PlanarImage,
     /// One channel `mask.Y`: 1 where any transparent object covers the pixel.
     pub mask: PlanarImage,
     /// Variable values mapped to [0, 1] over their ranges.
     pub values: Vec<f32>,
+}
+
+impl Example {
+    /// The G-buffer a model reads and its light coverage: the naive ones (which the loader
+    /// must have been asked for) or the opaque ones.
+    pub fn gbuffer(&self, naive: bool) -> (&PlanarImage, &PlanarImage) {
+        if naive {
+            (self.naive.as_ref().expect("the loader was asked for naive buffers"), &self.light_coverage.naive)
+        } else {
+            (&self.opaque, &self.light_coverage.opaque)
+        }
+    }
 }
 
 #[derive(Clone, Copy)]
@@ -118,12 +133,16 @@ fn load_example(shared: &Shared, rasterizer: &mut Option<Rasterizer>, job: Job) 
         .ok_or_else(|| Error::bad_input(store.dir.join("manifest.json").display(), "samples", format!("no sample {}", job.index)))?;
     let res = manifest.spec.resolution;
     let t = manifest.scene.transparent_objects.len();
-    let (opaque, naive, transparent_buffers) = if manifest.reads_cached_buffers() {
+    let (opaque, naive, transparent_buffers, light_coverage) = if manifest.reads_cached_buffers() {
         let all = PlanarImage::read_exr(&store.buffers_path(job.index))?;
         let opaque = all.select(&layout::opaque_channel_names())?;
         let naive = if shared.options.naive { Some(all.select(&layout::naive_channel_names())?) } else { None };
         let transparent = (0..t).map(|k| all.select(&layout::transparent_channel_names(k))).collect::<Result<Vec<_>>>()?;
-        (opaque, naive, transparent)
+        let light_coverage = LightCoverage {
+            opaque: all.select(&layout::opaque_light_coverage_channel_names())?,
+            naive: all.select(&layout::naive_light_coverage_channel_names())?,
+        };
+        (opaque, naive, transparent, light_coverage)
     } else {
         let scene = shared.scene.as_ref().expect("checked in Loader::new");
         let rasterizer = match rasterizer {
@@ -133,7 +152,7 @@ fn load_example(shared: &Shared, rasterizer: &mut Option<Rasterizer>, job: Job) 
         let instance = scene.instantiate(&sample.values)?;
         let buffers = rasterizer.render(&instance, &sample.camera, res, res)?;
         let naive = shared.options.naive.then_some(buffers.naive);
-        (buffers.opaque, naive, buffers.transparent)
+        (buffers.opaque, naive, buffers.transparent, buffers.light_coverage)
     };
     let ground_truth = PlanarImage::read_exr(&store.gt_path(job.index))?.select(&manifest.channel_layout.ground_truth)?;
     let mask = union_mask(&transparent_buffers, res, res);
@@ -148,6 +167,7 @@ fn load_example(shared: &Shared, rasterizer: &mut Option<Rasterizer>, job: Job) 
         opaque: crop(opaque)?,
         naive: naive.map(crop).transpose()?,
         transparent: transparent_buffers.into_iter().map(crop).collect::<Result<_>>()?,
+        light_coverage: LightCoverage { opaque: crop(light_coverage.opaque)?, naive: crop(light_coverage.naive)? },
         ground_truth: crop(ground_truth)?,
         mask: crop(mask)?,
         values: sample.values.iter().zip(&manifest.scene.variables).map(|(&v, var)| (v - var.min) / (var.max - var.min)).collect(),

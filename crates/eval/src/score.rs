@@ -79,9 +79,10 @@ struct HalfResolutionFrame {
 }
 
 impl HalfResolution {
-    fn render(&self, model: &TrainedModel, gbuffer: &PlanarImage, transparent: &[PlanarImage], values: &[f32]) -> Result<HalfResolutionFrame> {
+    fn render(&self, model: &TrainedModel, frame: FrameRef) -> Result<HalfResolutionFrame> {
         let started = Instant::now();
-        let low = model.render_half(FrameRef { gbuffer, transparent, values, ground_truth: None })?;
+        let low = model.render_half(frame)?;
+        let gbuffer = frame.gbuffer;
         let low_seconds = started.elapsed().as_secs_f64();
         let started = Instant::now();
         let super_sampled = RgbImage::from_planar(&self.sampler.upsample(&low, gbuffer)?)?;
@@ -286,15 +287,19 @@ pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn
             let mut seconds = Vec::new();
             for model in &models {
                 let naive = model.kind().reads_naive_gbuffer();
-                let gbuffer = if naive { e.naive.as_ref().expect("the loader was asked for naive buffers") } else { &e.opaque };
+                let (gbuffer, light_coverage) = e.gbuffer(naive);
                 let transparent: &[PlanarImage] = if naive { &[] } else { &e.transparent };
                 let started = Instant::now();
-                let image = model.render(FrameRef { gbuffer, transparent, values: &e.values, ground_truth: None })?;
+                let image = model.render(FrameRef { gbuffer, light_coverage: Some(light_coverage), transparent, values: &e.values, ground_truth: None })?;
                 seconds.push(Some(started.elapsed().as_secs_f64()));
                 predictions.push(RgbImage::from_planar(&image)?);
             }
             if let Some(half) = &half {
-                let frame = half.render(&models[half.model], &e.opaque, &e.transparent, &e.values)?;
+                let (gbuffer, light_coverage) = e.gbuffer(false);
+                let frame = half.render(
+                    &models[half.model],
+                    FrameRef { gbuffer, light_coverage: Some(light_coverage), transparent: &e.transparent, values: &e.values, ground_truth: None },
+                )?;
                 predictions.extend([frame.super_sampled, frame.bilinear]);
                 seconds.extend([Some(frame.super_sampled_seconds), Some(frame.bilinear_seconds)]);
             }
@@ -317,7 +322,10 @@ pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn
             }
             if let Some(i) = order_model {
                 let model = &models[i];
-                let frame = |transparent: &[PlanarImage]| model.render_raw(FrameRef { gbuffer: &e.opaque, transparent, values: &e.values, ground_truth: None });
+                let (gbuffer, light_coverage) = e.gbuffer(false);
+                let frame = |transparent: &[PlanarImage]| {
+                    model.render_raw(FrameRef { gbuffer, light_coverage: Some(light_coverage), transparent, values: &e.values, ground_truth: None })
+                };
                 let original = frame(&e.transparent)?;
                 let mut reversed = e.transparent.clone();
                 reversed.reverse();

@@ -11,7 +11,7 @@ use std::time::Instant;
 
 use burn::prelude::*;
 use burn::tensor::Distribution;
-use glassbake_core::layout::{OPAQUE_CHANNELS, TRANSPARENT_CHANNELS};
+use glassbake_core::layout::{LIGHT_COVERAGE_CHANNELS, OPAQUE_CHANNELS, TRANSPARENT_CHANNELS};
 use glassbake_net::loss::training_loss;
 use glassbake_net::{burn, select_device, DeviceChoice, GlassNet, ModelKind, NetConfig, NetInputs};
 
@@ -76,6 +76,8 @@ fn main() {
             let net = GlassNet::new(&config, 0, &train_device).unwrap();
             let inputs = |device: &Device| NetInputs {
                 gbuffer: Tensor::random([1, OPAQUE_CHANNELS, res, res], Distribution::Uniform(0.0, 1.0), device),
+                // No light in view; the composite costs the same whatever the coverage.
+                light_coverage: Some(Tensor::zeros([1, LIGHT_COVERAGE_CHANNELS, res, res], device)),
                 transparent: (0..t).map(|_| Tensor::random([1, TRANSPARENT_CHANNELS, res, res], Distribution::Uniform(0.0, 1.0), device)).collect(),
                 values: Tensor::random([1, 4], Distribution::Uniform(0.0, 1.0), device),
             };
@@ -103,7 +105,8 @@ fn main() {
                 PEAK.store(baseline, Ordering::Relaxed);
                 let start = Instant::now();
                 // The streaming path: one transparency buffer alive at a time.
-                let image = net.forward_streaming(frame.gbuffer.clone(), frame.values.clone(), t, |k| Some(frame.transparent[k].clone()));
+                let image =
+                    net.forward_streaming(frame.gbuffer.clone(), frame.light_coverage.clone(), frame.values.clone(), t, |k| Some(frame.transparent[k].clone()));
                 let _ = image.into_data();
                 if i > 0 {
                     infer_times.push(start.elapsed().as_secs_f64() * 1e3);

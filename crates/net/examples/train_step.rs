@@ -14,7 +14,7 @@ use burn::prelude::*;
 use burn::tensor::module::{conv2d, conv_transpose2d};
 use burn::tensor::ops::{ConvOptions, ConvTransposeOptions};
 use burn::tensor::Distribution;
-use glassbake_core::layout::{OPAQUE_CHANNELS, TRANSPARENT_CHANNELS};
+use glassbake_core::layout::{LIGHT_COVERAGE_CHANNELS, OPAQUE_CHANNELS, TRANSPARENT_CHANNELS};
 use glassbake_net::blocks::positional_encoding;
 use glassbake_net::burn;
 use glassbake_net::loss::training_loss;
@@ -46,6 +46,8 @@ fn inputs(n: usize, side: usize, objects: usize, device: &Device) -> NetInputs {
     let uniform = |c: usize| Tensor::<4>::random([n, c, side, side], Distribution::Uniform(0.0, 1.0), device);
     NetInputs {
         gbuffer: uniform(OPAQUE_CHANNELS),
+        // No light in view; the composite costs the same whatever the coverage.
+        light_coverage: Some(Tensor::zeros([n, LIGHT_COVERAGE_CHANNELS, side, side], device)),
         transparent: (0..objects).map(|_| uniform(TRANSPARENT_CHANNELS)).collect(),
         values: Tensor::random([n, VARIABLES], Distribution::Uniform(0.0, 1.0), device),
     }
@@ -94,8 +96,8 @@ fn main() {
         let valid = model.valid();
         let inner = device.clone().inner();
         let batch = inputs(n, side, objects, &inner);
-        let f_ms = median_ms(runs, || sync(valid.encode_scene(batch.gbuffer.clone(), batch.values.clone()).sigma));
-        let scene = valid.encode_scene(batch.gbuffer.clone(), batch.values.clone());
+        let f_ms = median_ms(runs, || sync(valid.encode_scene(batch.gbuffer.clone(), batch.light_coverage.clone(), batch.values.clone()).sigma));
+        let scene = valid.encode_scene(batch.gbuffer.clone(), batch.light_coverage.clone(), batch.values.clone());
         let encoding_ms = median_ms(runs, || sync(positional_encoding(batch.gbuffer.clone(), config.encoding_frequencies)));
         let mut line = format!("         no-grad forward: positional encoding of the G-buffer {encoding_ms:.1} ms, F {f_ms:.1} ms");
         let tau = if kind == ModelKind::Glassnet {

@@ -4,7 +4,7 @@
 use burn::prelude::*;
 use burn::tensor::TensorData;
 
-use glassbake_core::layout::{self, OPAQUE_CHANNELS, TRANSPARENT_CHANNELS};
+use glassbake_core::layout::{self, LIGHT_COVERAGE_CHANNELS, OPAQUE_CHANNELS, TRANSPARENT_CHANNELS};
 use glassbake_core::{Error, PlanarImage, Result};
 
 use crate::model::NetInputs;
@@ -15,6 +15,9 @@ use crate::model::NetInputs;
 #[derive(Clone, Copy, Debug)]
 pub struct FrameRef<'a> {
     pub gbuffer: &'a PlanarImage,
+    /// The light coverage of `gbuffer` (`layout::LIGHT_COVERAGE_ATTRIBUTES`), which the
+    /// networks with `NetConfig::light_coverage` need.
+    pub light_coverage: Option<&'a PlanarImage>,
     pub transparent: &'a [PlanarImage],
     pub values: &'a [f32],
     pub ground_truth: Option<&'a PlanarImage>,
@@ -28,6 +31,8 @@ pub struct HostBatch {
     pub height: usize,
     pub variables: usize,
     pub gbuffer: Vec<f32>,
+    /// The G-buffer's light coverage, when every frame has it.
+    pub light_coverage: Option<Vec<f32>>,
     /// Per transparent object: that object's buffer for every frame.
     pub transparent: Vec<Vec<f32>>,
     pub values: Vec<f32>,
@@ -43,12 +48,14 @@ impl HostBatch {
         let (width, height) = (first.gbuffer.width() as usize, first.gbuffer.height() as usize);
         let (objects, variables) = (first.transparent.len(), first.values.len());
         let with_truth = first.ground_truth.is_some();
+        let with_coverage = first.light_coverage.is_some();
         let mut batch = HostBatch {
             frames: frames.len(),
             width,
             height,
             variables,
             gbuffer: Vec::with_capacity(frames.len() * OPAQUE_CHANNELS * width * height),
+            light_coverage: with_coverage.then(|| Vec::with_capacity(frames.len() * LIGHT_COVERAGE_CHANNELS * width * height)),
             transparent: vec![Vec::with_capacity(frames.len() * TRANSPARENT_CHANNELS * width * height); objects],
             values: Vec::with_capacity(frames.len() * variables),
             ground_truth: with_truth.then(Vec::new),
@@ -67,10 +74,18 @@ impl HostBatch {
         };
         for frame in frames {
             check(frame.gbuffer, OPAQUE_CHANNELS, "G-buffer")?;
-            if frame.transparent.len() != objects || frame.values.len() != variables || frame.ground_truth.is_some() != with_truth {
-                return Err(Error::Internal("batch frames differ in objects, variables or ground truth".into()));
+            if frame.transparent.len() != objects
+                || frame.values.len() != variables
+                || frame.ground_truth.is_some() != with_truth
+                || frame.light_coverage.is_some() != with_coverage
+            {
+                return Err(Error::Internal("batch frames differ in objects, variables, light coverage or ground truth".into()));
             }
             batch.gbuffer.extend_from_slice(frame.gbuffer.data());
+            if let (Some(coverage), Some(out)) = (frame.light_coverage, batch.light_coverage.as_mut()) {
+                check(coverage, LIGHT_COVERAGE_CHANNELS, "light coverage")?;
+                out.extend_from_slice(coverage.data());
+            }
             for (k, buffer) in frame.transparent.iter().enumerate() {
                 check(buffer, TRANSPARENT_CHANNELS, "transparency buffer")?;
                 batch.transparent[k].extend_from_slice(buffer.data());
@@ -99,10 +114,15 @@ impl HostBatch {
         self.tensor(&self.gbuffer, OPAQUE_CHANNELS, device)
     }
 
+    pub fn light_coverage_tensor(&self, device: &Device) -> Option<Tensor<4>> {
+        self.light_coverage.as_ref().map(|c| self.tensor(c, LIGHT_COVERAGE_CHANNELS, device))
+    }
+
     /// The network inputs on `device`.
     pub fn inputs(&self, device: &Device) -> NetInputs {
         NetInputs {
             gbuffer: self.tensor(&self.gbuffer, OPAQUE_CHANNELS, device),
+            light_coverage: self.light_coverage_tensor(device),
             transparent: self.transparent.iter().map(|b| self.tensor(b, TRANSPARENT_CHANNELS, device)).collect(),
             values: Tensor::from_data(TensorData::new(self.values.clone(), [self.frames, self.variables]), device),
         }

@@ -150,6 +150,17 @@ pub struct NetConfig {
     /// before this existed.
     #[serde(default)]
     pub saturate_direct_light: bool,
+    /// Whether the image is composited with the G-buffer's light coverage
+    /// (`layout::LIGHT_COVERAGE_ATTRIBUTES`): light + (1 - coverage) x the network's image,
+    /// the light seen through the glass in front for the models that read transparency
+    /// buffers. Where a light covers the whole pixel this is [`Self::saturate_direct_light`]'s
+    /// white; at a light's edge it is the share of the pixel the light covers, which a
+    /// centre-sampled G-buffer cannot tell and which held 87% of GlassNet's squared error over
+    /// the default cornellbox bake's frames (docs/benchmarks.md). Supersedes
+    /// `saturate_direct_light` (the two are not both on). False in configs saved before this
+    /// existed.
+    #[serde(default)]
+    pub light_coverage: bool,
     /// B: (sigma, tau) -> phi.
     pub blending: UNetConfig,
     /// R: (phi, L_d) -> image.
@@ -210,7 +221,10 @@ impl NetConfig {
             // Demodulated lost 0.4 dB against RGB on the default cornellbox bake, with or
             // without the saturation (docs/history/benchmarks-2026-11.md, 2026-11-25).
             demodulated: false,
-            saturate_direct_light: true,
+            // The light coverage composite supersedes the saturation (the pixelgen baseline
+            // keeps the paper's plain output).
+            saturate_direct_light: false,
+            light_coverage: model != ModelKind::Pixelgen,
             blending: b,
             renderer: r,
             pixel_generator: (model == ModelKind::Pixelgen).then_some(pixel),
@@ -250,6 +264,12 @@ impl NetConfig {
                 return bad("pixel_generator", "width must be at least 1 and skip_at in 1..layers".into())
             }
             _ => {}
+        }
+        if self.light_coverage && self.saturate_direct_light {
+            return bad("light_coverage", "the light coverage composite supersedes saturate_direct_light: switch one off".into());
+        }
+        if self.light_coverage && self.model == ModelKind::Pixelgen {
+            return bad("light_coverage", "the pixelgen baseline keeps the paper's plain output".into());
         }
         if let Some(grid) = &self.position_grid {
             if self.model == ModelKind::Pixelgen {

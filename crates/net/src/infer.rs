@@ -41,12 +41,20 @@ impl TrainedModel {
         self.net.kind()
     }
 
+    fn check_frame(&self, frame: &FrameRef) -> Result<()> {
+        let (w, h) = (frame.gbuffer.width() as usize, frame.gbuffer.height() as usize);
+        self.net.check_inputs(w, h, frame.transparent.len())?;
+        if self.config().light_coverage && frame.light_coverage.is_none() {
+            return Err(Error::Internal(format!("{} is composited with the light coverage, and the frame has none", self.files.dir.display())));
+        }
+        Ok(())
+    }
+
     /// Renders one frame to tone-mapped linear RGB (channels R, G, B, values clamped to [0, 1]).
     /// `frame.gbuffer` must be the opaque G-buffer for GlassNet and concat, the naive one for
     /// naive and pixelgen ([`ModelKind::reads_naive_gbuffer`]).
     pub fn render(&self, frame: FrameRef) -> Result<PlanarImage> {
-        let (w, h) = (frame.gbuffer.width() as usize, frame.gbuffer.height() as usize);
-        self.net.check_inputs(w, h, frame.transparent.len())?;
+        self.check_frame(&frame)?;
         let batch = HostBatch::from_frames(&[FrameRef { ground_truth: None, ..frame }])?;
         let prediction = self.render_streaming(&batch, |k| Some(batch.transparent_tensor(k, &self.device)));
         image_from_tensor(&prediction.clamp(0.0, 1.0), 0)
@@ -57,16 +65,24 @@ impl TrainedModel {
     /// for [`Self::render`]; the transparency buffers are dropped for the naive-G-buffer models.
     pub fn render_half(&self, frame: FrameRef) -> Result<PlanarImage> {
         let gbuffer = downsample_box2(frame.gbuffer)?;
+        // A light's coverage of the larger pixel is the mean of its four quarters', and so is
+        // the light it sees (summed over the pixel, divided by its area).
+        let light_coverage = frame.light_coverage.map(downsample_box2).transpose()?;
         let transparent =
             if self.kind().reads_naive_gbuffer() { Vec::new() } else { frame.transparent.iter().map(downsample_box2).collect::<Result<Vec<_>>>()? };
-        self.render(FrameRef { gbuffer: &gbuffer, transparent: &transparent, values: frame.values, ground_truth: None })
+        self.render(FrameRef {
+            gbuffer: &gbuffer,
+            light_coverage: light_coverage.as_ref(),
+            transparent: &transparent,
+            values: frame.values,
+            ground_truth: None,
+        })
     }
 
     /// The unclamped prediction of one frame, [3, H, W] flattened: for exact comparisons
     /// (the order test), which clamping could hide.
     pub fn render_raw(&self, frame: FrameRef) -> Result<Vec<f32>> {
-        let (w, h) = (frame.gbuffer.width() as usize, frame.gbuffer.height() as usize);
-        self.net.check_inputs(w, h, frame.transparent.len())?;
+        self.check_frame(&frame)?;
         let batch = HostBatch::from_frames(&[FrameRef { ground_truth: None, ..frame }])?;
         let prediction = self.render_streaming(&batch, |k| Some(batch.transparent_tensor(k, &self.device)));
         prediction.into_data().try_to_vec::<f32>().map_err(|e| Error::Internal(format!("reading a prediction: {e:?}")))
@@ -76,7 +92,7 @@ impl TrainedModel {
     /// at most one is alive at a time (GlassNet). Returns the unclamped [N, 3, H, W] prediction.
     pub fn render_streaming(&self, batch: &HostBatch, buffer: impl FnMut(usize) -> Option<Tensor<4>>) -> Tensor<4> {
         let values = Tensor::from_data(TensorData::new(batch.values.clone(), [batch.frames, batch.variables]), &self.device);
-        self.net.forward_streaming(batch.gbuffer_tensor(&self.device), values, batch.objects(), buffer)
+        self.net.forward_streaming(batch.gbuffer_tensor(&self.device), batch.light_coverage_tensor(&self.device), values, batch.objects(), buffer)
     }
 }
 
@@ -125,7 +141,7 @@ impl TrainedSuperSampler {
             planes.extend_from_slice(low.plane_by_name(name).ok_or_else(|| Error::Internal(format!("low-resolution image without channel {name}")))?);
         }
         let low = Tensor::from_data(TensorData::new(planes, [1, 3, h / 2, w / 2]), &self.device);
-        let batch = HostBatch::from_frames(&[FrameRef { gbuffer, transparent: &[], values: &[], ground_truth: None }])?;
+        let batch = HostBatch::from_frames(&[FrameRef { gbuffer, light_coverage: None, transparent: &[], values: &[], ground_truth: None }])?;
         image_from_tensor(&self.net.forward(low, batch.gbuffer_tensor(&self.device)).clamp(0.0, 1.0), 0)
     }
 }

@@ -54,6 +54,9 @@ pub struct NetInputs {
     pub transparent: Vec<Tensor<4>>,
     /// [N, variables], normalised to [0, 1].
     pub values: Tensor<2>,
+    /// [N, 4, H, W]: the light coverage of `gbuffer` (`layout::LIGHT_COVERAGE_ATTRIBUTES`),
+    /// for the networks with [`NetConfig::light_coverage`].
+    pub light_coverage: Option<Tensor<4>>,
 }
 
 /// What F computed once per frame and every later stage reads.
@@ -64,6 +67,8 @@ pub struct SceneCode {
     pub direct_light: Tensor<4>,
     /// The G-buffer's albedo, which a demodulated R multiplies part of its output by.
     pub albedo: Tensor<4>,
+    /// The G-buffer's light coverage, which the image is composited with.
+    pub light_coverage: Option<Tensor<4>>,
 }
 
 impl GlassNet {
@@ -195,11 +200,20 @@ impl GlassNet {
     }
 
     /// F: the G-buffer and variable values -> sigma (and L_d kept for R).
-    pub fn encode_scene(&self, gbuffer: Tensor<4>, values: Tensor<2>) -> SceneCode {
+    ///
+    /// `light_coverage` is the G-buffer's ([`NetInputs::light_coverage`]); a network with
+    /// [`NetConfig::light_coverage`] panics without it (`TrainedModel::render` checks
+    /// beforehand and returns an error).
+    pub fn encode_scene(&self, gbuffer: Tensor<4>, light_coverage: Option<Tensor<4>>, values: Tensor<2>) -> SceneCode {
         let f = self.scene_encoder.as_ref().expect("pixelgen has no F: use forward_streaming");
         let direct_light = gbuffer.clone().narrow(1, layout::opaque::LD, 3);
         let albedo = gbuffer.clone().narrow(1, layout::opaque::ALBEDO, 3);
-        SceneCode { sigma: f.forward(self.encoded_inputs(gbuffer, values)), direct_light, albedo }
+        let light_coverage = if self.config.light_coverage {
+            Some(light_coverage.expect("a network composited with the light coverage is given the G-buffer's light coverage"))
+        } else {
+            None
+        };
+        SceneCode { sigma: f.forward(self.encoded_inputs(gbuffer, values)), direct_light, albedo, light_coverage }
     }
 
     /// h for one transparency buffer (times the buffer's coverage, see
@@ -244,7 +258,7 @@ impl GlassNet {
         let Some(tau) = tau else {
             let phi = b.forward(scene.sigma.clone());
             let out = r.forward(Tensor::cat(vec![phi, scene.direct_light.clone()], 1));
-            return self.saturate(self.term(&out, scene, 0), scene.direct_light.clone());
+            return self.finish(self.term(&out, scene, 0), scene, None);
         };
         let features = tau.dims()[1] - GLASS_DIRECT_CHANNELS;
         let light = tau.clone().narrow(1, features, GLASS_LIGHT_CHANNELS);
@@ -252,8 +266,27 @@ impl GlassNet {
         let phi = b.forward(Tensor::cat(vec![scene.sigma.clone(), tau.narrow(1, 0, features)], 1));
         let out = r.forward(Tensor::cat(vec![phi, scene.direct_light.clone(), light, transmittance.clone()], 1));
         let [a, b1, b2] = [0, 1, 2].map(|k| self.term(&out, scene, k));
-        let seen_direct_light = scene.direct_light.clone() * transmittance.clone();
-        self.saturate(a + (b1 + b2 * transmittance.clone()) * transmittance, seen_direct_light)
+        self.finish(a + (b1 + b2 * transmittance.clone()) * transmittance.clone(), scene, Some(transmittance))
+    }
+
+    /// The network's `image` with the lights the G-buffer sees put in, through the glass's
+    /// `transmittance` where there is one: composited with the light coverage
+    /// ([`NetConfig::light_coverage`]) or saturated ([`NetConfig::saturate_direct_light`]).
+    fn finish(&self, image: Tensor<4>, scene: &SceneCode, transmittance: Option<Tensor<4>>) -> Tensor<4> {
+        if let Some(coverage) = &scene.light_coverage {
+            let covered = coverage.clone().detach().narrow(1, layout::light_coverage::COVERAGE, 1);
+            let light = coverage.clone().detach().narrow(1, layout::light_coverage::LIGHT, 3);
+            let light = match transmittance {
+                Some(t) => light * t,
+                None => light,
+            };
+            return composite_light(image, covered, light);
+        }
+        let direct_light = match transmittance {
+            Some(t) => scene.direct_light.clone() * t,
+            None => scene.direct_light.clone(),
+        };
+        self.saturate(image, direct_light)
     }
 
     /// With [`NetConfig::saturate_direct_light`]: 1 wherever `direct_light` alone reaches 1 in
@@ -283,17 +316,26 @@ impl GlassNet {
 
     /// The whole network on a batch. GlassNet streams the buffers through h one at a time.
     pub fn forward(&self, inputs: &NetInputs) -> Tensor<4> {
-        self.forward_streaming(inputs.gbuffer.clone(), inputs.values.clone(), inputs.transparent.len(), |k| Some(inputs.transparent[k].clone()))
+        self.forward_streaming(inputs.gbuffer.clone(), inputs.light_coverage.clone(), inputs.values.clone(), inputs.transparent.len(), |k| {
+            Some(inputs.transparent[k].clone())
+        })
     }
 
     /// The whole network, asking `buffer(k)` for transparency buffer k of `objects` only when it
     /// is needed, so GlassNet holds at most one at a time. `None` is an object out of view: it
     /// adds nothing to GlassNet's sum and is zeros for `concat`.
-    pub fn forward_streaming(&self, gbuffer: Tensor<4>, values: Tensor<2>, objects: usize, mut buffer: impl FnMut(usize) -> Option<Tensor<4>>) -> Tensor<4> {
+    pub fn forward_streaming(
+        &self,
+        gbuffer: Tensor<4>,
+        light_coverage: Option<Tensor<4>>,
+        values: Tensor<2>,
+        objects: usize,
+        mut buffer: impl FnMut(usize) -> Option<Tensor<4>>,
+    ) -> Tensor<4> {
         if let Some(pixel) = &self.pixel_generator {
             return pixel.forward(self.encoded_inputs(gbuffer, values));
         }
-        let scene = self.encode_scene(gbuffer, values);
+        let scene = self.encode_scene(gbuffer, light_coverage, values);
         let [n, _, h, w] = scene.sigma.dims();
         let device = scene.sigma.device();
         let tau = match self.config.model {
@@ -340,6 +382,17 @@ fn glass_direct(buffer: &Tensor<4>) -> Tensor<4> {
     let light = buffer.clone().narrow(1, layout::transparent::LD, GLASS_LIGHT_CHANNELS);
     let log_tint = buffer.clone().narrow(1, layout::transparent::ALBEDO, 3).clamp(DARKEST_TINT, 1.0).log();
     Tensor::cat(vec![light, log_tint], 1) * coverage
+}
+
+/// `light + (1 - covered) image`: the pixel the ground truth holds when a share `covered` of
+/// it sees `light` (summed over that share) and the rest `image`. Where a light is seen it is
+/// clamped to 1, the tone map's white: the loss compares with the clamped truth and must not
+/// push the rest of the pixel down to make up for a light brighter than white.
+fn composite_light(image: Tensor<4>, covered: Tensor<4>, light: Tensor<4>) -> Tensor<4> {
+    let [n, c, h, w] = image.dims();
+    let lit = covered.clone().greater_elem(0.0).expand([n, c, h, w]);
+    let composite = light + image * covered.neg().add_scalar(1.0).expand([n, c, h, w]);
+    composite.clone().mask_where(lit, composite.clamp_max(1.0))
 }
 
 /// `w` with its last `count` entries along `dim` set to zero, still trainable if it was.

@@ -366,7 +366,7 @@ fn demodulated_renderer_output_is_affine_in_the_albedo() {
             // Wake the transmitted terms, which start at zero, so they are tested too.
             let r = net.renderer.as_mut().unwrap();
             r.head.weight = r.head.weight.clone().map(|w| w.clone().random_like(burn::tensor::Distribution::Normal(0.0, 0.3)));
-            let scene = net.encode_scene(inputs.gbuffer.clone(), inputs.values.clone());
+            let scene = net.encode_scene(inputs.gbuffer.clone(), inputs.light_coverage.clone(), inputs.values.clone());
             let tau = (kind == ModelKind::Glassnet).then(|| {
                 let mut sum = glassbake_net::sum::TransparencySum::new();
                 for b in &inputs.transparent {
@@ -439,6 +439,8 @@ fn position_grids_replace_the_positions_fourier_features_and_learn() {
     assert!(naive.scene_grid.is_some() && naive.object_grid.is_none());
     let pixelgen = NetConfig { position_grid: Some(test_grid()), ..NetConfig::preset("tiny", ModelKind::Pixelgen, 1, 2).unwrap() };
     assert!(pixelgen.check("test").unwrap_err().to_string().contains("position_grid"));
+    let both = NetConfig { saturate_direct_light: true, ..NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap() };
+    assert!(both.light_coverage && both.check("test").unwrap_err().to_string().contains("light_coverage"));
 }
 
 /// Where the G-buffer's direct light (times the glass transmittance in front) reaches 1 in
@@ -470,7 +472,7 @@ fn pixels_whose_direct_light_saturates_are_white_and_the_rest_untouched() {
             let [n, _, h, _] = buffer.dims();
             *buffer = buffer.clone().slice_assign([0..n, COVERAGE..COVERAGE + 1, 0..h, 6..10], Tensor::zeros([n, 1, h, 4], &device));
         }
-        let plain_config = NetConfig { saturate_direct_light: false, ..NetConfig::preset("tiny", kind, 1, 2).unwrap() };
+        let plain_config = NetConfig { saturate_direct_light: false, light_coverage: false, ..NetConfig::preset("tiny", kind, 1, 2).unwrap() };
         let plain = values(random_net(&plain_config, 4, &device).forward(&inputs));
         let saturating = values(random_net(&NetConfig { saturate_direct_light: true, ..plain_config }, 4, &device).forward(&inputs));
         for c in 0..3 {
@@ -486,6 +488,70 @@ fn pixels_whose_direct_light_saturates_are_white_and_the_rest_untouched() {
                 }
             }
         }
+    }
+}
+
+/// With the light coverage the image is light x t + (1 - coverage) x the network's image,
+/// clamped to 1 where a light is seen (t the transmittance of the glass in front, computed
+/// here independently; 1 for naive), and exactly the network's image where no light is.
+#[test]
+fn the_light_coverage_is_composited_over_the_image() {
+    use glassbake_core::layout::light_coverage::{COVERAGE, LIGHT};
+    use glassbake_core::layout::transparent;
+    let device = Device::flex();
+    let size = 16;
+    for kind in [ModelKind::Glassnet, ModelKind::Naive] {
+        let frames = vec![common::frame(81, size, 2, 1)];
+        let mut inputs = common::batch(&frames).inputs(&device);
+        let at = |c: usize, y: usize, x: usize| c * size * size + y * size + x;
+        // A light of 5 covering a 3x4 block; a dim light over a quarter of one pixel; a bright
+        // one over a sixteenth of another.
+        let mut coverage = vec![0.0f32; 4 * size * size];
+        let mut lit = vec![(0usize, 0usize, 0.0f32, [0.0f32; 3]); 0];
+        for (y, x) in (2..5).flat_map(|y| (6..10).map(move |x| (y, x))) {
+            lit.push((y, x, 1.0, [5.0; 3]));
+        }
+        lit.push((8, 8, 0.25, [0.5, 0.1, 0.2]));
+        lit.push((12, 3, 1.0 / 16.0, [100.0; 3]));
+        for &(y, x, covered, light) in &lit {
+            coverage[at(COVERAGE, y, x)] = covered;
+            for c in 0..3 {
+                coverage[at(LIGHT + c, y, x)] = light[c];
+            }
+        }
+        inputs.light_coverage = Some(Tensor::from_data(TensorData::new(coverage, [1, 4, size, size]), &device));
+        let plain_config = NetConfig { light_coverage: false, saturate_direct_light: false, ..NetConfig::preset("tiny", kind, 1, 2).unwrap() };
+        let plain = values(random_net(&plain_config, 5, &device).forward(&inputs));
+        let composited = values(random_net(&NetConfig { light_coverage: true, ..plain_config }, 5, &device).forward(&inputs));
+        let transmittance = |c: usize, i: usize| -> f64 {
+            if kind == ModelKind::Naive {
+                return 1.0;
+            }
+            let log_t: f64 = frames[0]
+                .transparent
+                .iter()
+                .map(|b| b.plane(transparent::COVERAGE)[i] as f64 * (b.plane(transparent::ALBEDO + c)[i] as f64).clamp(1.0 / 256.0, 1.0).ln())
+                .sum();
+            log_t.exp()
+        };
+        for c in 0..3 {
+            for y in 0..size {
+                for x in 0..size {
+                    let i = at(c, y, x);
+                    match lit.iter().find(|l| (l.0, l.1) == (y, x)) {
+                        Some(&(_, _, covered, light)) => {
+                            let t = transmittance(c, y * size + x);
+                            let want = (light[c] as f64 * t + (1.0 - covered as f64) * plain[i] as f64).min(1.0);
+                            assert!((composited[i] as f64 - want).abs() < 1e-5, "{kind:?}: pixel ({x}, {y}) channel {c}: {} vs {want}", composited[i]);
+                        }
+                        None => assert_eq!(composited[i].to_bits(), plain[i].to_bits(), "{kind:?}: pixel ({x}, {y}) channel {c}"),
+                    }
+                }
+            }
+        }
+        // The bright light makes its pixel white, the dim one does not.
+        assert_eq!(composited[at(0, 12, 3)], 1.0, "{kind:?}");
+        assert!(composited[at(1, 8, 8)] < 1.0, "{kind:?}");
     }
 }
 

@@ -85,7 +85,8 @@ pub fn detail_behind_glass(frame: &FrameBuffers) -> DetailBehindGlass {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glassbake_core::layout::{opaque_channel_names, transparent_channel_names};
+    use crate::light_coverage::LightCoverage;
+    use glassbake_core::layout::{self, opaque_channel_names, transparent_channel_names};
 
     /// A `side` x `side` frame: opaque albedo from `albedo(x, y)`, one glass object covering
     /// the pixels where `glass(x, y)`.
@@ -100,7 +101,10 @@ mod tests {
             }
             glass_buffer.plane_mut(transparent::COVERAGE)[i] = if glass(x, y) { 1.0 } else { 0.0 };
         }
-        FrameBuffers { naive: opaque_buffer.clone(), opaque: opaque_buffer, transparent: vec![glass_buffer] }
+        let no_light = |names| PlanarImage::new(side, side, names);
+        let light_coverage =
+            LightCoverage { opaque: no_light(layout::opaque_light_coverage_channel_names()), naive: no_light(layout::naive_light_coverage_channel_names()) };
+        FrameBuffers { naive: opaque_buffer.clone(), opaque: opaque_buffer, transparent: vec![glass_buffer], light_coverage }
     }
 
     #[test]

@@ -15,18 +15,29 @@
 //! becomes [`composite`]: min(1, light + (1 - coverage) p), the box-filtered pixel the ground
 //! truth holds.
 
-use glassbake_core::layout::opaque;
+use glassbake_core::layout::{self, opaque};
 use glassbake_core::{Camera, Error, PlanarImage, Result};
 use glassbake_scene::Scene;
 
 use crate::Rasterizer;
 
-/// The planes of [`light_coverage`]'s image.
-pub const LIGHT_COVERAGE_CHANNELS: [&str; 4] = ["coverage.Y", "light.R", "light.G", "light.B"];
+/// Sub-samples per pixel side that the frame's buffers ([`Rasterizer::render`]) and the
+/// real-time frame take their light coverage from: 16 per pixel, the coverage in steps of
+/// 1/16 (tests/light_coverage.rs measures the error against the exact area).
+pub const LIGHT_COVERAGE_FACTOR: u32 = 4;
+
+/// The light coverage of one frame's opaque and naive G-buffers (layers
+/// `layout::OPAQUE_LIGHT_COVERAGE_LAYER` and `layout::NAIVE_LIGHT_COVERAGE_LAYER`): the naive
+/// one sees glass where glass is in front of a light, as the naive G-buffer does.
+#[derive(Clone, Debug)]
+pub struct LightCoverage {
+    pub opaque: PlanarImage,
+    pub naive: PlanarImage,
+}
 
 /// Per pixel of a `width` x `height` frame: the share of it that sees a light, and the
-/// light seen, from the opaque G-buffer rasterized at `factor` times the resolution.
-pub fn light_coverage(rasterizer: &mut Rasterizer, scene: &Scene, camera: &Camera, width: u32, height: u32, factor: u32) -> Result<PlanarImage> {
+/// light seen, from the opaque and naive G-buffers rasterized at `factor` times the resolution.
+pub fn light_coverage(rasterizer: &mut Rasterizer, scene: &Scene, camera: &Camera, width: u32, height: u32, factor: u32) -> Result<LightCoverage> {
     if factor == 0 {
         return Err(Error::bad_input(&scene.name, "light coverage factor", "must be at least 1"));
     }
@@ -34,17 +45,53 @@ pub fn light_coverage(rasterizer: &mut Rasterizer, scene: &Scene, camera: &Camer
     let (Some(fine_width), Some(fine_height)) = (fine_width, fine_height) else {
         return Err(Error::bad_input(&scene.name, "light coverage factor", format!("{width}x{height} times {factor} overflows")));
     };
-    let fine = rasterizer.begin_frame(scene, camera, fine_width, fine_height)?.opaque()?;
+    let mut frame = rasterizer.begin_frame(scene, camera, fine_width, fine_height)?;
+    let opaque = reduce(&frame.opaque()?, width, height, factor, layout::opaque_light_coverage_channel_names())?;
+    let naive = reduce(&frame.naive()?, width, height, factor, layout::naive_light_coverage_channel_names())?;
+    Ok(LightCoverage { opaque, naive })
+}
+
+/// [`light_coverage`] of one G-buffer only, the naive one if `naive`: what a real-time frame,
+/// which runs one model, needs.
+pub fn light_coverage_of(
+    rasterizer: &mut Rasterizer,
+    scene: &Scene,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    factor: u32,
+    naive: bool,
+) -> Result<PlanarImage> {
+    let factor = factor.max(1);
+    let (fine_width, fine_height) = (width.saturating_mul(factor), height.saturating_mul(factor));
+    let mut frame = rasterizer.begin_frame(scene, camera, fine_width, fine_height)?;
+    if naive {
+        reduce(&frame.naive()?, width, height, factor, layout::naive_light_coverage_channel_names())
+    } else {
+        reduce(&frame.opaque()?, width, height, factor, layout::opaque_light_coverage_channel_names())
+    }
+}
+
+/// The largest factor up to [`LIGHT_COVERAGE_FACTOR`] at which `rasterizer` can draw a
+/// `width` x `height` frame (a large real-time frame may not fit the device's limits 4x over).
+pub fn coverage_factor(rasterizer: &Rasterizer, width: u32, height: u32) -> u32 {
+    (1..=LIGHT_COVERAGE_FACTOR).rev().find(|&k| rasterizer.fits(width.saturating_mul(k), height.saturating_mul(k))).unwrap_or(1)
+}
+
+/// A G-buffer at `factor` x `factor` sub-samples per pixel reduced to the light coverage of
+/// the `width` x `height` frame.
+fn reduce(fine: &PlanarImage, width: u32, height: u32, factor: u32, names: Vec<String>) -> Result<PlanarImage> {
     let ld = [0, 1, 2].map(|c| fine.plane(opaque::LD + c));
     let (w, h, k) = (width as usize, height as usize, factor as usize);
-    let mut planes = vec![0.0f32; 4 * w * h];
+    let fine_width = fine.width() as usize;
+    let mut planes = vec![0.0f32; layout::LIGHT_COVERAGE_CHANNELS * w * h];
     let share = 1.0 / (k * k) as f32;
     for y in 0..h {
         for x in 0..w {
             let (mut covered, mut light) = (0.0f32, [0.0f32; 3]);
             for sy in 0..k {
                 for sx in 0..k {
-                    let at = (y * k + sy) * fine_width as usize + x * k + sx;
+                    let at = (y * k + sy) * fine_width + x * k + sx;
                     let sample = ld.map(|plane| plane[at]);
                     if sample.iter().all(|&v| v >= 1.0) {
                         covered += share;
@@ -55,13 +102,13 @@ pub fn light_coverage(rasterizer: &mut Rasterizer, scene: &Scene, camera: &Camer
                 }
             }
             let pixel = y * w + x;
-            planes[pixel] = covered;
+            planes[layout::light_coverage::COVERAGE * w * h + pixel] = covered;
             for c in 0..3 {
-                planes[(1 + c) * w * h + pixel] = light[c];
+                planes[(layout::light_coverage::LIGHT + c) * w * h + pixel] = light[c];
             }
         }
     }
-    PlanarImage::from_planes(width, height, LIGHT_COVERAGE_CHANNELS.iter().map(|c| c.to_string()).collect(), planes)
+    PlanarImage::from_planes(width, height, names, planes)
 }
 
 /// The pixel the ground truth holds, from a pixel's light coverage and light and the value

@@ -6,6 +6,7 @@ use glassbake_core::{Camera, Error, PlanarImage, Result};
 use glassbake_scene::{Mesh, Scene};
 
 use crate::device::{self, RasterizerOptions, GBUFFER_TARGETS};
+use crate::light_coverage::LightCoverage;
 use crate::ltc;
 use crate::resources::{self, Cache, GpuMesh};
 
@@ -283,6 +284,8 @@ pub struct FrameBuffers {
     pub naive: PlanarImage,
     /// Transparency buffer k belongs to `scene.transparent_objects()[k]` (layer `transparent.k`).
     pub transparent: Vec<PlanarImage>,
+    /// How much of each pixel sees a light, for the opaque and the naive G-buffer.
+    pub light_coverage: LightCoverage,
 }
 
 impl FrameBuffers {
@@ -290,6 +293,7 @@ impl FrameBuffers {
     pub fn combined(&self) -> Result<PlanarImage> {
         let mut all: Vec<&PlanarImage> = vec![&self.opaque, &self.naive];
         all.extend(self.transparent.iter());
+        all.extend([&self.light_coverage.opaque, &self.light_coverage.naive]);
         PlanarImage::concat(&all)
     }
 }
@@ -343,6 +347,11 @@ fn small_texture(device: &wgpu::Device, queue: &wgpu::Queue, format: wgpu::Textu
         .create_view(&wgpu::TextureViewDescriptor::default())
 }
 
+/// Bytes of the one buffer all G-buffer targets are read back through.
+fn readback_bytes(width: u32, height: u32) -> u64 {
+    padded_row_bytes(width) * height as u64 * GBUFFER_TARGETS as u64
+}
+
 fn mat4_cols(m: Mat4) -> [[f32; 4]; 4] {
     m.to_cols_array_2d()
 }
@@ -352,6 +361,13 @@ impl Rasterizer {
     pub fn new(options: RasterizerOptions) -> Result<Rasterizer> {
         let (instance, adapter, device, queue) = device::open(&options)?;
         Rasterizer::from_device(instance, adapter, device, queue, options)
+    }
+
+    /// Another rasterizer on this one's device, with targets of its own: a caller that draws
+    /// frames of two sizes in turn (the real-time frame and its light coverage's finer one)
+    /// keeps each one's targets instead of reallocating them every frame.
+    pub fn sibling(&self) -> Result<Rasterizer> {
+        Rasterizer::from_device(self.instance.clone(), self.adapter.clone(), self.device.clone(), self.queue.clone(), self.options.clone())
     }
 
     /// Build the rasterizer on a device opened elsewhere (e.g. by the network's wgpu backend,
@@ -557,14 +573,23 @@ impl Rasterizer {
         self.cache.clear();
     }
 
-    /// Render everything of a frame at once: opaque and naive G-buffers and every
-    /// transparency buffer.
+    /// Render everything of a frame at once: opaque and naive G-buffers, every transparency
+    /// buffer, and the G-buffers' light coverage (at [`crate::light_coverage::coverage_factor`]).
     pub fn render(&mut self, scene: &Scene, camera: &Camera, width: u32, height: u32) -> Result<FrameBuffers> {
         let mut frame = self.begin_frame(scene, camera, width, height)?;
         let opaque = frame.opaque()?;
         let naive = frame.naive()?;
         let transparent = (0..frame.transparent_count()).map(|k| frame.transparent(k)).collect::<Result<Vec<_>>>()?;
-        Ok(FrameBuffers { opaque, naive, transparent })
+        drop(frame);
+        let factor = crate::light_coverage::coverage_factor(self, width, height);
+        let light_coverage = crate::light_coverage::light_coverage(self, scene, camera, width, height, factor)?;
+        Ok(FrameBuffers { opaque, naive, transparent, light_coverage })
+    }
+
+    /// Whether a `width` x `height` frame is within what this rasterizer can draw.
+    pub fn fits(&self, width: u32, height: u32) -> bool {
+        let max = MAX_RESOLUTION.min(self.device.limits().max_texture_dimension_2d);
+        width >= 1 && height >= 1 && width <= max && height <= max && readback_bytes(width, height) <= self.device.limits().max_buffer_size
     }
 
     fn check_resolution(&self, scene: &Scene, width: u32, height: u32) -> Result<()> {
@@ -575,7 +600,7 @@ impl Rasterizer {
             }
         }
         // All G-buffer targets are read back through one buffer, which the device must allow.
-        let readback_bytes = padded_row_bytes(width) * height as u64 * GBUFFER_TARGETS as u64;
+        let readback_bytes = readback_bytes(width, height);
         let limit = self.device.limits().max_buffer_size;
         if readback_bytes > limit {
             return Err(Error::bad_input(

@@ -56,7 +56,10 @@ fn coverage_is_the_share_of_the_pixel_a_light_covers() {
         .map(|(a, b)| cam.project(centre + u * a + v * b, W, H).map(|(px, py)| Vec2::new(px, py)).expect("in front of the camera"));
 
     let mut r = rasterizer();
-    let image = light_coverage(&mut r, &scene, &cam, W, H, FACTOR).unwrap();
+    let both = light_coverage(&mut r, &scene, &cam, W, H, FACTOR).unwrap();
+    // No glass: the naive G-buffer sees what the opaque one sees.
+    assert_eq!(both.opaque.data(), both.naive.data());
+    let image = both.opaque;
     let (coverage, light) = (image.plane(0), [image.plane(1), image.plane(2), image.plane(3)]);
     let (mut total, mut exact_total, mut edge_pixels, mut edge_error) = (0.0, 0.0, 0, 0.0);
     for y in 0..H {
@@ -107,4 +110,41 @@ fn a_factor_of_zero_is_refused() {
     let cam = camera(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 50.0);
     let err = light_coverage(&mut rasterizer(), &scene, &cam, W, H, 0).unwrap_err().to_string();
     assert!(err.contains("factor"), "{err}");
+}
+
+#[test]
+fn glass_in_front_of_a_light_hides_it_from_the_naive_coverage_only() {
+    let mut scene = empty_scene("light behind glass");
+    add_quads(
+        &mut scene,
+        &[
+            Quad { centre: Vec3::new(0.0, 0.0, -1.0), u: Vec3::X * 10.0, v: Vec3::Y * 10.0, albedo: Vec3::splat(0.5), roughness: 1.0, transparent: false },
+            Quad { centre: Vec3::ZERO, u: Vec3::X, v: Vec3::Y, albedo: Vec3::splat(0.5), roughness: 1.0, transparent: false },
+            // Glass over the light's left half.
+            Quad { centre: Vec3::new(-0.5, 0.0, 0.5), u: Vec3::X, v: Vec3::Y * 2.0, albedo: Vec3::splat(0.9), roughness: 0.0, transparent: true },
+        ],
+    );
+    scene.materials[1].emission = EMISSION;
+    let cam = camera(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 50.0);
+    let buffers = rasterizer().render(&scene, &cam, W, H).unwrap();
+    let (opaque, naive) = (buffers.light_coverage.opaque.plane(0), buffers.light_coverage.naive.plane(0));
+    let glass = buffers.transparent[0].plane(glassbake_core::layout::transparent::COVERAGE);
+    let near = |x: u32, y: u32, want: f32| {
+        (y.saturating_sub(1)..(y + 2).min(H)).all(|ny| (x.saturating_sub(1)..(x + 2).min(W)).all(|nx| glass[(ny * W + nx) as usize] == want))
+    };
+    let (mut hidden, mut open) = (0, 0);
+    for y in 0..H {
+        for x in 0..W {
+            let i = (y * W + x) as usize;
+            if near(x, y, 1.0) && opaque[i] == 1.0 {
+                assert_eq!(naive[i], 0.0, "pixel ({x}, {y}): the glass hides the light from the naive G-buffer");
+                hidden += 1;
+            }
+            if near(x, y, 0.0) {
+                assert_eq!(naive[i], opaque[i], "pixel ({x}, {y}): no glass, both G-buffers see the same light");
+                open += (opaque[i] > 0.0) as usize;
+            }
+        }
+    }
+    assert!(hidden > 10 && open > 10, "{hidden} pixels of light behind glass, {open} in the open");
 }

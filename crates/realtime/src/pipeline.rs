@@ -15,6 +15,7 @@ use glassbake_net::batch::image_from_tensor;
 use glassbake_net::burn::prelude::*;
 use glassbake_net::burn::tensor::TensorData;
 use glassbake_net::{TrainedModel, TrainedSuperSampler};
+use glassbake_raster::light_coverage::{coverage_factor, light_coverage_of};
 use glassbake_raster::{Rasterizer, RasterizerOptions};
 use glassbake_scene::Scene;
 
@@ -47,6 +48,9 @@ pub struct FramePipeline {
     pub naive: Option<TrainedModel>,
     pub super_sampler: Option<TrainedSuperSampler>,
     rasterizer: Rasterizer,
+    /// Draws the light coverage's finer frame on the same device, so neither rasterizer
+    /// reallocates its targets every frame.
+    coverage_rasterizer: Rasterizer,
     /// The one host buffer transparency buffers are read back into.
     planes: Vec<f32>,
     /// GlassNet's inputs are written by the rasterizer straight into tensors on the shared
@@ -91,7 +95,8 @@ impl FramePipeline {
                 return Err(Error::bad_input(n.files.dir.display(), "network", "is not a baseline on the naive G-buffer (naive or pixelgen)"));
             }
         }
-        Ok(FramePipeline { scene, glassnet, naive, super_sampler, rasterizer, planes: Vec::new(), zero_copy })
+        let coverage_rasterizer = rasterizer.sibling()?;
+        Ok(FramePipeline { scene, glassnet, naive, super_sampler, rasterizer, coverage_rasterizer, planes: Vec::new(), zero_copy })
     }
 
     /// Whether frame data stays on the GPU between the rasterizer and the network.
@@ -103,6 +108,7 @@ impl FramePipeline {
     pub fn set_scene(&mut self, scene: Scene) {
         self.scene = scene;
         self.rasterizer.clear_cache();
+        self.coverage_rasterizer.clear_cache();
     }
 
     pub fn adapter_name(&self) -> String {
@@ -136,6 +142,14 @@ impl FramePipeline {
                 model.net.check_inputs(lw as usize, lh as usize, if naive { 0 } else { instance.transparent_count() })?;
                 let device = model.device.clone();
                 let raster_start = Instant::now();
+                let light_coverage = if model.config().light_coverage {
+                    let factor = coverage_factor(&self.coverage_rasterizer, lw, lh);
+                    let image = light_coverage_of(&mut self.coverage_rasterizer, &instance, camera, lw, lh, factor, naive)?;
+                    let shape = [1, layout::LIGHT_COVERAGE_CHANNELS, lh as usize, lw as usize];
+                    Some(Tensor::<4>::from_data(TensorData::new(image.data().to_vec(), shape), &device))
+                } else {
+                    None
+                };
                 let zero_copy = self.zero_copy && !naive;
                 let mut frame = self.rasterizer.begin_frame(&instance, camera, lw, lh)?;
                 let (h, w) = (lh as usize, lw as usize);
@@ -155,7 +169,7 @@ impl FramePipeline {
                 }
                 let mut failure = None;
                 let mut raster_ms = 0.0;
-                let prediction = model.net.forward_streaming(gbuffer, values_tensor, objects, |k| {
+                let prediction = model.net.forward_streaming(gbuffer, light_coverage, values_tensor, objects, |k| {
                     let t = Instant::now();
                     let tensor = if zero_copy {
                         crate::gpu_handover::input_tensor(&device, TRANSPARENT_CHANNELS, h, w, |buffer, offset| frame.transparent_to_buffer(k, buffer, offset))

@@ -231,19 +231,24 @@ struct DatasetData {
 fn host_batch(examples: &[Example], naive: bool, low_res: Option<&TrainedModel>) -> glassbake_core::Result<HostBatch> {
     let refs: Vec<FrameRef> = examples
         .iter()
-        .map(|e| FrameRef {
-            gbuffer: if naive { e.naive.as_ref().expect("the loader was asked for naive buffers") } else { &e.opaque },
-            transparent: if naive { &[] } else { &e.transparent },
-            values: &e.values,
-            ground_truth: Some(&e.ground_truth),
+        .map(|e| {
+            let (gbuffer, light_coverage) = e.gbuffer(naive);
+            FrameRef {
+                gbuffer,
+                light_coverage: Some(light_coverage),
+                transparent: if naive { &[] } else { &e.transparent },
+                values: &e.values,
+                ground_truth: Some(&e.ground_truth),
+            }
         })
         .collect();
     let mut batch = HostBatch::from_frames(&refs)?;
     if let Some(model) = low_res {
         let mut low = Vec::new();
         for e in examples {
-            let gbuffer = if model.kind().reads_naive_gbuffer() { e.naive.as_ref().expect("naive buffers") } else { &e.opaque };
-            let image = model.render_half(FrameRef { gbuffer, transparent: &e.transparent, values: &e.values, ground_truth: None })?;
+            let (gbuffer, light_coverage) = e.gbuffer(model.kind().reads_naive_gbuffer());
+            let frame = FrameRef { gbuffer, light_coverage: Some(light_coverage), transparent: &e.transparent, values: &e.values, ground_truth: None };
+            let image = model.render_half(frame)?;
             for name in glassbake_core::layout::GROUND_TRUTH_CHANNELS {
                 low.extend_from_slice(image.plane_by_name(name).expect("render writes R, G, B"));
             }
@@ -409,9 +414,9 @@ fn write_previews(files: &ModelFiles, val: &mut Loader, naive: bool, device_choi
             if written == FRAMES {
                 break;
             }
-            let gbuffer = if naive { e.naive.as_ref().expect("naive buffers") } else { &e.opaque };
+            let (gbuffer, light_coverage) = e.gbuffer(naive);
             let transparent: &[glassbake_core::PlanarImage] = if naive { &[] } else { &e.transparent };
-            let image = model.render(FrameRef { gbuffer, transparent, values: &e.values, ground_truth: None })?;
+            let image = model.render(FrameRef { gbuffer, light_coverage: Some(light_coverage), transparent, values: &e.values, ground_truth: None })?;
             let pair = side_by_side(&image, &e.ground_truth)?;
             pair.write_png_rgb(&dir.join(format!("val_{:03}.png", e.index)), [0, 1, 2])?;
             written += 1;

@@ -11,6 +11,8 @@ use rand_chacha::ChaCha8Rng;
 
 pub struct SyntheticFrame {
     pub opaque: PlanarImage,
+    /// No light is seen directly (every L_d plane lies in [0.1, 0.9]): zeros.
+    pub light_coverage: PlanarImage,
     pub transparent: Vec<PlanarImage>,
     pub values: Vec<f32>,
     pub ground_truth: PlanarImage,
@@ -51,12 +53,22 @@ pub fn frame(seed: u64, size: usize, objects: usize, variables: usize) -> Synthe
         [&gt[2 * n..], &gt[n..2 * n], &gt[..n]].concat()
     })
     .unwrap();
-    SyntheticFrame { opaque, transparent, values, ground_truth }
+    let light_coverage = PlanarImage::new(size as u32, size as u32, layout::opaque_light_coverage_channel_names());
+    SyntheticFrame { opaque, light_coverage, transparent, values, ground_truth }
+}
+
+pub fn frame_ref(f: &SyntheticFrame) -> FrameRef<'_> {
+    FrameRef {
+        gbuffer: &f.opaque,
+        light_coverage: Some(&f.light_coverage),
+        transparent: &f.transparent,
+        values: &f.values,
+        ground_truth: Some(&f.ground_truth),
+    }
 }
 
 pub fn batch(frames: &[SyntheticFrame]) -> HostBatch {
-    let refs: Vec<FrameRef> =
-        frames.iter().map(|f| FrameRef { gbuffer: &f.opaque, transparent: &f.transparent, values: &f.values, ground_truth: Some(&f.ground_truth) }).collect();
+    let refs: Vec<FrameRef> = frames.iter().map(frame_ref).collect();
     HostBatch::from_frames(&refs).unwrap()
 }
 
@@ -82,10 +94,7 @@ impl TrainingData for SyntheticData {
         let chunks: Vec<Vec<usize>> = order.chunks(self.batch_size).map(|c| c.to_vec()).collect();
         Box::new(chunks.into_iter().skip(skip).map(move |chunk| {
             let frames: Vec<&SyntheticFrame> = chunk.iter().map(|&i| &self.frames[i]).collect();
-            let refs: Vec<FrameRef> = frames
-                .iter()
-                .map(|f| FrameRef { gbuffer: &f.opaque, transparent: &f.transparent, values: &f.values, ground_truth: Some(&f.ground_truth) })
-                .collect();
+            let refs: Vec<FrameRef> = frames.iter().map(|f| frame_ref(f)).collect();
             let mut batch = HostBatch::from_frames(&refs)?;
             if poison {
                 batch.ground_truth.as_mut().unwrap()[0] = f32::NAN;
