@@ -206,13 +206,14 @@ impl GlassNet {
     /// beforehand and returns an error).
     pub fn encode_scene(&self, gbuffer: Tensor<4>, light_coverage: Option<Tensor<4>>, values: Tensor<2>) -> SceneCode {
         let f = self.scene_encoder.as_ref().expect("pixelgen has no F: use forward_streaming");
+        let (gbuffer, light_coverage) = if self.config.light_coverage {
+            let light_coverage = light_coverage.expect("a network composited with the light coverage is given the G-buffer's light coverage");
+            (with_direct_light_clamped(gbuffer), Some(light_coverage))
+        } else {
+            (gbuffer, None)
+        };
         let direct_light = gbuffer.clone().narrow(1, layout::opaque::LD, 3);
         let albedo = gbuffer.clone().narrow(1, layout::opaque::ALBEDO, 3);
-        let light_coverage = if self.config.light_coverage {
-            Some(light_coverage.expect("a network composited with the light coverage is given the G-buffer's light coverage"))
-        } else {
-            None
-        };
         SceneCode { sigma: f.forward(self.encoded_inputs(gbuffer, values)), direct_light, albedo, light_coverage }
     }
 
@@ -382,6 +383,16 @@ fn glass_direct(buffer: &Tensor<4>) -> Tensor<4> {
     let light = buffer.clone().narrow(1, layout::transparent::LD, GLASS_LIGHT_CHANNELS);
     let log_tint = buffer.clone().narrow(1, layout::transparent::ALBEDO, 3).clamp(DARKEST_TINT, 1.0).log();
     Tensor::cat(vec![light, log_tint], 1) * coverage
+}
+
+/// The G-buffer with its L_d clamped to [0, 1]. With the light coverage the lights come from
+/// the composite; what the network reads of them is that they are at least white. An
+/// emitter's own radiance (17 in cornellbox), Fourier-encoded, is noise to the convolutions
+/// around it, which drew a dark, coloured rim around every light seen.
+fn with_direct_light_clamped(gbuffer: Tensor<4>) -> Tensor<4> {
+    const { assert!(layout::opaque::LD + 3 == layout::OPAQUE_CHANNELS) };
+    let direct_light = gbuffer.clone().narrow(1, layout::opaque::LD, 3).clamp(0.0, 1.0);
+    Tensor::cat(vec![gbuffer.narrow(1, 0, layout::opaque::LD), direct_light], 1)
 }
 
 /// `light + (1 - covered) image`: the pixel the ground truth holds when a share `covered` of

@@ -555,6 +555,35 @@ fn the_light_coverage_is_composited_over_the_image() {
     }
 }
 
+/// With the light coverage the network reads L_d clamped to 1: an emitter of 5 and one of 50
+/// give the same image (the composite's light comes from the coverage, not from L_d).
+#[test]
+fn with_the_light_coverage_direct_light_above_one_reads_as_one() {
+    use glassbake_core::layout::opaque::LD;
+    let device = Device::flex();
+    let size = 16;
+    let frames = vec![common::frame(82, size, 2, 1)];
+    let inputs = common::batch(&frames).inputs(&device);
+    let with_emitter = |radiance: f32| {
+        let mut gbuffer = values(inputs.gbuffer.clone());
+        for c in 0..3 {
+            for x in 4..9 {
+                gbuffer[(LD + c) * size * size + 3 * size + x] = radiance;
+            }
+        }
+        NetInputs { gbuffer: Tensor::from_data(TensorData::new(gbuffer, inputs.gbuffer.dims()), &device), ..inputs.clone() }
+    };
+    for kind in [ModelKind::Glassnet, ModelKind::Naive] {
+        let config = NetConfig::preset("tiny", kind, 1, 2).unwrap();
+        assert!(config.light_coverage);
+        let net = random_net(&config, 6, &device);
+        assert_eq!(bits(net.forward(&with_emitter(5.0))), bits(net.forward(&with_emitter(50.0))), "{kind:?}");
+        // Without the light coverage the radiance is read as it is.
+        let plain = random_net(&NetConfig { light_coverage: false, ..config }, 6, &device);
+        assert_ne!(bits(plain.forward(&with_emitter(5.0))), bits(plain.forward(&with_emitter(50.0))), "{kind:?}");
+    }
+}
+
 /// `.ci/run` sets GLASSBAKE_TEST_RESOURCES=required after installing what the tests need:
 /// there a test must not skip for want of it.
 fn resources_required() -> bool {
