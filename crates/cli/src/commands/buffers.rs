@@ -33,7 +33,8 @@ pub struct BuffersArgs {
     /// Image side in pixels (square images).
     #[arg(long, default_value_t = 256)]
     pub res: u32,
-    /// The EXR file to write (layers opaque, naive, transparent.K).
+    /// The EXR file to write (layers opaque, naive, transparent.K, and the light coverage of the
+    /// opaque and naive G-buffers, opaque_light and naive_light).
     #[arg(long)]
     pub out: PathBuf,
     /// Write half floats instead of 32-bit floats.

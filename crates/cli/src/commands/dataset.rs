@@ -36,7 +36,7 @@ enum DatasetCommand {
     /// it with the checksum recorded when it was written; exits 2 naming any damaged frame.
     Info { dir: PathBuf },
     /// Bring a dataset made by an older glassbake to today's format in place: the ground
-    /// truth is kept, the cached buffers are rasterized again (seconds, not hours).
+    /// truth is kept, the cached buffers are rasterized again (minutes, not hours).
     Upgrade {
         dir: PathBuf,
         /// The scene it was made from (default: the one its manifest names).
