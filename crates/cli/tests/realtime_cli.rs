@@ -58,6 +58,14 @@ fn render_and_bench() {
     ]);
     assert_eq!(code, 0, "{err}");
 
+    // A coarser light coverage for a faster frame; more samples than the datasets hold, refused.
+    let coarse = dir.path().join("coarse.png");
+    let (code, _, err) = glassbake(&["render", path(&model), "--sample", "3", "--res", "48", "--light-coverage-samples", "1", "--out", path(&coarse)]);
+    assert_eq!(code, 0, "{err}");
+    let (code, _, err) = glassbake(&["render", path(&model), "--sample", "3", "--res", "48", "--light-coverage-samples", "5", "--out", path(&coarse)]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("light-coverage-samples"), "{err}");
+
     let (code, _, err) =
         glassbake(&["render", path(&model), "--sample", "0", "--output", "opaque.nothing", "--res", "32", "--out", path(&dir.path().join("x.png"))]);
     assert_eq!(code, 2, "{err}");

@@ -15,7 +15,7 @@ use glassbake_net::batch::image_from_tensor;
 use glassbake_net::burn::prelude::*;
 use glassbake_net::burn::tensor::TensorData;
 use glassbake_net::{TrainedModel, TrainedSuperSampler};
-use glassbake_raster::light_coverage::{coverage_factor, light_coverage_of};
+use glassbake_raster::light_coverage::{coverage_factor, light_coverage_of, LIGHT_COVERAGE_FACTOR};
 use glassbake_raster::{Rasterizer, RasterizerOptions};
 use glassbake_scene::Scene;
 
@@ -47,6 +47,9 @@ pub struct FramePipeline {
     pub glassnet: TrainedModel,
     pub naive: Option<TrainedModel>,
     pub super_sampler: Option<TrainedSuperSampler>,
+    /// Samples per pixel side of the light coverage (for models with it): the datasets'
+    /// `LIGHT_COVERAGE_FACTOR` unless a faster, coarser frame is asked for.
+    pub light_coverage_factor: u32,
     rasterizer: Rasterizer,
     /// Draws the light coverage's finer frame on the same device, so neither rasterizer
     /// reallocates its targets every frame.
@@ -96,7 +99,17 @@ impl FramePipeline {
             }
         }
         let coverage_rasterizer = rasterizer.sibling()?;
-        Ok(FramePipeline { scene, glassnet, naive, super_sampler, rasterizer, coverage_rasterizer, planes: Vec::new(), zero_copy })
+        Ok(FramePipeline {
+            scene,
+            glassnet,
+            naive,
+            super_sampler,
+            light_coverage_factor: LIGHT_COVERAGE_FACTOR,
+            rasterizer,
+            coverage_rasterizer,
+            planes: Vec::new(),
+            zero_copy,
+        })
     }
 
     /// Whether frame data stays on the GPU between the rasterizer and the network.
@@ -143,7 +156,7 @@ impl FramePipeline {
                 let device = model.device.clone();
                 let raster_start = Instant::now();
                 let light_coverage = if model.config().light_coverage {
-                    let factor = coverage_factor(&self.coverage_rasterizer, lw, lh);
+                    let factor = coverage_factor(&self.coverage_rasterizer, lw, lh).min(self.light_coverage_factor.max(1));
                     let image = light_coverage_of(&mut self.coverage_rasterizer, &instance, camera, lw, lh, factor, naive)?;
                     let shape = [1, layout::LIGHT_COVERAGE_CHANNELS, lh as usize, lw as usize];
                     Some(Tensor::<4>::from_data(TensorData::new(image.data().to_vec(), shape), &device))

@@ -42,6 +42,11 @@ pub struct PipelineArgs {
     /// comparison).
     #[arg(long)]
     pub host_copy: bool,
+    /// Samples per pixel side for the lights' coverage of each pixel, for models trained with
+    /// it: 4, as the datasets hold it, or fewer for a faster frame (the 4x4 pass is most of a
+    /// CPU frame's rasterizing); 1 samples each pixel's centre, lights drawn whole pixels at a time.
+    #[arg(long, default_value_t = glassbake_raster::light_coverage::LIGHT_COVERAGE_FACTOR, value_parser = clap::value_parser!(u32).range(1..=4))]
+    pub light_coverage_samples: u32,
 }
 
 struct Opened {
@@ -61,13 +66,14 @@ fn open(args: &PipelineArgs) -> Result<Opened> {
     let scene = scene_of_model(&glassnet, args.scene.as_deref())?;
     let naive = args.naive.as_deref().map(|d| TrainedModel::load(d, &device)).transpose()?;
     let sr = args.sr.as_deref().map(|d| TrainedSuperSampler::load(d, &device)).transpose()?;
-    let (pipeline, name) = match shared {
+    let (mut pipeline, name) = match shared {
         Some(s) => (FramePipeline::with_rasterizer(scene.scene, glassnet, naive, sr, s.rasterizer, true)?, "wgpu, shared with the rasterizer (no host copies)"),
         None => (
             FramePipeline::new(scene.scene, glassnet, naive, sr, RasterizerOptions::default())?,
             if choice == DeviceChoice::Wgpu { "wgpu, buffers through host memory" } else { choice.name() },
         ),
     };
+    pipeline.light_coverage_factor = args.light_coverage_samples;
     Ok(Opened { pipeline, dataset_seed: scene.dataset_seed, device: name.to_string() })
 }
 
