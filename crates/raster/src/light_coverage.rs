@@ -4,13 +4,14 @@
 //! rays across the pixel), and a light is so much brighter than 1 that a pixel it covers by a
 //! few percent is white after the tone map's clamp. The G-buffer samples only the pixel's
 //! centre, so at a light's edge nothing tells a network how much of the pixel the light covers:
-//! in the default cornellbox bake that one-pixel ring (0.5% of the pixels) holds 87% of
-//! GlassNet's squared error over the whole frame (docs/benchmarks.md).
+//! in the default cornellbox bake that one-pixel ring (0.5% of the pixels) held 87% of
+//! GlassNet's squared error over the whole frame before the networks were given the coverage
+//! (docs/history/benchmarks-2026-11.md).
 //!
-//! [`light_coverage`] rasterizes the opaque G-buffer at `factor` x `factor` the resolution and
-//! reduces it per pixel: `coverage` is the share of sub-samples whose L_d alone reaches 1 in
-//! every channel (a light seen directly, or a surface lit so strongly that the clamp makes it
-//! white: the rule by which GlassNet already saturates whole pixels), and `light` the L_d of
+//! [`light_coverage`] rasterizes the opaque and naive G-buffers at `factor` x `factor` the
+//! resolution and reduces each per pixel: `coverage` is the share of sub-samples whose L_d
+//! alone reaches 1 in every channel (a light seen directly, or a surface lit so strongly that
+//! the clamp makes it white), and `light` the L_d of
 //! those sub-samples summed and divided by all `factor^2`. An image p of everything else then
 //! becomes [`composite`]: min(1, light + (1 - coverage) p), the box-filtered pixel the ground
 //! truth holds.
