@@ -85,7 +85,7 @@ impl HalfResolution {
         let gbuffer = frame.gbuffer;
         let low_seconds = started.elapsed().as_secs_f64();
         let started = Instant::now();
-        let super_sampled = RgbImage::from_planar(&self.sampler.upsample(&low, gbuffer)?)?;
+        let super_sampled = RgbImage::from_planar(&self.sampler.upsample(&low, gbuffer, frame.light_coverage)?)?;
         let super_sampled_seconds = low_seconds + started.elapsed().as_secs_f64();
         let started = Instant::now();
         let bilinear = RgbImage::from_planar(&low)?.bilinear_x2();

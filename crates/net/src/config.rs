@@ -488,6 +488,12 @@ pub struct SuperSamplerConfig {
     pub preset: String,
     pub encoding_frequencies: usize,
     pub network: CnnConfig,
+    /// Whether the full-resolution image is composited with the full-resolution G-buffer's
+    /// light coverage, as GlassNet's is ([`NetConfig::light_coverage`]): without it the
+    /// lights' edges at twice GlassNet's resolution are the super-sampler's to draw, and it
+    /// drew them with a dark, coloured rim. False in configs saved before this existed.
+    #[serde(default)]
+    pub light_coverage: bool,
 }
 
 impl SuperSamplerConfig {
@@ -498,6 +504,11 @@ impl SuperSamplerConfig {
             "paper" => (4, 32, 4),
             other => return Err(Error::bad_input("--preset", "preset", format!("unknown preset {other:?}; the presets are tiny, quick, paper"))),
         };
-        Ok(SuperSamplerConfig { preset: name.into(), encoding_frequencies: frequencies, network: CnnConfig { width, layers, out_channels: 3 } })
+        Ok(SuperSamplerConfig {
+            preset: name.into(),
+            encoding_frequencies: frequencies,
+            network: CnnConfig { width, layers, out_channels: 3 },
+            light_coverage: true,
+        })
     }
 }

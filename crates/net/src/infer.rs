@@ -125,9 +125,13 @@ impl TrainedSuperSampler {
     }
 
     /// Brings `low` (R, G, B at half the size of `gbuffer`, as [`TrainedModel::render`] gives
-    /// it) up to the size of `gbuffer`, the opaque G-buffer at full resolution; clamped to
+    /// it) up to the size of `gbuffer`, the opaque G-buffer at full resolution, composited
+    /// with `light_coverage` (the G-buffer's) for a super-sampler trained with it; clamped to
     /// [0, 1] as `render` is.
-    pub fn upsample(&self, low: &PlanarImage, gbuffer: &PlanarImage) -> Result<PlanarImage> {
+    pub fn upsample(&self, low: &PlanarImage, gbuffer: &PlanarImage, light_coverage: Option<&PlanarImage>) -> Result<PlanarImage> {
+        if self.net.config.light_coverage && light_coverage.is_none() {
+            return Err(Error::Internal(format!("{} is composited with the light coverage, and the frame has none", self.files.dir.display())));
+        }
         let (w, h) = (gbuffer.width() as usize, gbuffer.height() as usize);
         if low.width() as usize * 2 != w || low.height() as usize * 2 != h {
             return Err(Error::Internal(format!(
@@ -141,7 +145,8 @@ impl TrainedSuperSampler {
             planes.extend_from_slice(low.plane_by_name(name).ok_or_else(|| Error::Internal(format!("low-resolution image without channel {name}")))?);
         }
         let low = Tensor::from_data(TensorData::new(planes, [1, 3, h / 2, w / 2]), &self.device);
-        let batch = HostBatch::from_frames(&[FrameRef { gbuffer, light_coverage: None, transparent: &[], values: &[], ground_truth: None }])?;
-        image_from_tensor(&self.net.forward(low, batch.gbuffer_tensor(&self.device)).clamp(0.0, 1.0), 0)
+        let batch = HostBatch::from_frames(&[FrameRef { gbuffer, light_coverage, transparent: &[], values: &[], ground_truth: None }])?;
+        let image = self.net.forward(low, batch.gbuffer_tensor(&self.device), batch.light_coverage_tensor(&self.device));
+        image_from_tensor(&image.clamp(0.0, 1.0), 0)
     }
 }

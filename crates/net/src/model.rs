@@ -400,7 +400,7 @@ fn with_direct_light_clamped(gbuffer: Tensor<4>) -> Tensor<4> {
 /// it sees `light` (summed over that share) and the rest `image`. Where a light is seen it is
 /// clamped to 1, the tone map's white: the loss compares with the clamped truth and must not
 /// push the rest of the pixel down to make up for a light brighter than white.
-fn composite_light(image: Tensor<4>, covered: Tensor<4>, light: Tensor<4>) -> Tensor<4> {
+pub(crate) fn composite_light(image: Tensor<4>, covered: Tensor<4>, light: Tensor<4>) -> Tensor<4> {
     let [n, c, h, w] = image.dims();
     let lit = covered.clone().greater_elem(0.0).expand([n, c, h, w]);
     let composite = light + image * covered.neg().add_scalar(1.0).expand([n, c, h, w]);

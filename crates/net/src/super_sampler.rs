@@ -7,7 +7,7 @@
 use burn::prelude::*;
 use burn::tensor::TensorData;
 
-use glassbake_core::layout::OPAQUE_CHANNELS;
+use glassbake_core::layout::{self, OPAQUE_CHANNELS};
 use glassbake_core::{Error, PlanarImage, Result};
 
 use crate::batch::HostBatch;
@@ -57,10 +57,18 @@ impl SuperSampler {
     }
 
     /// `low`: [N, 3, H, W] tone-mapped image; `gbuffer`: [N, 17, 2H, 2W] -> [N, 3, 2H, 2W].
-    pub fn forward(&self, low: Tensor<4>, gbuffer: Tensor<4>) -> Tensor<4> {
+    /// `light_coverage`: [N, 4, 2H, 2W], the G-buffer's, which a super-sampler with
+    /// [`SuperSamplerConfig::light_coverage`] composites over its image (and panics without).
+    pub fn forward(&self, low: Tensor<4>, gbuffer: Tensor<4>, light_coverage: Option<Tensor<4>>) -> Tensor<4> {
         let up = upsample_nearest2(low);
         let encoded = positional_encoding(gbuffer, self.config.encoding_frequencies);
-        up.clone() + self.network.forward(Tensor::cat(vec![up, encoded], 1))
+        let image = up.clone() + self.network.forward(Tensor::cat(vec![up, encoded], 1));
+        if !self.config.light_coverage {
+            return image;
+        }
+        let coverage = light_coverage.expect("a super-sampler composited with the light coverage is given the G-buffer's light coverage").detach();
+        let covered = coverage.clone().narrow(1, layout::light_coverage::COVERAGE, 1);
+        crate::model::composite_light(image, covered, coverage.narrow(1, layout::light_coverage::LIGHT, 3))
     }
 }
 
@@ -68,7 +76,7 @@ impl Trainable for SuperSampler {
     fn predict(&self, batch: &HostBatch, device: &Device) -> Tensor<4> {
         let low = batch.low_res_image.as_ref().expect("super-sampler batches carry the low-resolution image");
         let low = Tensor::from_data(TensorData::new(low.clone(), [batch.frames, 3, batch.height / 2, batch.width / 2]), device);
-        self.forward(low, batch.gbuffer_tensor(device))
+        self.forward(low, batch.gbuffer_tensor(device), batch.light_coverage_tensor(device))
     }
 
     fn target(&self, batch: &HostBatch, device: &Device) -> Result<Tensor<4>> {

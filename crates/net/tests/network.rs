@@ -555,6 +555,44 @@ fn the_light_coverage_is_composited_over_the_image() {
     }
 }
 
+/// The super-sampler composites the full-resolution light coverage over its image as GlassNet
+/// does: min(1, light + (1 - coverage) x its image) where a light is seen, its image elsewhere.
+#[test]
+fn the_super_sampler_composites_the_light_coverage_at_full_resolution() {
+    use glassbake_net::{SuperSampler, SuperSamplerConfig};
+    let device = Device::flex();
+    let size = 8;
+    let low = Tensor::<4>::random([1, 3, size / 2, size / 2], burn::tensor::Distribution::Uniform(0.0, 1.0), &device);
+    let gbuffer = Tensor::<4>::random([1, 17, size, size], burn::tensor::Distribution::Uniform(0.0, 1.0), &device);
+    let mut coverage = vec![0.0f32; 4 * size * size];
+    let lit = [(1usize, 2usize, 1.0f32, 3.0f32), (5, 5, 0.25, 0.4), (6, 1, 0.0625, 20.0)];
+    for &(y, x, covered, light) in &lit {
+        coverage[y * size + x] = covered;
+        for c in 1..4 {
+            coverage[c * size * size + y * size + x] = light;
+        }
+    }
+    let coverage = Tensor::<4>::from_data(TensorData::new(coverage, [1, 4, size, size]), &device);
+    let plain_config = SuperSamplerConfig { light_coverage: false, ..SuperSamplerConfig::preset("tiny").unwrap() };
+    let plain = values(SuperSampler::new(&plain_config, 3, &device).forward(low.clone(), gbuffer.clone(), None));
+    let composited_config = SuperSamplerConfig { light_coverage: true, ..plain_config };
+    let composited = values(SuperSampler::new(&composited_config, 3, &device).forward(low, gbuffer, Some(coverage)));
+    for c in 0..3 {
+        for y in 0..size {
+            for x in 0..size {
+                let i = c * size * size + y * size + x;
+                match lit.iter().find(|l| (l.0, l.1) == (y, x)) {
+                    Some(&(_, _, covered, light)) => {
+                        let want = (light + (1.0 - covered) * plain[i]).min(1.0);
+                        assert!((composited[i] - want).abs() < 1e-6, "pixel ({x}, {y}) channel {c}: {} vs {want}", composited[i]);
+                    }
+                    None => assert_eq!(composited[i].to_bits(), plain[i].to_bits(), "pixel ({x}, {y}) channel {c}"),
+                }
+            }
+        }
+    }
+}
+
 /// With the light coverage the network reads L_d clamped to 1: an emitter of 5 and one of 50
 /// give the same image (the composite's light comes from the coverage, not from L_d).
 #[test]

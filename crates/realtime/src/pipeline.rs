@@ -14,6 +14,7 @@ use glassbake_core::{Camera, Error, PlanarImage, Result};
 use glassbake_net::batch::image_from_tensor;
 use glassbake_net::burn::prelude::*;
 use glassbake_net::burn::tensor::TensorData;
+use glassbake_net::super_sampler::downsample_box2;
 use glassbake_net::{TrainedModel, TrainedSuperSampler};
 use glassbake_raster::light_coverage::{coverage_factor, light_coverage_of, LIGHT_COVERAGE_FACTOR};
 use glassbake_raster::{Rasterizer, RasterizerOptions};
@@ -155,13 +156,23 @@ impl FramePipeline {
                 model.net.check_inputs(lw as usize, lh as usize, if naive { 0 } else { instance.transparent_count() })?;
                 let device = model.device.clone();
                 let raster_start = Instant::now();
-                let light_coverage = if model.config().light_coverage {
-                    let factor = coverage_factor(&self.coverage_rasterizer, lw, lh).min(self.light_coverage_factor.max(1));
-                    let image = light_coverage_of(&mut self.coverage_rasterizer, &instance, camera, lw, lh, factor, naive)?;
-                    let shape = [1, layout::LIGHT_COVERAGE_CHANNELS, lh as usize, lw as usize];
-                    Some(Tensor::<4>::from_data(TensorData::new(image.data().to_vec(), shape), &device))
+                // With the super-sampler the coverage is drawn at the full resolution it composites
+                // at, and 2x2-averaged for the network, as train-sr and eval do.
+                let sampler_coverage = self.super_sampler.as_ref().is_some_and(|s| s.net.config.light_coverage);
+                let coverage = if model.config().light_coverage || sampler_coverage {
+                    let (cw, ch) = if sr { (width, height) } else { (lw, lh) };
+                    let factor = coverage_factor(&self.coverage_rasterizer, cw, ch).min(self.light_coverage_factor.max(1));
+                    Some(light_coverage_of(&mut self.coverage_rasterizer, &instance, camera, cw, ch, factor, naive)?)
                 } else {
                     None
+                };
+                let coverage_tensor = |image: &PlanarImage, device: &Device| {
+                    let shape = [1, layout::LIGHT_COVERAGE_CHANNELS, image.height() as usize, image.width() as usize];
+                    Tensor::<4>::from_data(TensorData::new(image.data().to_vec(), shape), device)
+                };
+                let light_coverage = match &coverage {
+                    Some(image) if model.config().light_coverage => Some(coverage_tensor(&if sr { downsample_box2(image)? } else { image.clone() }, &device)),
+                    _ => None,
                 };
                 let zero_copy = self.zero_copy && !naive;
                 let mut frame = self.rasterizer.begin_frame(&instance, camera, lw, lh)?;
@@ -218,7 +229,8 @@ impl FramePipeline {
                     drop(full);
                     times.raster_ms += ms(t);
                     let low = prediction.to_device(&sampler.device);
-                    prediction = sampler.net.forward(low, gbuffer).clamp(0.0, 1.0);
+                    let light_coverage = coverage.as_ref().filter(|_| sampler_coverage).map(|image| coverage_tensor(image, &sampler.device));
+                    prediction = sampler.net.forward(low, gbuffer, light_coverage).clamp(0.0, 1.0);
                 }
                 image_from_tensor(&prediction, 0)?
             }
