@@ -39,7 +39,7 @@ pub struct CommonTrainArgs {
     /// Override the preset's learning rate.
     #[arg(long)]
     pub lr: Option<f64>,
-    /// Train on random square crops of this side (whole frames by default).
+    /// Train on random square crops of this side (default: the preset's, 32 px crops for quick, whole frames for tiny and paper).
     #[arg(long)]
     pub crop: Option<u32>,
     #[arg(long)]
