@@ -275,13 +275,7 @@ impl GlassNet {
     /// ([`NetConfig::light_coverage`]) or saturated ([`NetConfig::saturate_direct_light`]).
     fn finish(&self, image: Tensor<4>, scene: &SceneCode, transmittance: Option<Tensor<4>>) -> Tensor<4> {
         if let Some(coverage) = &scene.light_coverage {
-            let covered = coverage.clone().detach().narrow(1, layout::light_coverage::COVERAGE, 1);
-            let light = coverage.clone().detach().narrow(1, layout::light_coverage::LIGHT, 3);
-            let light = match transmittance {
-                Some(t) => light * t,
-                None => light,
-            };
-            return composite_light(image, covered, light);
+            return composite_light(image, coverage.clone(), transmittance);
         }
         let direct_light = match transmittance {
             Some(t) => scene.direct_light.clone() * t,
@@ -396,11 +390,20 @@ fn with_direct_light_clamped(gbuffer: Tensor<4>) -> Tensor<4> {
     Tensor::cat(vec![gbuffer.narrow(1, 0, layout::opaque::LD), direct_light], 1)
 }
 
-/// `light + (1 - covered) image`: the pixel the ground truth holds when a share `covered` of
-/// it sees `light` (summed over that share) and the rest `image`. Where a light is seen it is
-/// clamped to 1, the tone map's white: the loss compares with the clamped truth and must not
-/// push the rest of the pixel down to make up for a light brighter than white.
-pub(crate) fn composite_light(image: Tensor<4>, covered: Tensor<4>, light: Tensor<4>) -> Tensor<4> {
+/// `light x t + (1 - covered) image`, from a light coverage [N, 4, H, W]
+/// (`layout::LIGHT_COVERAGE_ATTRIBUTES`) and the `transmittance` t of the glass in front (1
+/// without): the pixel the ground truth holds when a share `covered` of it sees `light` (summed
+/// over that share) and the rest `image`. Where a light is seen it is clamped to 1, the tone
+/// map's white: the loss compares with the clamped truth and must not push the rest of the
+/// pixel down to make up for a light brighter than white. No gradient reaches the coverage.
+pub(crate) fn composite_light(image: Tensor<4>, light_coverage: Tensor<4>, transmittance: Option<Tensor<4>>) -> Tensor<4> {
+    let light_coverage = light_coverage.detach();
+    let covered = light_coverage.clone().narrow(1, layout::light_coverage::COVERAGE, 1);
+    let light = light_coverage.narrow(1, layout::light_coverage::LIGHT, 3);
+    let light = match transmittance {
+        Some(t) => light * t,
+        None => light,
+    };
     let [n, c, h, w] = image.dims();
     let lit = covered.clone().greater_elem(0.0).expand([n, c, h, w]);
     let composite = light + image * covered.neg().add_scalar(1.0).expand([n, c, h, w]);

@@ -7,7 +7,7 @@
 use burn::prelude::*;
 use burn::tensor::TensorData;
 
-use glassbake_core::layout::{self, OPAQUE_CHANNELS};
+use glassbake_core::layout::OPAQUE_CHANNELS;
 use glassbake_core::{Error, PlanarImage, Result};
 
 use crate::batch::HostBatch;
@@ -66,9 +66,8 @@ impl SuperSampler {
         if !self.config.light_coverage {
             return image;
         }
-        let coverage = light_coverage.expect("a super-sampler composited with the light coverage is given the G-buffer's light coverage").detach();
-        let covered = coverage.clone().narrow(1, layout::light_coverage::COVERAGE, 1);
-        crate::model::composite_light(image, covered, coverage.narrow(1, layout::light_coverage::LIGHT, 3))
+        let coverage = light_coverage.expect("a super-sampler composited with the light coverage is given the G-buffer's light coverage");
+        crate::model::composite_light(image, coverage, None)
     }
 }
 

@@ -20,7 +20,7 @@ use glassbake_core::layout::{self, opaque};
 use glassbake_core::{Camera, Error, PlanarImage, Result};
 use glassbake_scene::Scene;
 
-use crate::Rasterizer;
+use crate::{Frame, Rasterizer};
 
 /// Sub-samples per pixel side that the frame's buffers ([`Rasterizer::render`]) and the
 /// real-time frame take their light coverage from: 16 per pixel, the coverage in steps of
@@ -39,14 +39,7 @@ pub struct LightCoverage {
 /// Per pixel of a `width` x `height` frame: the share of it that sees a light, and the
 /// light seen, from the opaque and naive G-buffers rasterized at `factor` times the resolution.
 pub fn light_coverage(rasterizer: &mut Rasterizer, scene: &Scene, camera: &Camera, width: u32, height: u32, factor: u32) -> Result<LightCoverage> {
-    if factor == 0 {
-        return Err(Error::bad_input(&scene.name, "light coverage factor", "must be at least 1"));
-    }
-    let (fine_width, fine_height) = (width.checked_mul(factor), height.checked_mul(factor));
-    let (Some(fine_width), Some(fine_height)) = (fine_width, fine_height) else {
-        return Err(Error::bad_input(&scene.name, "light coverage factor", format!("{width}x{height} times {factor} overflows")));
-    };
-    let mut frame = rasterizer.begin_frame(scene, camera, fine_width, fine_height)?;
+    let mut frame = fine_frame(rasterizer, scene, camera, width, height, factor)?;
     let opaque = reduce(&frame.opaque()?, width, height, factor, layout::opaque_light_coverage_channel_names())?;
     let naive = reduce(&frame.naive()?, width, height, factor, layout::naive_light_coverage_channel_names())?;
     Ok(LightCoverage { opaque, naive })
@@ -63,14 +56,24 @@ pub fn light_coverage_of(
     factor: u32,
     naive: bool,
 ) -> Result<PlanarImage> {
-    let factor = factor.max(1);
-    let (fine_width, fine_height) = (width.saturating_mul(factor), height.saturating_mul(factor));
-    let mut frame = rasterizer.begin_frame(scene, camera, fine_width, fine_height)?;
+    let mut frame = fine_frame(rasterizer, scene, camera, width, height, factor)?;
     if naive {
         reduce(&frame.naive()?, width, height, factor, layout::naive_light_coverage_channel_names())
     } else {
         reduce(&frame.opaque()?, width, height, factor, layout::opaque_light_coverage_channel_names())
     }
+}
+
+/// The frame at `factor` x `factor` the resolution that the coverage is reduced from.
+fn fine_frame<'r>(rasterizer: &'r mut Rasterizer, scene: &Scene, camera: &Camera, width: u32, height: u32, factor: u32) -> Result<Frame<'r>> {
+    if factor == 0 {
+        return Err(Error::bad_input(&scene.name, "light coverage factor", "must be at least 1"));
+    }
+    let (fine_width, fine_height) = (width.checked_mul(factor), height.checked_mul(factor));
+    let (Some(fine_width), Some(fine_height)) = (fine_width, fine_height) else {
+        return Err(Error::bad_input(&scene.name, "light coverage factor", format!("{width}x{height} times {factor} overflows")));
+    };
+    rasterizer.begin_frame(scene, camera, fine_width, fine_height)
 }
 
 /// The largest factor up to [`LIGHT_COVERAGE_FACTOR`] at which `rasterizer` can draw a
