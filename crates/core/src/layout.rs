@@ -78,6 +78,45 @@ pub mod light_coverage {
     pub const LIGHT: usize = 1;
 }
 
+/// What the camera sees through one transparent object k, by ray casting: each pixel's camera
+/// ray refracted (Snell's law, the object's IOR) at every surface of object k it crosses, with
+/// total internal reflection followed, ignoring the other transparent objects (so each buffer
+/// still depends on its own object only, as the permutation-invariant sum needs), up to the
+/// first opaque surface or light. 14 channels (`glassbake_rays::through`):
+///
+/// - `position`, `normal` (the hit's shading normal, on the ray's side), `albedo` (textured):
+///   the surface hit, as the opaque G-buffer would describe it if the glass did not bend;
+/// - `Ld`: the direct light there, read from the opaque G-buffer where the hit is visible on
+///   screen (within 1% of its distance), a light's radiance for a light, 0 elsewhere;
+/// - `transmittance`: the share the Fresnel equations let through along the path (1 - F at
+///   each refraction; 1 at total internal reflection);
+/// - `length`: the distance travelled inside the object.
+///
+/// A thin pane does not bend the ray (its transmittance is (1 - R) / (1 + R), the pane's two
+/// faces with their inter-reflections). Rough glass refracts with its shading normal: the
+/// mean direction of its lobe. All 14 are 0 where the object does not cover the pixel, where
+/// the ray leaves the scene, and after `glassbake_rays::through::MAX_INTERFACES` surfaces.
+pub const THROUGH_ATTRIBUTES: [Attribute; 6] = [
+    Attribute { name: "position", components: XYZ },
+    Attribute { name: "normal", components: XYZ },
+    Attribute { name: "albedo", components: RGB },
+    Attribute { name: "Ld", components: RGB },
+    Attribute { name: "transmittance", components: SCALAR },
+    Attribute { name: "length", components: SCALAR },
+];
+
+pub const THROUGH_CHANNELS: usize = 14;
+
+/// Channel offsets within a through buffer.
+pub mod through {
+    pub const POSITION: usize = 0;
+    pub const NORMAL: usize = 3;
+    pub const ALBEDO: usize = 6;
+    pub const LD: usize = 9;
+    pub const TRANSMITTANCE: usize = 12;
+    pub const LENGTH: usize = 13;
+}
+
 /// Channel offsets within the opaque (and naive) G-buffer.
 pub mod opaque {
     pub const NORMAL: usize = 0;
@@ -119,6 +158,11 @@ pub fn transparent_layer(k: usize) -> String {
     format!("transparent.{k}")
 }
 
+/// EXR layer of the through buffer of transparent object `k`.
+pub fn through_layer(k: usize) -> String {
+    format!("transparent.{k}.through")
+}
+
 fn channel_names(layer: &str, attributes: &[Attribute]) -> Vec<String> {
     attributes.iter().flat_map(|a| a.components.iter().map(move |c| format!("{layer}.{}.{c}", a.name))).collect()
 }
@@ -133,6 +177,10 @@ pub fn naive_channel_names() -> Vec<String> {
 
 pub fn transparent_channel_names(k: usize) -> Vec<String> {
     channel_names(&transparent_layer(k), &TRANSPARENT_ATTRIBUTES)
+}
+
+pub fn through_channel_names(k: usize) -> Vec<String> {
+    channel_names(&through_layer(k), &THROUGH_ATTRIBUTES)
 }
 
 pub fn opaque_light_coverage_channel_names() -> Vec<String> {
@@ -184,5 +232,16 @@ mod tests {
         assert_eq!(offset_of(&LIGHT_COVERAGE_ATTRIBUTES, "coverage"), light_coverage::COVERAGE);
         assert_eq!(offset_of(&LIGHT_COVERAGE_ATTRIBUTES, "light"), light_coverage::LIGHT);
         assert_eq!(naive_light_coverage_channel_names()[1], "naive_light.light.R");
+        assert_eq!(through_channel_names(0).len(), THROUGH_CHANNELS);
+        let r = &THROUGH_ATTRIBUTES;
+        assert_eq!(offset_of(r, "position"), through::POSITION);
+        assert_eq!(offset_of(r, "normal"), through::NORMAL);
+        assert_eq!(offset_of(r, "albedo"), through::ALBEDO);
+        assert_eq!(offset_of(r, "Ld"), through::LD);
+        assert_eq!(offset_of(r, "transmittance"), through::TRANSMITTANCE);
+        assert_eq!(offset_of(r, "length"), through::LENGTH);
+        assert_eq!(through_channel_names(2)[0], "transparent.2.through.position.X");
+        // No through name is also a transparency buffer's: both live in one EXR.
+        assert!(through_channel_names(1).iter().all(|n| !transparent_channel_names(1).contains(n)));
     }
 }

@@ -7,8 +7,8 @@
 //! roulette) with the hooks through which the caustic estimator (`caustic_paths.rs`, its light
 //! tracer `light_tracing.rs`, opt-in photon merging `photon_merging.rs`) leaves out the paths
 //! it carries otherwise. Below them: the prepared scene (`prepared.rs`: hits, materials,
-//! shadow segments), the BVH (`geometry.rs`, obvhs, or Intel Embree with the `embree`
-//! feature), BSDFs (`bsdf.rs`, glTF metallic-roughness and smooth / rough / thin dielectrics),
+//! shadow segments), the BVH and its rays (glassbake-rays: obvhs, or Intel Embree with the
+//! `embree` feature), BSDFs (`bsdf.rs`, glTF metallic-roughness and smooth / rough / thin dielectrics),
 //! lights (`lights.rs`), adaptive sampling (`adaptive.rs`) and stratified sample values
 //! (`qmc.rs`). Images are bit-identical whatever the thread count. The dataset stage calls
 //! [`render`] once per sample; the CLI's `trace` command wraps it.
@@ -16,17 +16,12 @@
 pub mod adaptive;
 pub mod bsdf;
 mod caustic_paths;
-#[cfg(feature = "embree")]
-mod embree_caster;
 pub mod estimator;
-pub mod geometry;
 pub mod glass_cones;
 pub mod integrator;
 pub mod light_tracing;
 pub mod lights;
 pub mod microfacet;
-#[cfg(not(feature = "embree"))]
-mod obvhs_caster;
 pub mod path_class;
 pub mod photon_merging;
 pub mod prepared;
@@ -35,7 +30,6 @@ pub mod render;
 pub mod rng;
 pub mod sampling;
 pub mod spherical_rect;
-pub mod triangle;
 
 #[cfg(test)]
 mod bsdf_tests;
@@ -49,7 +43,7 @@ pub const TRACER_REVISION: u32 = 1;
 
 pub use bsdf::{Bsdf, MaterialModel, SurfaceMaterial};
 pub use estimator::{Estimator, Transport};
-pub use geometry::RAY_CASTER;
+pub use glassbake_rays::{geometry, triangle, RAY_CASTER};
 pub use integrator::PathRadiance;
 pub use path_class::PathFilter;
 pub use prepared::{PreparedScene, SurfaceHit};

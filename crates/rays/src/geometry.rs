@@ -29,44 +29,11 @@ impl SceneGeometry {
     /// index of each object triangle (object, triangle index in its mesh) and of each rect
     /// light, as the light sampler numbered them.
     pub fn build(scene: &Scene, emitter_of: &dyn Fn(Owner, usize) -> Option<u32>) -> Self {
-        let mut attributes = Vec::new();
-        for (object_index, object) in scene.objects.iter().enumerate() {
-            let mesh = scene.world_mesh(object_index);
-            let material = &scene.materials[object.material];
-            let may_pass_through = material.transmission.is_some_and(|t| t.thin && t.weight > 0.0);
-            let owner = Owner::Object { object: object_index as u32, material: object.material as u32 };
-            let has_normals = mesh.normals.len() == mesh.positions.len();
-            let has_uvs = mesh.uvs.len() == mesh.positions.len();
-            for (triangle_index, indices) in mesh.indices.iter().enumerate() {
-                let [a, b, c] = indices.map(|i| i as usize);
-                if a.max(b).max(c) >= mesh.positions.len() {
-                    continue;
-                }
-                let positions = [mesh.positions[a], mesh.positions[b], mesh.positions[c]];
-                if (positions[1] - positions[0]).cross(positions[2] - positions[0]).length_squared() == 0.0 {
-                    continue;
-                }
-                let normals = has_normals.then(|| [mesh.normals[a], mesh.normals[b], mesh.normals[c]]);
-                let uvs = if has_uvs { [mesh.uvs[a], mesh.uvs[b], mesh.uvs[c]] } else { [Vec2::ZERO; 3] };
-                attributes.push(TriangleAttributes { positions, normals, uvs, owner, emitter: emitter_of(owner, triangle_index), may_pass_through });
-            }
-        }
-        for (light_index, light) in scene.rect_lights.iter().enumerate() {
-            let owner = Owner::RectLight { light: light_index as u32 };
-            let mesh = light.to_mesh();
-            for indices in &mesh.indices {
-                let [a, b, c] = indices.map(|i| i as usize);
-                attributes.push(TriangleAttributes {
-                    positions: [mesh.positions[a], mesh.positions[b], mesh.positions[c]],
-                    normals: None,
-                    uvs: [mesh.uvs[a], mesh.uvs[b], mesh.uvs[c]],
-                    owner,
-                    emitter: emitter_of(owner, 0),
-                    may_pass_through: false,
-                });
-            }
-        }
+        Self::from_triangles(scene_triangles(scene, &|_| true, true, emitter_of))
+    }
 
+    /// A BVH over `attributes` (which [`scene_triangles`] makes from a scene).
+    pub fn from_triangles(attributes: Vec<TriangleAttributes>) -> Self {
         let caster = (!attributes.is_empty()).then(|| Caster::build(&attributes));
         SceneGeometry { caster, attributes }
     }
@@ -93,11 +60,69 @@ impl SceneGeometry {
     }
 }
 
+/// The world-space triangles of the scene's objects for which `include_object(object index)`
+/// holds, in object and mesh order, then (with `include_lights`) two per rectangle light.
+/// Degenerate triangles and ones with out-of-range indices are left out.
+pub fn scene_triangles(
+    scene: &Scene,
+    include_object: &dyn Fn(usize) -> bool,
+    include_lights: bool,
+    emitter_of: &dyn Fn(Owner, usize) -> Option<u32>,
+) -> Vec<TriangleAttributes> {
+    let mut attributes = Vec::new();
+    for (object_index, object) in scene.objects.iter().enumerate().filter(|&(i, _)| include_object(i)) {
+        let mesh = scene.world_mesh(object_index);
+        let material = &scene.materials[object.material];
+        let may_pass_through = material.transmission.is_some_and(|t| t.thin && t.weight > 0.0);
+        let owner = Owner::Object { object: object_index as u32, material: object.material as u32 };
+        let has_normals = mesh.normals.len() == mesh.positions.len();
+        let has_uvs = mesh.uvs.len() == mesh.positions.len();
+        for (triangle_index, indices) in mesh.indices.iter().enumerate() {
+            let [a, b, c] = indices.map(|i| i as usize);
+            if a.max(b).max(c) >= mesh.positions.len() {
+                continue;
+            }
+            let positions = [mesh.positions[a], mesh.positions[b], mesh.positions[c]];
+            if (positions[1] - positions[0]).cross(positions[2] - positions[0]).length_squared() == 0.0 {
+                continue;
+            }
+            let normals = has_normals.then(|| [mesh.normals[a], mesh.normals[b], mesh.normals[c]]);
+            let uvs = if has_uvs { [mesh.uvs[a], mesh.uvs[b], mesh.uvs[c]] } else { [Vec2::ZERO; 3] };
+            attributes.push(TriangleAttributes { positions, normals, uvs, owner, emitter: emitter_of(owner, triangle_index), may_pass_through });
+        }
+    }
+    for (light_index, light) in scene.rect_lights.iter().enumerate().filter(|_| include_lights) {
+        let owner = Owner::RectLight { light: light_index as u32 };
+        let mesh = light.to_mesh();
+        for indices in &mesh.indices {
+            let [a, b, c] = indices.map(|i| i as usize);
+            attributes.push(TriangleAttributes {
+                positions: [mesh.positions[a], mesh.positions[b], mesh.positions[c]],
+                normals: None,
+                uvs: [mesh.uvs[a], mesh.uvs[b], mesh.uvs[c]],
+                owner,
+                emitter: emitter_of(owner, 0),
+                may_pass_through: false,
+            });
+        }
+    }
+    attributes
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::triangle::moller_trumbore;
     use glassbake_scene::builtin::builtin;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn uniform_sphere(rng: &mut ChaCha8Rng) -> Vec3 {
+        let z = 1.0 - 2.0 * rng.random::<f32>();
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = std::f32::consts::TAU * rng.random::<f32>();
+        Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    }
 
     /// Brute force over all triangles, for checking the BVH.
     fn brute_force(geometry: &SceneGeometry, origin: Vec3, direction: Vec3) -> Option<(f32, u32)> {
@@ -118,10 +143,10 @@ mod tests {
         let scene = builtin("cornellbox").unwrap();
         let geometry = SceneGeometry::build(&scene, &|_, _| None);
         assert_eq!(geometry.triangle_count(), scene.triangle_count() + 2 * scene.rect_lights.len());
-        let mut rng = crate::rng::Pcg32::new(1, 2);
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
         for _ in 0..2000 {
-            let origin = Vec3::new(rng.next_f32() * 1.8 - 0.9, rng.next_f32() * 1.8 + 0.1, rng.next_f32() * 1.8 - 0.9);
-            let direction = crate::sampling::uniform_sphere(rng.next_vec2());
+            let origin = Vec3::new(rng.random::<f32>() * 1.8 - 0.9, rng.random::<f32>() * 1.8 + 0.1, rng.random::<f32>() * 1.8 - 0.9);
+            let direction = uniform_sphere(&mut rng);
             let fast = geometry.closest_hit(origin, direction, 0.0, f32::INFINITY).map(|h| (h.t, h.triangle));
             let slow = brute_force(&geometry, origin, direction);
             match (fast, slow) {
@@ -170,12 +195,12 @@ mod tests {
             assert!(geometry.attributes.iter().any(|a| a.may_pass_through), "{name} has no pane");
             let lower = geometry.attributes.iter().flat_map(|a| a.positions).fold(Vec3::MAX, Vec3::min);
             let upper = geometry.attributes.iter().flat_map(|a| a.positions).fold(Vec3::MIN, Vec3::max);
-            let mut rng = crate::rng::Pcg32::new(3, 4);
+            let mut rng = ChaCha8Rng::seed_from_u64(3);
             let mut panes = Vec::new();
             for _ in 0..4000 {
-                let origin = lower + (upper - lower) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
-                let direction = crate::sampling::uniform_sphere(rng.next_vec2());
-                let t_max = rng.next_f32() * (upper - lower).length();
+                let origin = lower + (upper - lower) * Vec3::new(rng.random::<f32>(), rng.random::<f32>(), rng.random::<f32>());
+                let direction = uniform_sphere(&mut rng);
+                let t_max = rng.random::<f32>() * (upper - lower).length();
                 let hits = all_hits(&geometry, origin, direction, t_max);
                 // Hits within rounding of the segment's ends may go either way.
                 if hits.iter().any(|h| h.0 < 1e-3 || h.0 > t_max * (1.0 - 1e-4)) {

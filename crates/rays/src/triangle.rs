@@ -35,7 +35,7 @@ pub struct TriangleAttributes {
 /// the tests check both casters against.
 #[inline(always)]
 #[cfg_attr(all(feature = "embree", not(test)), allow(dead_code))]
-pub(crate) fn moller_trumbore(v0: Vec3, edge1: Vec3, edge2: Vec3, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
+pub fn moller_trumbore(v0: Vec3, edge1: Vec3, edge2: Vec3, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
     let p = direction.cross(edge2);
     let det = edge1.dot(p);
     if det == 0.0 {

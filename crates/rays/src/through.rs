@@ -1,0 +1,233 @@
+//! What each transparent object shows through itself: the camera ray of every pixel it
+//! covers, refracted at each of its surfaces (Snell's law with its IOR, total internal
+//! reflection followed), to the first opaque surface or light behind it. The other transparent
+//! objects are ignored, so a through buffer depends on its own object only, as GlassNet's
+//! permutation-invariant sum of per-object terms needs. Channels: `layout::THROUGH_ATTRIBUTES`.
+//!
+//! The pass casts rays on the CPU in two BVHs per ray (the opaque scene with its lights, and
+//! the object alone), so neither the BVHs nor the rays depend on the other transparent objects.
+
+use glam::{Vec2, Vec3};
+use glassbake_core::camera::Camera;
+use glassbake_core::image::PlanarImage;
+use glassbake_core::layout::{self, opaque, through, transparent};
+use glassbake_scene::Scene;
+use rayon::prelude::*;
+
+use crate::geometry::{scene_triangles, SceneGeometry};
+use crate::optics::{fresnel_dielectric, reflect, refract, thin_slab_reflectance};
+use crate::triangle::{Hit, Owner, TriangleAttributes};
+
+/// Surfaces of the object a ray may cross (refractions and internal reflections) before it
+/// is given up. A convex lens takes 2; a hollow globe 4; the rest is total internal
+/// reflection bouncing inside thick glass, which contributes little light.
+pub const MAX_INTERFACES: usize = 8;
+
+/// A hit closer than this (in scene units) to where the ray left a surface is that surface.
+const SELF_HIT: f32 = 1e-4;
+
+/// The L_d of the opaque G-buffer is taken for a hit that lies this close (relative to its
+/// distance from the camera) to the G-buffer's position at the pixel it projects to.
+const SAME_SURFACE: f32 = 0.01;
+
+/// The BVHs a frame's through buffers are cast in: the opaque scene (its lights included)
+/// and each transparent object alone, in `Scene::transparent_objects` order.
+pub struct ThroughScene {
+    opaque: SceneGeometry,
+    objects: Vec<SceneGeometry>,
+    object_indices: Vec<usize>,
+}
+
+impl ThroughScene {
+    pub fn build(scene: &Scene) -> ThroughScene {
+        let object_indices = scene.transparent_objects();
+        let opaque = SceneGeometry::from_triangles(scene_triangles(scene, &|o| !scene.objects[o].transparent, true, &|_, _| None));
+        let objects = object_indices.iter().map(|&k| SceneGeometry::from_triangles(scene_triangles(scene, &|o| o == k, false, &|_, _| None))).collect();
+        ThroughScene { opaque, objects, object_indices }
+    }
+
+    pub fn object_count(&self) -> usize {
+        self.objects.len()
+    }
+}
+
+/// Where a ray through transparent object k ends.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThroughHit {
+    pub position: Vec3,
+    /// The shading normal, on the side the ray arrives from.
+    pub normal: Vec3,
+    pub albedo: Vec3,
+    /// A light's radiance where the ray meets a light's emitting side; for a surface, its
+    /// emission (the G-buffer's L_d is looked up separately, see [`through_buffer`]).
+    pub emitted: Vec3,
+    pub is_light: bool,
+    pub transmittance: f32,
+    /// Distance travelled inside the object.
+    pub length: f32,
+    /// Surfaces of the object crossed or reflected from.
+    pub interfaces: usize,
+}
+
+fn interpolate<T: std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T> + Copy>(v: [T; 3], hit: &Hit) -> T {
+    v[0] * (1.0 - hit.b1 - hit.b2) + v[1] * hit.b1 + v[2] * hit.b2
+}
+
+fn shading_normal(triangle: &TriangleAttributes, hit: &Hit) -> Vec3 {
+    let [p0, p1, p2] = triangle.positions;
+    let face = (p1 - p0).cross(p2 - p0).normalize();
+    match triangle.normals {
+        Some(normals) => interpolate(normals, hit).try_normalize().unwrap_or(face),
+        None => face,
+    }
+}
+
+/// Follow the ray from `origin` along unit `direction` through transparent object `k` of
+/// `geometry` (index into `Scene::transparent_objects`). `None` when it leaves the scene or
+/// crosses more than [`MAX_INTERFACES`] surfaces.
+pub fn trace_through(scene: &Scene, geometry: &ThroughScene, k: usize, origin: Vec3, direction: Vec3) -> Option<ThroughHit> {
+    let object = &scene.objects[geometry.object_indices[k]];
+    let transmission = scene.materials[object.material].transmission;
+    let ior = transmission.map_or(1.0, |t| t.ior);
+    let thin = transmission.is_some_and(|t| t.thin);
+    let glass = &geometry.objects[k];
+    let (mut origin, mut direction) = (origin, direction);
+    let (mut inside, mut transmittance, mut length, mut interfaces) = (false, 1.0f32, 0.0f32, 0usize);
+    let mut t_min = 0.0;
+    loop {
+        let glass_hit = glass.closest_hit(origin, direction, t_min, f32::INFINITY);
+        let opaque_hit = geometry.opaque.closest_hit(origin, direction, t_min, glass_hit.map_or(f32::INFINITY, |h| h.t));
+        if let Some(hit) = opaque_hit {
+            if inside {
+                length += hit.t;
+            }
+            let triangle = &geometry.opaque.attributes[hit.triangle as usize];
+            return Some(surface_hit(scene, triangle, &hit, origin, direction, transmittance, length, interfaces));
+        }
+        let hit = glass_hit?;
+        interfaces += 1;
+        if interfaces > MAX_INTERFACES {
+            return None;
+        }
+        if inside {
+            length += hit.t;
+        }
+        let position = origin + direction * hit.t;
+        let n = shading_normal(&glass.attributes[hit.triangle as usize], &hit);
+        let wo = -direction;
+        if thin {
+            transmittance *= 1.0 - thin_slab_reflectance(n.dot(wo), ior);
+        } else {
+            // The normal on the outside: towards the ray's origin while it is outside.
+            let outward = if (n.dot(wo) > 0.0) != inside { n } else { -n };
+            match refract(wo, outward, ior) {
+                Some((refracted, _)) => {
+                    transmittance *= 1.0 - fresnel_dielectric(outward.dot(wo), ior);
+                    direction = refracted.normalize();
+                    inside = !inside;
+                }
+                None => direction = reflect(wo, outward).normalize(),
+            }
+        }
+        origin = position;
+        t_min = SELF_HIT;
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn surface_hit(
+    scene: &Scene,
+    triangle: &TriangleAttributes,
+    hit: &Hit,
+    origin: Vec3,
+    direction: Vec3,
+    transmittance: f32,
+    length: f32,
+    interfaces: usize,
+) -> ThroughHit {
+    let position = origin + direction * hit.t;
+    let n = shading_normal(triangle, hit);
+    let normal = if n.dot(direction) > 0.0 { -n } else { n };
+    let (albedo, emitted, is_light) = match triangle.owner {
+        Owner::Object { material, .. } => {
+            let material = &scene.materials[material as usize];
+            let uv: Vec2 = interpolate(triangle.uvs, hit);
+            let texture = material.base_color_texture.map_or(Vec3::ONE, |t| scene.textures[t].sample(uv).truncate());
+            (material.base_color * texture, material.emission, false)
+        }
+        Owner::RectLight { light } => {
+            let light = &scene.rect_lights[light as usize];
+            let front = light.normal().dot(direction) < 0.0;
+            (Vec3::ZERO, if front || light.two_sided { light.radiance } else { Vec3::ZERO }, true)
+        }
+    };
+    ThroughHit { position, normal, albedo, emitted, is_light, transmittance, length, interfaces }
+}
+
+/// The through buffer of transparent object `k` for a frame: `layout::through_channel_names(k)`,
+/// cast for the pixels its transparency buffer covers. L_d comes from `opaque_gbuffer` where
+/// the hit is what the G-buffer shows at the pixel it projects to; a light's is its radiance.
+pub fn through_buffer(
+    scene: &Scene,
+    geometry: &ThroughScene,
+    k: usize,
+    camera: &Camera,
+    opaque_gbuffer: &PlanarImage,
+    transparency_buffer: &PlanarImage,
+) -> PlanarImage {
+    let (width, height) = (transparency_buffer.width(), transparency_buffer.height());
+    let pixels = (width * height) as usize;
+    let coverage = transparency_buffer.plane(transparent::COVERAGE);
+    let rows: Vec<Vec<[f32; layout::THROUGH_CHANNELS]>> = (0..height)
+        .into_par_iter()
+        .map(|y| {
+            (0..width)
+                .map(|x| {
+                    let mut out = [0.0; layout::THROUGH_CHANNELS];
+                    if coverage[(y * width + x) as usize] <= 0.0 {
+                        return out;
+                    }
+                    let ray = camera.pixel_center_ray(x, y, width, height);
+                    let Some(hit) = trace_through(scene, geometry, k, ray.origin, ray.direction) else { return out };
+                    let light = if hit.is_light { hit.emitted } else { screen_light(camera, opaque_gbuffer, hit.position).unwrap_or(hit.emitted) };
+                    out[through::POSITION..through::POSITION + 3].copy_from_slice(&hit.position.to_array());
+                    out[through::NORMAL..through::NORMAL + 3].copy_from_slice(&hit.normal.to_array());
+                    out[through::ALBEDO..through::ALBEDO + 3].copy_from_slice(&hit.albedo.to_array());
+                    out[through::LD..through::LD + 3].copy_from_slice(&light.to_array());
+                    out[through::TRANSMITTANCE] = hit.transmittance;
+                    out[through::LENGTH] = hit.length;
+                    out
+                })
+                .collect()
+        })
+        .collect();
+    let mut data = vec![0.0; layout::THROUGH_CHANNELS * pixels];
+    for (i, pixel) in rows.iter().flatten().enumerate() {
+        for (c, &v) in pixel.iter().enumerate() {
+            data[c * pixels + i] = v;
+        }
+    }
+    PlanarImage::from_planes(width, height, layout::through_channel_names(k), data).expect("the through planes match their names")
+}
+
+/// The opaque G-buffer's L_d at the pixel `position` projects to, if the G-buffer shows that
+/// point there (and not something in front of it, or nothing).
+fn screen_light(camera: &Camera, opaque_gbuffer: &PlanarImage, position: Vec3) -> Option<Vec3> {
+    let (width, height) = (opaque_gbuffer.width(), opaque_gbuffer.height());
+    let (px, py) = camera.project(position, width, height)?;
+    if !(0.0..width as f32).contains(&px) || !(0.0..height as f32).contains(&py) {
+        return None;
+    }
+    let (x, y) = (px as u32, py as u32);
+    let at = |c: usize| opaque_gbuffer.get(c, x, y);
+    let shown = Vec3::new(at(opaque::POSITION), at(opaque::POSITION + 1), at(opaque::POSITION + 2));
+    let distance = (position - camera.position).length();
+    ((shown - position).length() <= SAME_SURFACE * distance).then(|| Vec3::new(at(opaque::LD), at(opaque::LD + 1), at(opaque::LD + 2)))
+}
+
+/// Every transparency buffer's through buffer for a frame, with BVHs built for `scene`.
+pub fn through_buffers(scene: &Scene, camera: &Camera, opaque_gbuffer: &PlanarImage, transparency_buffers: &[PlanarImage]) -> Vec<PlanarImage> {
+    let geometry = ThroughScene::build(scene);
+    assert_eq!(geometry.object_count(), transparency_buffers.len(), "one transparency buffer per transparent object");
+    transparency_buffers.iter().enumerate().map(|(k, buffer)| through_buffer(scene, &geometry, k, camera, opaque_gbuffer, buffer)).collect()
+}

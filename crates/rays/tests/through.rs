@@ -1,0 +1,155 @@
+//! The through pass against Snell's law and the Fresnel equations in closed form (f64, written
+//! out here rather than taken from the crate's optics).
+
+use std::sync::Arc;
+
+use glam::{Affine3A, DVec3, Vec2, Vec3};
+use glassbake_rays::through::{trace_through, ThroughScene};
+use glassbake_scene::model::{Material, Object, Scene};
+use glassbake_scene::shapes;
+
+const IOR: f64 = 1.5;
+/// The wall behind everything: the plane z = WALL_Z, facing +z.
+const WALL_Z: f64 = -3.0;
+
+fn add(scene: &mut Scene, name: &str, mesh: glassbake_scene::model::Mesh, material: Material, at: Vec3, transparent: bool) {
+    scene.meshes.push(Arc::new(mesh));
+    scene.materials.push(material);
+    scene.objects.push(Object {
+        name: name.into(),
+        mesh: scene.meshes.len() - 1,
+        material: scene.materials.len() - 1,
+        transform: Affine3A::from_translation(at),
+        transparent,
+    });
+}
+
+/// A glass object (IOR 1.5) in front of a large grey wall.
+fn scene_with(glass: glassbake_scene::model::Mesh, thin: bool) -> Scene {
+    let mut scene = Scene::empty("through");
+    let wall = shapes::rect(Vec3::new(0.0, 0.0, WALL_Z as f32), Vec3::X * 40.0, Vec3::Y * 40.0, Vec2::ONE);
+    add(&mut scene, "wall", wall, Material::diffuse("wall", Vec3::splat(0.5)), Vec3::ZERO, false);
+    add(&mut scene, "glass", glass, Material::glass("glass", Vec3::ONE, 0.0, IOR as f32, thin), Vec3::ZERO, true);
+    scene
+}
+
+/// Unpolarised Fresnel reflectance from the cosines of incidence and transmission, going from
+/// index n1 into n2 (Hecht, Optics, 4.42-4.43).
+fn fresnel(n1: f64, n2: f64, cos_i: f64, cos_t: f64) -> f64 {
+    let rs = (n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t);
+    let rp = (n1 * cos_t - n2 * cos_i) / (n1 * cos_t + n2 * cos_i);
+    0.5 * (rs * rs + rp * rp)
+}
+
+/// Vector form of Snell's law for unit `d` meeting unit normal `n` (against `d`) from index n1
+/// into n2: (direction, cos_i, cos_t).
+fn snell(d: DVec3, n: DVec3, n1: f64, n2: f64) -> (DVec3, f64, f64) {
+    let cos_i = -d.dot(n);
+    let ratio = n1 / n2;
+    let cos_t = (1.0 - ratio * ratio * (1.0 - cos_i * cos_i)).sqrt();
+    (ratio * d + (ratio * cos_i - cos_t) * n, cos_i, cos_t)
+}
+
+fn wall_hit(p: DVec3, d: DVec3) -> DVec3 {
+    p + d * ((WALL_Z - p.z) / d.z)
+}
+
+fn close(a: Vec3, b: DVec3, tolerance: f64) -> bool {
+    (a.as_dvec3() - b).length() <= tolerance
+}
+
+#[test]
+fn a_slab_shifts_the_ray_sideways_as_snell_says() {
+    let half_thickness = 0.5;
+    let scene = scene_with(shapes::cuboid(Vec3::new(3.0, 3.0, half_thickness as f32)), false);
+    let geometry = ThroughScene::build(&scene);
+    for (origin, target) in [(DVec3::new(2.0, -0.2, 3.0), DVec3::new(-0.4, 0.1, 0.0)), (DVec3::new(-1.0, 1.5, 3.0), DVec3::new(0.2, 0.0, 0.0))] {
+        let d = (target - origin).normalize();
+        let entry = origin + d * ((half_thickness - origin.z) / d.z);
+        let (inside, cos_i, cos_t) = snell(d, DVec3::Z, 1.0, IOR);
+        let exit = entry + inside * ((-2.0 * half_thickness) / inside.z);
+        let (out, cos_i2, cos_t2) = snell(inside, DVec3::Z, IOR, 1.0);
+        assert!((out - d).length() < 1e-12, "a slab's faces are parallel: the ray leaves as it came");
+        let expected = wall_hit(exit, out);
+        let transmittance = (1.0 - fresnel(1.0, IOR, cos_i, cos_t)) * (1.0 - fresnel(IOR, 1.0, cos_i2, cos_t2));
+
+        let hit = trace_through(&scene, &geometry, 0, origin.as_vec3(), d.as_vec3()).expect("the ray reaches the wall");
+        assert!(close(hit.position, expected, 1e-4), "{} vs {expected}", hit.position);
+        assert!((hit.transmittance as f64 - transmittance).abs() < 1e-5, "{} vs {transmittance}", hit.transmittance);
+        assert!((hit.length as f64 - (exit - entry).length()).abs() < 1e-5);
+        assert_eq!(hit.interfaces, 2);
+        assert!(close(hit.normal, DVec3::Z, 1e-6) && close(hit.albedo, DVec3::splat(0.5), 1e-6));
+        // Without the glass the ray would land elsewhere: the test sees the refraction.
+        assert!((wall_hit(origin, d) - expected).length() > 0.05);
+    }
+}
+
+#[test]
+fn a_sphere_focuses_the_ray_as_snell_says() {
+    let radius = 1.0;
+    // Finely tessellated, so its flat triangles are within 1e-4 of the sphere.
+    let scene = scene_with(shapes::uv_sphere(radius as f32, 512, 256), false);
+    let geometry = ThroughScene::build(&scene);
+    let origin = DVec3::new(0.0, 0.0, 5.0);
+    for target in [DVec3::new(0.3, 0.0, 0.0), DVec3::new(-0.2, 0.45, 0.0), DVec3::new(0.05, -0.6, 0.0)] {
+        let d = (target - origin).normalize();
+        // |o + t d| = r, nearer root.
+        let b = origin.dot(d);
+        let entry = origin + d * (-b - (b * b - origin.length_squared() + radius * radius).sqrt());
+        let (inside, cos_i, cos_t) = snell(d, entry / radius, 1.0, IOR);
+        // The chord from `entry` along `inside` ends at t = -2 (entry . inside).
+        let exit = entry + inside * (-2.0 * entry.dot(inside));
+        let (out, cos_i2, cos_t2) = snell(inside, -exit / radius, IOR, 1.0);
+        let expected = wall_hit(exit, out);
+        let transmittance = (1.0 - fresnel(1.0, IOR, cos_i, cos_t)) * (1.0 - fresnel(IOR, 1.0, cos_i2, cos_t2));
+
+        let hit = trace_through(&scene, &geometry, 0, origin.as_vec3(), d.as_vec3()).expect("the ray reaches the wall");
+        // The wall is 3 radii behind the sphere: a normal off by 1e-4 moves the hit ~1e-3.
+        assert!(close(hit.position, expected, 5e-3), "{} vs {expected}", hit.position);
+        assert!((hit.transmittance as f64 - transmittance).abs() < 1e-3, "{} vs {transmittance}", hit.transmittance);
+        assert!((hit.length as f64 - (exit - entry).length()).abs() < 1e-3);
+        assert_eq!(hit.interfaces, 2);
+        assert!((wall_hit(origin, d) - expected).length() > 0.1, "the sphere bends the ray");
+    }
+}
+
+#[test]
+fn a_thin_pane_lets_the_ray_through_unbent() {
+    let pane = shapes::rect(Vec3::ZERO, Vec3::X * 4.0, Vec3::Y * 4.0, Vec2::ONE);
+    let scene = scene_with(pane, true);
+    let geometry = ThroughScene::build(&scene);
+    let origin = DVec3::new(0.2, 0.1, 2.0);
+    let d = (DVec3::new(-0.5, 0.3, 0.0) - origin).normalize();
+    let hit = trace_through(&scene, &geometry, 0, origin.as_vec3(), d.as_vec3()).unwrap();
+    assert!(close(hit.position, wall_hit(origin, d), 1e-4));
+    let cos_i = -d.z;
+    let cos_t = (1.0 - (1.0 - cos_i * cos_i) / (IOR * IOR)).sqrt();
+    let r = fresnel(1.0, IOR, cos_i, cos_t);
+    // Both faces with every inter-reflection: T = (1 - R)^2 / (1 - R^2) = (1 - R) / (1 + R).
+    assert!((hit.transmittance as f64 - (1.0 - r) / (1.0 + r)).abs() < 1e-5);
+    assert_eq!(hit.length, 0.0);
+}
+
+#[test]
+fn other_transparent_objects_are_ignored() {
+    let mut scene = scene_with(shapes::uv_sphere(1.0, 64, 32), false);
+    let geometry = ThroughScene::build(&scene);
+    let origin = Vec3::new(0.0, 0.0, 5.0);
+    let d = (Vec3::new(0.3, 0.1, 0.0) - origin).normalize();
+    let alone = trace_through(&scene, &geometry, 0, origin, d).unwrap();
+    // A second glass block in front of the sphere, on the ray.
+    add(&mut scene, "block", shapes::cuboid(Vec3::splat(0.5)), Material::glass("block", Vec3::ONE, 0.0, 1.5, false), Vec3::new(0.1, 0.0, 2.5), true);
+    let geometry = ThroughScene::build(&scene);
+    assert_eq!(trace_through(&scene, &geometry, 0, origin, d).unwrap(), alone);
+    // Buffer 1, the block, sees the wall through the block alone.
+    let through_block = trace_through(&scene, &geometry, 1, origin, d).unwrap();
+    assert_ne!(through_block.position, alone.position);
+    assert_eq!(through_block.interfaces, 2);
+}
+
+#[test]
+fn a_ray_that_misses_the_scene_gives_nothing() {
+    let scene = scene_with(shapes::uv_sphere(1.0, 64, 32), false);
+    let geometry = ThroughScene::build(&scene);
+    assert!(trace_through(&scene, &geometry, 0, Vec3::new(0.0, 0.0, 5.0), Vec3::Z).is_none());
+}
