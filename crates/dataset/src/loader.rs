@@ -64,7 +64,9 @@ pub struct Example {
     pub opaque: PlanarImage,
     /// Naive G-buffer, when asked for.
     pub naive: Option<PlanarImage>,
-    /// One per transparent object, each with `layout::transparent_channel_names(k)`.
+    /// One per transparent object: its transparency buffer (`layout::transparent_channel_names(k)`)
+    /// followed by its through buffer (`layout::through_channel_names(k)`), as
+    /// `glassbake_net::FrameRef::transparent` takes them.
     pub transparent: Vec<PlanarImage>,
     /// How much of each pixel sees a light, for the opaque and the naive G-buffer.
     pub light_coverage: LightCoverage,
@@ -137,7 +139,8 @@ fn load_example(shared: &Shared, rasterizer: &mut Option<Rasterizer>, job: Job) 
         let all = PlanarImage::read_exr(&store.buffers_path(job.index))?;
         let opaque = all.select(&layout::opaque_channel_names())?;
         let naive = if shared.options.naive { Some(all.select(&layout::naive_channel_names())?) } else { None };
-        let transparent = (0..t).map(|k| all.select(&layout::transparent_channel_names(k))).collect::<Result<Vec<_>>>()?;
+        let transparent =
+            (0..t).map(|k| all.select(&[layout::transparent_channel_names(k), layout::through_channel_names(k)].concat())).collect::<Result<Vec<_>>>()?;
         let light_coverage = LightCoverage {
             opaque: all.select(&layout::opaque_light_coverage_channel_names())?,
             naive: all.select(&layout::naive_light_coverage_channel_names())?,
@@ -152,7 +155,8 @@ fn load_example(shared: &Shared, rasterizer: &mut Option<Rasterizer>, job: Job) 
         let instance = scene.instantiate(&sample.values)?;
         let buffers = rasterizer.render(&instance, &sample.camera, res, res)?;
         let naive = shared.options.naive.then_some(buffers.naive);
-        (buffers.opaque, naive, buffers.transparent, buffers.light_coverage)
+        let transparent = buffers.transparent.iter().zip(&buffers.through).map(|(t, r)| PlanarImage::concat(&[t, r])).collect::<Result<Vec<_>>>()?;
+        (buffers.opaque, naive, transparent, buffers.light_coverage)
     };
     let ground_truth = PlanarImage::read_exr(&store.gt_path(job.index))?.select(&manifest.channel_layout.ground_truth)?;
     let mask = union_mask(&transparent_buffers, res, res);

@@ -11,7 +11,7 @@ use std::time::Instant;
 
 use burn::prelude::*;
 use burn::tensor::Distribution;
-use glassbake_core::layout::{LIGHT_COVERAGE_CHANNELS, OPAQUE_CHANNELS, TRANSPARENT_CHANNELS};
+use glassbake_core::layout::{LIGHT_COVERAGE_CHANNELS, OPAQUE_CHANNELS};
 use glassbake_net::loss::training_loss;
 use glassbake_net::{burn, select_device, DeviceChoice, GlassNet, ModelKind, NetConfig, NetInputs};
 
@@ -78,7 +78,7 @@ fn main() {
                 gbuffer: Tensor::random([1, OPAQUE_CHANNELS, res, res], Distribution::Uniform(0.0, 1.0), device),
                 // No light in view; the composite costs the same whatever the coverage.
                 light_coverage: Some(Tensor::zeros([1, LIGHT_COVERAGE_CHANNELS, res, res], device)),
-                transparent: (0..t).map(|_| Tensor::random([1, TRANSPARENT_CHANNELS, res, res], Distribution::Uniform(0.0, 1.0), device)).collect(),
+                transparent: (0..t).map(|_| Tensor::random([1, config.object_channels(), res, res], Distribution::Uniform(0.0, 1.0), device)).collect(),
                 values: Tensor::random([1, 4], Distribution::Uniform(0.0, 1.0), device),
             };
             let train_inputs = inputs(&train_device);

@@ -63,7 +63,8 @@ fn main() {
     for kind in [ModelKind::Glassnet, ModelKind::Naive] {
         let device = Device::flex().autodiff();
         device.seed(1);
-        let config = NetConfig::preset("quick", kind, VARIABLES, objects).unwrap();
+        // tools/torch-compare builds the network without the through buffers.
+        let config = NetConfig { through: false, ..NetConfig::preset("quick", kind, VARIABLES, objects).unwrap() };
         let mut model = GlassNet::new(&config, 1, &device).unwrap();
         let params = model.num_params();
         let batch = inputs(n, side, objects, &device);

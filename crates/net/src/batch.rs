@@ -4,7 +4,7 @@
 use burn::prelude::*;
 use burn::tensor::TensorData;
 
-use glassbake_core::layout::{self, LIGHT_COVERAGE_CHANNELS, OPAQUE_CHANNELS, TRANSPARENT_CHANNELS};
+use glassbake_core::layout::{self, LIGHT_COVERAGE_CHANNELS, OPAQUE_CHANNELS, THROUGH_CHANNELS, TRANSPARENT_CHANNELS};
 use glassbake_core::{Error, PlanarImage, Result};
 
 use crate::model::NetInputs;
@@ -18,6 +18,9 @@ pub struct FrameRef<'a> {
     /// The light coverage of `gbuffer` (`layout::LIGHT_COVERAGE_ATTRIBUTES`), which the
     /// networks with `NetConfig::light_coverage` need.
     pub light_coverage: Option<&'a PlanarImage>,
+    /// Each transparency buffer (`layout::transparent_channel_names(k)`), followed by its
+    /// through buffer (`layout::through_channel_names(k)`) for the networks with
+    /// `NetConfig::through`; networks without it read only the first channels.
     pub transparent: &'a [PlanarImage],
     pub values: &'a [f32],
     pub ground_truth: Option<&'a PlanarImage>,
@@ -35,6 +38,9 @@ pub struct HostBatch {
     pub light_coverage: Option<Vec<f32>>,
     /// Per transparent object: that object's buffer for every frame.
     pub transparent: Vec<Vec<f32>>,
+    /// Channels of each object's buffer: a transparency buffer, followed by its through buffer
+    /// where the frames have one (`layout::THROUGH_ATTRIBUTES`).
+    pub object_channels: usize,
     pub values: Vec<f32>,
     /// Linear RGB; the loss tone-maps it.
     pub ground_truth: Option<Vec<f32>>,
@@ -49,6 +55,13 @@ impl HostBatch {
         let (objects, variables) = (first.transparent.len(), first.values.len());
         let with_truth = first.ground_truth.is_some();
         let with_coverage = first.light_coverage.is_some();
+        let object_channels = first.transparent.first().map_or(TRANSPARENT_CHANNELS, |b| b.channels().len());
+        if object_channels != TRANSPARENT_CHANNELS && object_channels != TRANSPARENT_CHANNELS + THROUGH_CHANNELS {
+            return Err(Error::Internal(format!(
+                "a transparency buffer has {object_channels} channels: {TRANSPARENT_CHANNELS}, or {} with its through buffer",
+                TRANSPARENT_CHANNELS + THROUGH_CHANNELS
+            )));
+        }
         let mut batch = HostBatch {
             frames: frames.len(),
             width,
@@ -56,7 +69,8 @@ impl HostBatch {
             variables,
             gbuffer: Vec::with_capacity(frames.len() * OPAQUE_CHANNELS * width * height),
             light_coverage: with_coverage.then(|| Vec::with_capacity(frames.len() * LIGHT_COVERAGE_CHANNELS * width * height)),
-            transparent: vec![Vec::with_capacity(frames.len() * TRANSPARENT_CHANNELS * width * height); objects],
+            transparent: vec![Vec::with_capacity(frames.len() * object_channels * width * height); objects],
+            object_channels,
             values: Vec::with_capacity(frames.len() * variables),
             ground_truth: with_truth.then(Vec::new),
             low_res_image: None,
@@ -87,7 +101,7 @@ impl HostBatch {
                 out.extend_from_slice(coverage.data());
             }
             for (k, buffer) in frame.transparent.iter().enumerate() {
-                check(buffer, TRANSPARENT_CHANNELS, "transparency buffer")?;
+                check(buffer, object_channels, "transparency buffer")?;
                 batch.transparent[k].extend_from_slice(buffer.data());
             }
             batch.values.extend_from_slice(frame.values);
@@ -123,7 +137,7 @@ impl HostBatch {
         NetInputs {
             gbuffer: self.tensor(&self.gbuffer, OPAQUE_CHANNELS, device),
             light_coverage: self.light_coverage_tensor(device),
-            transparent: self.transparent.iter().map(|b| self.tensor(b, TRANSPARENT_CHANNELS, device)).collect(),
+            transparent: self.transparent.iter().map(|b| self.tensor(b, self.object_channels, device)).collect(),
             values: Tensor::from_data(TensorData::new(self.values.clone(), [self.frames, self.variables]), device),
         }
     }
@@ -135,7 +149,7 @@ impl HostBatch {
 
     /// Transparency buffer `k` of every frame, for streaming.
     pub fn transparent_tensor(&self, k: usize, device: &Device) -> Tensor<4> {
-        self.tensor(&self.transparent[k], TRANSPARENT_CHANNELS, device)
+        self.tensor(&self.transparent[k], self.object_channels, device)
     }
 }
 

@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use glassbake_core::{Error, Result};
+use glassbake_core::{layout, Error, Result};
 
 /// Which network the same F+B+R skeleton becomes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -161,6 +161,13 @@ pub struct NetConfig {
     /// existed.
     #[serde(default)]
     pub light_coverage: bool,
+    /// Whether h also reads each transparency buffer's through buffer
+    /// (`layout::THROUGH_ATTRIBUTES`: what the camera sees through that object, by refracted
+    /// rays), and R its albedo and direct light times the Fresnel transmittance, summed over
+    /// the objects beside the glass light. GlassNet only. False in configs saved before this
+    /// existed.
+    #[serde(default)]
+    pub through: bool,
     /// B: (sigma, tau) -> phi.
     pub blending: UNetConfig,
     /// R: (phi, L_d) -> image.
@@ -225,6 +232,7 @@ impl NetConfig {
             // keeps the paper's plain output).
             saturate_direct_light: false,
             light_coverage: model != ModelKind::Pixelgen,
+            through: model == ModelKind::Glassnet,
             blending: b,
             renderer: r,
             pixel_generator: (model == ModelKind::Pixelgen).then_some(pixel),
@@ -271,6 +279,9 @@ impl NetConfig {
         if self.light_coverage && self.model == ModelKind::Pixelgen {
             return bad("light_coverage", "the pixelgen baseline keeps the paper's plain output".into());
         }
+        if self.through && self.model != ModelKind::Glassnet {
+            return bad("through", format!("only GlassNet reads through buffers, not {}", self.model.name()));
+        }
         if let Some(grid) = &self.position_grid {
             if self.model == ModelKind::Pixelgen {
                 return bad("position_grid", "the pixelgen baseline keeps the paper's Fourier features".into());
@@ -309,6 +320,12 @@ impl NetConfig {
     }
 
     /// Channels of one positionally encoded input channel.
+    /// Channels of each transparent object's input: its transparency buffer, and with
+    /// [`Self::through`] its through buffer after it.
+    pub fn object_channels(&self) -> usize {
+        layout::TRANSPARENT_CHANNELS + if self.through { layout::THROUGH_CHANNELS } else { 0 }
+    }
+
     pub fn encoded_width(&self) -> usize {
         1 + 2 * self.encoding_frequencies
     }

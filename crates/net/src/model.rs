@@ -95,7 +95,7 @@ impl GlassNet {
         let scene_encoder = UNet::new(input_channels, &config.scene_encoder, device);
         let (transparency_encoder, blend_input) = match config.model {
             ModelKind::Glassnet => {
-                (Some(PlainCnn::new(config.encoded_buffer_width(TRANSPARENT_CHANNELS) + sigma, &config.transparency_encoder, device)), sigma + tau)
+                (Some(PlainCnn::new(config.encoded_buffer_width(config.object_channels()) + sigma, &config.transparency_encoder, device)), sigma + tau)
             }
             ModelKind::Concat => {
                 (Some(PlainCnn::new(config.transparent_objects * TRANSPARENT_CHANNELS * e + sigma, &config.transparency_encoder, device)), sigma + tau)
@@ -103,7 +103,7 @@ impl GlassNet {
             ModelKind::Naive | ModelKind::Pixelgen => (None, sigma),
         };
         let blending = UNet::new(blend_input, &config.blending, device);
-        let glass_direct = if config.model.reads_transparency_buffers() { GLASS_DIRECT_CHANNELS } else { 0 };
+        let glass_direct = if config.model.reads_transparency_buffers() { glass_direct_channels(config) } else { 0 };
         let renderer_outputs = config.renderer_outputs();
         let renderer = Renderer::new(config.blending.out_channels + 3 + glass_direct, &config.renderer, renderer_outputs, device);
         let net = GlassNet {
@@ -217,14 +217,29 @@ impl GlassNet {
         SceneCode { sigma: f.forward(self.encoded_inputs(gbuffer, values)), direct_light, albedo, light_coverage }
     }
 
+    /// An object's buffer as h reads it: the transparency buffer with its through buffer
+    /// ([`NetConfig::through`]), or only the transparency buffer's channels.
+    fn object_input(&self, buffer: Tensor<4>) -> Tensor<4> {
+        let channels = buffer.dims()[1];
+        if self.config.through {
+            assert_eq!(channels, self.config.object_channels(), "a network reading through buffers is given them after each transparency buffer");
+            buffer
+        } else if channels == TRANSPARENT_CHANNELS {
+            buffer
+        } else {
+            buffer.narrow(1, 0, TRANSPARENT_CHANNELS)
+        }
+    }
+
     /// h for one transparency buffer (times the buffer's coverage, see
     /// [`NetConfig::terms_masked_by_coverage`]), followed by the buffer's glass light and log
-    /// transmittance ([`GLASS_DIRECT_CHANNELS`]), snapped for the exact sum. GlassNet only.
+    /// transmittance ([`glass_direct_channels`]), snapped for the exact sum. GlassNet only.
     pub fn transparency_term(&self, scene: &SceneCode, buffer: Tensor<4>) -> Tensor<4> {
         assert_eq!(self.config.model, ModelKind::Glassnet, "transparency_term is GlassNet's T");
         let h = self.transparency_encoder.as_ref().expect("GlassNet has h");
+        let buffer = self.object_input(buffer);
         let coverage = buffer.clone().narrow(1, layout::transparent::COVERAGE, 1);
-        let direct = glass_direct(&buffer);
+        let direct = glass_direct(&buffer, self.config.through);
         let encoded = self.encode_buffer(buffer, self.object_grid.as_ref(), layout::transparent::POSITION);
         let term = h.forward(Tensor::cat(vec![encoded, scene.sigma.clone()], 1));
         let term = if self.config.terms_masked_by_coverage { term * coverage } else { term };
@@ -236,11 +251,16 @@ impl GlassNet {
     pub fn concat_term(&self, scene: &SceneCode, buffers: &[Tensor<4>]) -> Tensor<4> {
         assert_eq!(self.config.model, ModelKind::Concat, "concat_term is the concat baseline's");
         let cnn = self.transparency_encoder.as_ref().expect("concat has its CNN");
+        let buffers: Vec<Tensor<4>> = buffers.iter().map(|b| self.object_input(b.clone())).collect();
         let mut inputs: Vec<Tensor<4>> = buffers.iter().map(|b| positional_encoding(b.clone(), self.config.encoding_frequencies)).collect();
         inputs.push(scene.sigma.clone());
         let term = cnn.forward(Tensor::cat(inputs, 1));
         let [n, _, h, w] = term.dims();
-        let direct = buffers.iter().map(glass_direct).reduce(|a, b| a + b).unwrap_or_else(|| Tensor::zeros([n, GLASS_DIRECT_CHANNELS, h, w], &term.device()));
+        let direct = buffers
+            .iter()
+            .map(|b| glass_direct(b, false))
+            .reduce(|a, b| a + b)
+            .unwrap_or_else(|| Tensor::zeros([n, GLASS_DIRECT_CHANNELS, h, w], &term.device()));
         Tensor::cat(vec![term, direct], 1)
     }
 
@@ -261,11 +281,16 @@ impl GlassNet {
             let out = r.forward(Tensor::cat(vec![phi, scene.direct_light.clone()], 1));
             return self.finish(self.term(&out, scene, 0), scene, None);
         };
-        let features = tau.dims()[1] - GLASS_DIRECT_CHANNELS;
+        let features = tau.dims()[1] - glass_direct_channels(&self.config);
         let light = tau.clone().narrow(1, features, GLASS_LIGHT_CHANNELS);
         let transmittance = tau.clone().narrow(1, features + GLASS_LIGHT_CHANNELS, 3).exp();
+        let mut r_inputs = vec![scene.direct_light.clone(), light, transmittance.clone()];
+        if self.config.through {
+            r_inputs.push(tau.clone().narrow(1, features + GLASS_DIRECT_CHANNELS, THROUGH_DIRECT_CHANNELS));
+        }
         let phi = b.forward(Tensor::cat(vec![scene.sigma.clone(), tau.narrow(1, 0, features)], 1));
-        let out = r.forward(Tensor::cat(vec![phi, scene.direct_light.clone(), light, transmittance.clone()], 1));
+        r_inputs.insert(0, phi);
+        let out = r.forward(Tensor::cat(r_inputs, 1));
         let [a, b1, b2] = [0, 1, 2].map(|k| self.term(&out, scene, k));
         self.finish(a + (b1 + b2 * transmittance.clone()) * transmittance.clone(), scene, Some(transmittance))
     }
@@ -347,7 +372,7 @@ impl GlassNet {
                         sum.add(self.transparency_term(&scene, b));
                     }
                 }
-                Some(sum.finish([n, self.config.transparency_encoder.out_channels + GLASS_DIRECT_CHANNELS, h, w], &device))
+                Some(sum.finish([n, self.config.transparency_encoder.out_channels + glass_direct_channels(&self.config), h, w], &device))
             }
         };
         self.decode(&scene, tau)
@@ -363,20 +388,39 @@ pub const GLASS_DIRECT_CHANNELS: usize = GLASS_LIGHT_CHANNELS + 3;
 /// term bound).
 const DARKEST_TINT: f32 = 1.0 / 256.0;
 
+/// What R reads of each object's through buffer, summed over the objects beside the glass
+/// light: the albedo, then the direct light (clamped to 1, as the G-buffer's), of the surface
+/// seen through the object, each times the Fresnel transmittance and the coverage. The
+/// printed text behind a lens reaches R in its refracted place without passing h and B.
+pub const THROUGH_DIRECT_CHANNELS: usize = 6;
+
+/// [`GLASS_DIRECT_CHANNELS`], plus [`THROUGH_DIRECT_CHANNELS`] for a network with
+/// [`NetConfig::through`].
+pub fn glass_direct_channels(config: &NetConfig) -> usize {
+    GLASS_DIRECT_CHANNELS + if config.through { THROUGH_DIRECT_CHANNELS } else { 0 }
+}
+
 /// The light a transparency buffer's surfaces reflect (L_d then L_d far, masked by the
-/// coverage), then the log of its tint (albedo) times the coverage. Summed over the objects,
-/// the first reaches R directly, as the naive network's L_d does: through h and B the
-/// highlights, a pixel or two wide and several times brighter than anything else, came out
-/// smeared. The second is the log of the product of the tints in front of each pixel, so R
-/// multiplies what it sees through glass by the glass's colour instead of learning the
-/// product (desk, whose tints are the variables: both networks drew its glass grey or brown;
-/// docs/design.md §5).
-fn glass_direct(buffer: &Tensor<4>) -> Tensor<4> {
+/// coverage), then the log of its tint (albedo) times the coverage, then with `through` the
+/// through buffer's part ([`THROUGH_DIRECT_CHANNELS`]). Summed over the objects, the first
+/// reaches R directly, as the naive network's L_d does: through h and B the highlights, a
+/// pixel or two wide and several times brighter than anything else, came out smeared. The
+/// second is the log of the product of the tints in front of each pixel, so R multiplies what
+/// it sees through glass by the glass's colour instead of learning the product (desk, whose
+/// tints are the variables: both networks drew its glass grey or brown; docs/design.md §5).
+fn glass_direct(buffer: &Tensor<4>, through: bool) -> Tensor<4> {
     const { assert!(layout::transparent::LD_FAR == layout::transparent::LD + 3) };
     let coverage = buffer.clone().narrow(1, layout::transparent::COVERAGE, 1);
     let light = buffer.clone().narrow(1, layout::transparent::LD, GLASS_LIGHT_CHANNELS);
     let log_tint = buffer.clone().narrow(1, layout::transparent::ALBEDO, 3).clamp(DARKEST_TINT, 1.0).log();
-    Tensor::cat(vec![light, log_tint], 1) * coverage
+    let mut parts = vec![light, log_tint];
+    if through {
+        let at = |offset: usize, count: usize| buffer.clone().narrow(1, layout::TRANSPARENT_CHANNELS + offset, count);
+        let transmittance = at(layout::through::TRANSMITTANCE, 1);
+        parts.push(at(layout::through::ALBEDO, 3) * transmittance.clone());
+        parts.push(at(layout::through::LD, 3).clamp(0.0, 1.0) * transmittance);
+    }
+    Tensor::cat(parts, 1) * coverage
 }
 
 /// The G-buffer with its L_d clamped to [0, 1]. With the light coverage the lights come from

@@ -27,8 +27,10 @@ pub const CONFIG_FILE: &str = "config.json";
 /// direct light may saturate the image (`saturate_direct_light`) and positions may go through
 /// a grid (`position_grid`); a format-4 config has none of these fields and loads as the
 /// network it was trained as. 6: the image may be composited with the G-buffer's light
-/// coverage (`light_coverage`), an input older glassbakes do not give it.
-pub const FORMAT_VERSION: u32 = 6;
+/// coverage (`light_coverage`), an input older glassbakes do not give it. 7: GlassNet may read
+/// each transparency buffer's through buffer (`through`), an input older glassbakes do not
+/// make.
+pub const FORMAT_VERSION: u32 = 7;
 
 /// The network a directory holds.
 // Read once per run; boxing the larger config would buy nothing.
@@ -149,7 +151,7 @@ fn read_config(path: &Path) -> Result<ModelConfig> {
     let config: ModelConfig = serde_json::from_str(&text).map_err(|e| Error::bad_input(path.display(), "config", e.to_string()))?;
     let reads_transparency_buffers = matches!(&config.network, Network::Glassnet(n) if n.model.reads_transparency_buffers());
     match config.format_version {
-        FORMAT_VERSION | 4 | 5 => Ok(config),
+        FORMAT_VERSION | 4..=6 => Ok(config),
         1..=3 if !reads_transparency_buffers => Ok(config),
         old @ (1 | 2) => Err(Error::bad_input(
             path.display(),

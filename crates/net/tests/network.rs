@@ -120,7 +120,7 @@ fn a_new_glassnet_starts_as_the_naive_network_on_the_opaque_gbuffer_and_learns_t
     // at zero too, and get a gradient; so do its outputs that the transmittance multiplies.
     let r = &net.renderer.as_ref().unwrap().large.conv.weight;
     let [_, inputs, _, _] = r.dims();
-    let light = glassbake_net::model::GLASS_DIRECT_CHANNELS;
+    let light = glassbake_net::model::glass_direct_channels(&net.config);
     let weights: Vec<f32> = r.val().narrow(1, inputs - light, light).into_data().try_to_vec::<f32>().unwrap();
     assert!(weights.iter().all(|&w| w == 0.0), "R's glass-light weights start at {weights:?}");
     let gradient: Vec<f32> = r.grad(&grads).expect("R has a gradient").narrow(1, inputs - light, light).into_data().try_to_vec::<f32>().unwrap();
@@ -217,7 +217,7 @@ fn an_object_that_covers_no_pixel_adds_nothing_when_terms_are_masked() {
     inputs.transparent[2] = hidden;
     let mut without = inputs.clone();
     without.transparent.truncate(2);
-    assert_eq!(c, glassbake_core::layout::TRANSPARENT_CHANNELS);
+    assert_eq!(c, glassbake_core::layout::TRANSPARENT_CHANNELS + glassbake_core::layout::THROUGH_CHANNELS);
     for masked in [true, false] {
         let config = NetConfig { terms_masked_by_coverage: masked, ..NetConfig::preset("tiny", ModelKind::Glassnet, 1, 3).unwrap() };
         let net = random_net(&config, 6, &device);
@@ -620,6 +620,45 @@ fn with_the_light_coverage_direct_light_above_one_reads_as_one() {
         let plain = random_net(&NetConfig { light_coverage: false, ..config }, 6, &device);
         assert_ne!(bits(plain.forward(&with_emitter(5.0))), bits(plain.forward(&with_emitter(50.0))), "{kind:?}");
     }
+}
+
+/// GlassNet with `through` reads the through buffer after each transparency buffer (a change
+/// there changes the image); a network without it reads only the transparency buffer (given
+/// with or without the through channels, the image is the same to the last bit).
+#[test]
+fn through_buffers_reach_glassnet_only_when_it_reads_them() {
+    use glassbake_core::layout::{THROUGH_CHANNELS, TRANSPARENT_CHANNELS};
+    let device = Device::flex();
+    let frames = vec![common::frame(91, 16, 2, 1)];
+    let inputs = common::batch(&frames).inputs(&device);
+    let with_through = |scale: f32| NetInputs {
+        transparent: inputs
+            .transparent
+            .iter()
+            .map(|b| Tensor::cat(vec![b.clone().narrow(1, 0, TRANSPARENT_CHANNELS), b.clone().narrow(1, TRANSPARENT_CHANNELS, THROUGH_CHANNELS) * scale], 1))
+            .collect(),
+        ..inputs.clone()
+    };
+    let without_through =
+        NetInputs { transparent: inputs.transparent.iter().map(|b| b.clone().narrow(1, 0, TRANSPARENT_CHANNELS)).collect(), ..inputs.clone() };
+    let config = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap();
+    assert!(config.through, "GlassNet's presets read the through buffers");
+    // Trained weights: at initialisation h's head and R's glass inputs are zero.
+    let mut net = random_net(&config, 6, &device);
+    let t = net.transparency_encoder.as_mut().unwrap();
+    t.head.weight = t.head.weight.clone().map(|w| w.ones_like() * 0.05);
+    let r = net.renderer.as_mut().unwrap();
+    r.large.conv.weight = r.large.conv.weight.clone().map(|w| w.clone() + w.ones_like() * 0.01);
+    assert_ne!(bits(net.forward(&with_through(1.0))), bits(net.forward(&with_through(0.5))));
+    for kind in [ModelKind::Glassnet, ModelKind::Naive, ModelKind::Concat] {
+        let config = NetConfig { through: false, ..NetConfig::preset("tiny", kind, 1, 2).unwrap() };
+        let net = random_net(&config, 6, &device);
+        let image = bits(net.forward(&with_through(1.0)));
+        assert_eq!(image, bits(net.forward(&with_through(0.5))), "{kind:?}");
+        assert_eq!(image, bits(net.forward(&without_through)), "{kind:?}");
+    }
+    // Only GlassNet reads them.
+    assert!(NetConfig { through: true, ..NetConfig::preset("tiny", ModelKind::Naive, 1, 2).unwrap() }.check("test").is_err());
 }
 
 /// `.ci/run` sets GLASSBAKE_TEST_RESOURCES=required after installing what the tests need:

@@ -104,7 +104,7 @@ mod tests {
         let no_light = |names| PlanarImage::new(side, side, names);
         let light_coverage =
             LightCoverage { opaque: no_light(layout::opaque_light_coverage_channel_names()), naive: no_light(layout::naive_light_coverage_channel_names()) };
-        FrameBuffers { naive: opaque_buffer.clone(), opaque: opaque_buffer, transparent: vec![glass_buffer], light_coverage }
+        FrameBuffers { naive: opaque_buffer.clone(), opaque: opaque_buffer, transparent: vec![glass_buffer], light_coverage, through: Vec::new() }
     }
 
     #[test]

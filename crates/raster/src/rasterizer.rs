@@ -286,6 +286,9 @@ pub struct FrameBuffers {
     pub transparent: Vec<PlanarImage>,
     /// How much of each pixel sees a light, for the opaque and the naive G-buffer.
     pub light_coverage: LightCoverage,
+    /// What each transparent object shows through itself, by refracted rays (layer
+    /// `transparent.k.through`, `glassbake_rays::through`).
+    pub through: Vec<PlanarImage>,
 }
 
 impl FrameBuffers {
@@ -294,6 +297,7 @@ impl FrameBuffers {
         let mut all: Vec<&PlanarImage> = vec![&self.opaque, &self.naive];
         all.extend(self.transparent.iter());
         all.extend([&self.light_coverage.opaque, &self.light_coverage.naive]);
+        all.extend(self.through.iter());
         PlanarImage::concat(&all)
     }
 }
@@ -574,7 +578,8 @@ impl Rasterizer {
     }
 
     /// Render everything of a frame at once: opaque and naive G-buffers, every transparency
-    /// buffer, and the G-buffers' light coverage (at [`crate::light_coverage::coverage_factor`]).
+    /// buffer, the G-buffers' light coverage (at [`crate::light_coverage::coverage_factor`]),
+    /// and each transparency buffer's through buffer (cast on the CPU).
     pub fn render(&mut self, scene: &Scene, camera: &Camera, width: u32, height: u32) -> Result<FrameBuffers> {
         let mut frame = self.begin_frame(scene, camera, width, height)?;
         let opaque = frame.opaque()?;
@@ -583,7 +588,8 @@ impl Rasterizer {
         drop(frame);
         let factor = crate::light_coverage::coverage_factor(self, width, height);
         let light_coverage = crate::light_coverage::light_coverage(self, scene, camera, width, height, factor)?;
-        Ok(FrameBuffers { opaque, naive, transparent, light_coverage })
+        let through = glassbake_rays::through::through_buffers(scene, camera, &opaque, &transparent);
+        Ok(FrameBuffers { opaque, naive, transparent, light_coverage, through })
     }
 
     /// Whether a `width` x `height` frame is within what this rasterizer can draw.

@@ -99,3 +99,53 @@ fn coverage_and_depth_match_a_ray_cast_on_cornellbox8() {
     assert!(compared > (w * h * 7 / 10) as usize, "{compared}");
     assert!(covered > 50, "{covered}");
 }
+
+/// The through buffers against the rasterized frame (CORNELLBOX, sampled camera and
+/// variables): through a thin pane, which does not bend light, the ray lands where the opaque
+/// G-buffer's pixel is and takes its L_d; through solid glass it lands elsewhere; where an
+/// object covers nothing its through buffer is empty. Silhouette pixels are left out.
+#[test]
+fn through_buffers_agree_with_the_rasterized_frame_on_cornellbox() {
+    use glassbake_core::layout::{through, THROUGH_CHANNELS};
+    let base = glassbake_scene::builtin::builtin("cornellbox").unwrap();
+    let sample = base.sample(5, 2);
+    let scene = base.instantiate(&sample.values).unwrap();
+    let (w, h) = (48, 48);
+    let b = common::rasterizer().render(&scene, &sample.camera, w, h).unwrap();
+    assert_eq!(b.through.len(), b.transparent.len());
+    let (mut thin_pixels, mut solid_pixels, mut bent) = (0, 0, 0);
+    for (k, &object) in scene.transparent_objects().iter().enumerate() {
+        let thin = scene.materials[scene.objects[object].material].transmission.is_some_and(|t| t.thin);
+        let (buffer, cast) = (&b.transparent[k], &b.through[k]);
+        for y in 0..h {
+            for x in 0..w {
+                let at = |image: &glassbake_core::PlanarImage, c: usize| Vec3::new(image.get(c, x, y), image.get(c + 1, x, y), image.get(c + 2, x, y));
+                if buffer.get(transparent::COVERAGE, x, y) == 0.0 {
+                    assert!((0..THROUGH_CHANNELS).all(|c| cast.get(c, x, y) == 0.0), "buffer {k} casts at uncovered ({x}, {y})");
+                    continue;
+                }
+                // On a silhouette the pixel centre's ray may miss what the rasterizer covered.
+                let neighbours = [(x.wrapping_sub(1), y), (x + 1, y), (x, y.wrapping_sub(1)), (x, y + 1)];
+                if neighbours.iter().any(|&(u, v)| u >= w || v >= h || buffer.get(transparent::COVERAGE, u, v) == 0.0) {
+                    continue;
+                }
+                let (hit, seen) = (at(cast, through::POSITION), at(&b.opaque, opaque::POSITION));
+                let transmittance = cast.get(through::TRANSMITTANCE, x, y);
+                assert!(transmittance > 0.0 && transmittance <= 1.0, "buffer {k} at ({x}, {y}): transmittance {transmittance}");
+                let same_point = (hit - seen).length() <= 1e-3 * b.opaque.get(opaque::DEPTH, x, y);
+                if thin {
+                    thin_pixels += 1;
+                    assert!(same_point, "through pane {k} at ({x}, {y}): {hit} vs the G-buffer's {seen}");
+                    assert_eq!(at(cast, through::LD), at(&b.opaque, opaque::LD), "pane {k} at ({x}, {y})");
+                    assert_eq!(cast.get(through::LENGTH, x, y), 0.0);
+                } else {
+                    solid_pixels += 1;
+                    bent += usize::from(!same_point);
+                    assert!(cast.get(through::LENGTH, x, y) > 0.0, "solid {k} at ({x}, {y}) has no length inside");
+                }
+            }
+        }
+    }
+    assert!(thin_pixels > 20 && solid_pixels > 20, "panes {thin_pixels}, solids {solid_pixels}");
+    assert!(bent * 2 > solid_pixels, "solid glass bent only {bent} of {solid_pixels} rays");
+}

@@ -31,6 +31,9 @@ pub struct BenchRow {
     pub fps: f64,
     /// Medians of the frame's rasterizer and network parts.
     pub raster_ms: f64,
+    /// The through buffers' refracted rays (0 for a model that does not read them).
+    #[serde(default)]
+    pub through_ms: f64,
     pub network_ms: f64,
     /// Fastest and slowest timed frame.
     pub min_ms: f64,
@@ -73,6 +76,7 @@ pub fn run_bench(pipeline: &mut FramePipeline, device: &str, options: &BenchOpti
             pipeline.set_scene(with_transparent_count(&base, objects)?);
             let mut totals = Vec::new();
             let mut raster = Vec::new();
+            let mut through = Vec::new();
             let mut network = Vec::new();
             for i in 0..options.warmup + options.frames {
                 if i == options.warmup {
@@ -84,6 +88,7 @@ pub fn run_bench(pipeline: &mut FramePipeline, device: &str, options: &BenchOpti
                 if i >= options.warmup {
                     totals.push(times.total_ms);
                     raster.push(times.raster_ms);
+                    through.push(times.through_ms);
                     network.push(times.network_ms);
                 }
                 done += 1;
@@ -97,6 +102,7 @@ pub fn run_bench(pipeline: &mut FramePipeline, device: &str, options: &BenchOpti
                 ms_per_frame,
                 fps: 1000.0 / ms_per_frame,
                 raster_ms: median(&mut raster),
+                through_ms: median(&mut through),
                 network_ms: median(&mut network),
                 min_ms: totals.first().copied().unwrap_or(f64::NAN),
                 max_ms: totals.last().copied().unwrap_or(f64::NAN),
@@ -147,10 +153,11 @@ pub fn table(report: &BenchReport) -> String {
     out.push('\n');
     for res in resolutions {
         let size = format!("{res}x{res}");
-        let lines: [(&str, CellFormat); 5] = [
+        let lines: [(&str, CellFormat); 6] = [
             ("framerate (FPS)", Box::new(|r: &BenchRow| format!("{:.1}", r.fps))),
             ("frame time (ms)", Box::new(|r: &BenchRow| format!("{:.1}", r.ms_per_frame))),
             ("  raster (ms)", Box::new(|r: &BenchRow| format!("{:.1}", r.raster_ms))),
+            ("  through rays (ms)", Box::new(|r: &BenchRow| format!("{:.1}", r.through_ms))),
             ("  network (ms)", Box::new(|r: &BenchRow| format!("{:.1}", r.network_ms))),
             ("peak RAM (MiB)", Box::new(|r: &BenchRow| r.peak_ram_mib.map(|v| format!("{v:.0}")).unwrap_or_else(|| "-".into()))),
         ];
@@ -179,7 +186,8 @@ mod tests {
             ms_per_frame: ms,
             fps: 1000.0 / ms,
             raster_ms: 1.0,
-            network_ms: ms - 1.0,
+            through_ms: 0.5,
+            network_ms: ms - 1.5,
             min_ms: ms,
             max_ms: ms,
             peak_ram_mib: Some(100.0),

@@ -18,6 +18,7 @@ use glassbake_net::super_sampler::downsample_box2;
 use glassbake_net::{TrainedModel, TrainedSuperSampler};
 use glassbake_raster::light_coverage::{coverage_factor, light_coverage_of, LIGHT_COVERAGE_FACTOR};
 use glassbake_raster::{Rasterizer, RasterizerOptions};
+use glassbake_rays::through::{through_buffer, ThroughScene};
 use glassbake_scene::Scene;
 
 /// What a frame shows.
@@ -38,6 +39,9 @@ pub struct FrameTimes {
     /// Rasterizing and reading back buffers (including the transparency buffers fed while the
     /// network runs).
     pub raster_ms: f64,
+    /// Casting the through buffers' refracted rays (CPU), for a model that reads them;
+    /// part of neither of the others.
+    pub through_ms: f64,
     /// Everything else: the network, uploads, the image read-back.
     pub network_ms: f64,
     pub total_ms: f64,
@@ -174,15 +178,20 @@ impl FramePipeline {
                     Some(image) if model.config().light_coverage => Some(coverage_tensor(&if sr { downsample_box2(image)? } else { image.clone() }, &device)),
                     _ => None,
                 };
-                let zero_copy = self.zero_copy && !naive;
+                // The through buffers are cast on the CPU from read-back buffers.
+                let through = !naive && model.config().through;
+                let zero_copy = self.zero_copy && !naive && !through;
                 let mut frame = self.rasterizer.begin_frame(&instance, camera, lw, lh)?;
                 let (h, w) = (lh as usize, lw as usize);
                 let to_tensor = |data: Vec<f32>, channels: usize| Tensor::<4>::from_data(TensorData::new(data, [1, channels, h, w]), &device);
+                let mut opaque_image = None;
                 let gbuffer = if zero_copy {
                     crate::gpu_handover::input_tensor(&device, layout::OPAQUE_CHANNELS, h, w, |buffer, offset| frame.opaque_to_buffer(buffer, offset))?
                 } else {
                     let image = if naive { frame.naive()? } else { frame.opaque()? };
-                    to_tensor(image.data().to_vec(), layout::OPAQUE_CHANNELS)
+                    let tensor = to_tensor(image.data().to_vec(), layout::OPAQUE_CHANNELS);
+                    opaque_image = Some(image);
+                    tensor
                 };
                 let objects = if naive { 0 } else { frame.transparent_count() };
                 times.raster_ms += ms(raster_start);
@@ -191,6 +200,10 @@ impl FramePipeline {
                 if !zero_copy {
                     planes.resize(TRANSPARENT_CHANNELS * w * h, 0.0);
                 }
+                let build_start = Instant::now();
+                let through_scene = through.then(|| ThroughScene::build(&instance));
+                let build_ms = ms(build_start);
+                let mut cast_ms = 0.0;
                 let mut failure = None;
                 let mut raster_ms = 0.0;
                 let prediction = model.net.forward_streaming(gbuffer, light_coverage, values_tensor, objects, |k| {
@@ -198,7 +211,18 @@ impl FramePipeline {
                     let tensor = if zero_copy {
                         crate::gpu_handover::input_tensor(&device, TRANSPARENT_CHANNELS, h, w, |buffer, offset| frame.transparent_to_buffer(k, buffer, offset))
                     } else {
-                        frame.transparent_into(k, planes).map(|()| to_tensor(planes.clone(), TRANSPARENT_CHANNELS))
+                        frame.transparent_into(k, planes).and_then(|()| match (&through_scene, &opaque_image) {
+                            (Some(geometry), Some(opaque)) => {
+                                let buffer = PlanarImage::from_planes(lw, lh, layout::transparent_channel_names(k), planes.clone())?;
+                                let cast = Instant::now();
+                                let through = through_buffer(&instance, geometry, k, camera, opaque, &buffer);
+                                cast_ms += ms(cast);
+                                let mut data = buffer.data().to_vec();
+                                data.extend_from_slice(through.data());
+                                Ok(to_tensor(data, TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS))
+                            }
+                            _ => Ok(to_tensor(planes.clone(), TRANSPARENT_CHANNELS)),
+                        })
                     };
                     raster_ms += ms(t);
                     match tensor {
@@ -213,7 +237,9 @@ impl FramePipeline {
                 if let Some(e) = failure {
                     return Err(e);
                 }
-                times.raster_ms += raster_ms;
+                // The rays were cast inside the rasterizer's timed callback.
+                times.through_ms = build_ms + cast_ms;
+                times.raster_ms += raster_ms - cast_ms;
                 let mut prediction = prediction.clamp(0.0, 1.0);
                 if let Some(sampler) = &self.super_sampler {
                     let t = Instant::now();
@@ -236,7 +262,7 @@ impl FramePipeline {
             }
         };
         times.total_ms = ms(start);
-        times.network_ms = (times.total_ms - times.raster_ms).max(0.0);
+        times.network_ms = (times.total_ms - times.raster_ms - times.through_ms).max(0.0);
         Ok((image, times))
     }
 

@@ -3,7 +3,7 @@
 
 #![allow(dead_code)]
 
-use glassbake_core::layout::{self, OPAQUE_CHANNELS, TRANSPARENT_CHANNELS};
+use glassbake_core::layout::{self, OPAQUE_CHANNELS, THROUGH_CHANNELS, TRANSPARENT_CHANNELS};
 use glassbake_core::{PlanarImage, Result};
 use glassbake_net::{FrameRef, HostBatch, TrainingData};
 use rand::{Rng, SeedableRng};
@@ -13,6 +13,7 @@ pub struct SyntheticFrame {
     pub opaque: PlanarImage,
     /// No light is seen directly (every L_d plane lies in [0.1, 0.9]): zeros.
     pub light_coverage: PlanarImage,
+    /// Each transparency buffer followed by its through buffer.
     pub transparent: Vec<PlanarImage>,
     pub values: Vec<f32>,
     pub ground_truth: PlanarImage,
@@ -34,7 +35,10 @@ pub fn frame(seed: u64, size: usize, objects: usize, variables: usize) -> Synthe
     let planes = |rng: &mut ChaCha8Rng, n: usize| (0..n).flat_map(|_| smooth_plane(rng, size)).collect::<Vec<f32>>();
     let opaque = PlanarImage::from_planes(size as u32, size as u32, layout::opaque_channel_names(), planes(&mut rng, OPAQUE_CHANNELS)).unwrap();
     let transparent: Vec<PlanarImage> = (0..objects)
-        .map(|k| PlanarImage::from_planes(size as u32, size as u32, layout::transparent_channel_names(k), planes(&mut rng, TRANSPARENT_CHANNELS)).unwrap())
+        .map(|k| {
+            let names = [layout::transparent_channel_names(k), layout::through_channel_names(k)].concat();
+            PlanarImage::from_planes(size as u32, size as u32, names, planes(&mut rng, TRANSPARENT_CHANNELS + THROUGH_CHANNELS)).unwrap()
+        })
         .collect();
     let values: Vec<f32> = (0..variables).map(|_| rng.random_range(0.0..1.0)).collect();
     // Ground truth: albedo lit by L_d, tinted by the first transparency buffer's albedo.
