@@ -16,7 +16,7 @@ fn writes_every_layer_and_previews() {
         .args(["buffers", "cornell-glass", "--camera", "0,1,3.5,0,0.9,0,40", "--set", "pane_x=0.1", "--res", "24"])
         .arg("--out")
         .arg(&out)
-        .args(["--png", "opaque.albedo,transparent.0.coverage,opaque.normal,opaque.depth,opaque_light.coverage"])
+        .args(["--png", "opaque.albedo,transparent.0.coverage,opaque.normal,opaque.depth,opaque_light.coverage,transparent.0.through.albedo"])
         .status()
         .unwrap();
     assert!(status.success());
@@ -26,10 +26,11 @@ fn writes_every_layer_and_previews() {
     names.extend(layout::transparent_channel_names(0));
     names.extend(layout::opaque_light_coverage_channel_names());
     names.extend(layout::naive_light_coverage_channel_names());
+    names.extend(layout::through_channel_names(0));
     assert_eq!(image.channels().len(), names.len());
     let image = image.select(&names).unwrap();
     assert_eq!((image.width(), image.height()), (24, 24));
-    for png in ["opaque.albedo", "transparent.0.coverage", "opaque.normal", "opaque.depth", "opaque_light.coverage"] {
+    for png in ["opaque.albedo", "transparent.0.coverage", "opaque.normal", "opaque.depth", "opaque_light.coverage", "transparent.0.through.albedo"] {
         assert!(dir.path().join(format!("frame.{png}.png")).exists(), "{png}");
     }
 }
