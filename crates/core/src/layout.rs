@@ -82,7 +82,7 @@ pub mod light_coverage {
 /// ray refracted (Snell's law, the object's IOR) at every surface of object k it crosses, with
 /// total internal reflection followed, ignoring the other transparent objects (so each buffer
 /// still depends on its own object only, as the permutation-invariant sum needs), up to the
-/// first opaque surface or light. 14 channels (`glassbake_rays::through`):
+/// first opaque surface or light. 17 channels (`glassbake_rays::through`):
 ///
 /// - `position`, `normal` (the hit's shading normal, on the ray's side), `albedo` (textured):
 ///   the surface hit, as the opaque G-buffer would describe it if the glass did not bend;
@@ -90,22 +90,27 @@ pub mod light_coverage {
 ///   screen (within 1% of its distance), a light's radiance for a light, 0 elsewhere;
 /// - `transmittance`: the share the Fresnel equations let through along the path (1 - F at
 ///   each refraction; 1 at total internal reflection);
-/// - `length`: the distance travelled inside the object.
+/// - `length`: the distance travelled inside the object;
+/// - `screen_offset`: where the hit projects on the image, in pixels from this pixel's centre
+///   (right, down), and `on_screen`: 1 where the opaque G-buffer shows the hit there (it is in
+///   the frame and nothing hides it), else 0. GlassNet reads its scene code at that pixel.
 ///
 /// A thin pane does not bend the ray (its transmittance is (1 - R) / (1 + R), the pane's two
 /// faces with their inter-reflections). Rough glass refracts with its shading normal: the
-/// mean direction of its lobe. All 14 are 0 where the object does not cover the pixel, where
+/// mean direction of its lobe. All 17 are 0 where the object does not cover the pixel, where
 /// the ray leaves the scene, and after `glassbake_rays::through::MAX_INTERFACES` surfaces.
-pub const THROUGH_ATTRIBUTES: [Attribute; 6] = [
+pub const THROUGH_ATTRIBUTES: [Attribute; 8] = [
     Attribute { name: "position", components: XYZ },
     Attribute { name: "normal", components: XYZ },
     Attribute { name: "albedo", components: RGB },
     Attribute { name: "Ld", components: RGB },
     Attribute { name: "transmittance", components: SCALAR },
     Attribute { name: "length", components: SCALAR },
+    Attribute { name: "screen_offset", components: &["X", "Y"] },
+    Attribute { name: "on_screen", components: SCALAR },
 ];
 
-pub const THROUGH_CHANNELS: usize = 14;
+pub const THROUGH_CHANNELS: usize = 17;
 
 /// Channel offsets within a through buffer.
 pub mod through {
@@ -115,6 +120,8 @@ pub mod through {
     pub const LD: usize = 9;
     pub const TRANSMITTANCE: usize = 12;
     pub const LENGTH: usize = 13;
+    pub const SCREEN_OFFSET: usize = 14;
+    pub const ON_SCREEN: usize = 16;
 }
 
 /// Channel offsets within the opaque (and naive) G-buffer.
@@ -240,6 +247,8 @@ mod tests {
         assert_eq!(offset_of(r, "Ld"), through::LD);
         assert_eq!(offset_of(r, "transmittance"), through::TRANSMITTANCE);
         assert_eq!(offset_of(r, "length"), through::LENGTH);
+        assert_eq!(offset_of(r, "screen_offset"), through::SCREEN_OFFSET);
+        assert_eq!(offset_of(r, "on_screen"), through::ON_SCREEN);
         assert_eq!(through_channel_names(2)[0], "transparent.2.through.position.X");
         // No through name is also a transparency buffer's: both live in one EXR.
         assert!(through_channel_names(1).iter().all(|n| !transparent_channel_names(1).contains(n)));

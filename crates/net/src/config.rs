@@ -326,6 +326,12 @@ impl NetConfig {
         layout::TRANSPARENT_CHANNELS + if self.through { layout::THROUGH_CHANNELS } else { 0 }
     }
 
+    /// Of [`Self::object_channels`], those h reads encoded: all but the through buffer's
+    /// screen offset and on-screen flag, which say where h reads the scene code instead.
+    pub fn encoded_object_channels(&self) -> usize {
+        layout::TRANSPARENT_CHANNELS + if self.through { layout::through::SCREEN_OFFSET } else { 0 }
+    }
+
     pub fn encoded_width(&self) -> usize {
         1 + 2 * self.encoding_frequencies
     }

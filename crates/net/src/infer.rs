@@ -6,7 +6,7 @@ use std::path::Path;
 use burn::prelude::*;
 use burn::tensor::TensorData;
 
-use glassbake_core::{Error, PlanarImage, Result};
+use glassbake_core::{layout, Error, PlanarImage, Result};
 
 use crate::batch::{image_from_tensor, FrameRef, HostBatch};
 use crate::config::{ModelKind, NetConfig};
@@ -69,7 +69,7 @@ impl TrainedModel {
         // the light it sees (summed over the pixel, divided by its area).
         let light_coverage = frame.light_coverage.map(downsample_box2).transpose()?;
         let transparent =
-            if self.kind().reads_naive_gbuffer() { Vec::new() } else { frame.transparent.iter().map(downsample_box2).collect::<Result<Vec<_>>>()? };
+            if self.kind().reads_naive_gbuffer() { Vec::new() } else { frame.transparent.iter().map(downsample_object_buffer).collect::<Result<Vec<_>>>()? };
         self.render(FrameRef {
             gbuffer: &gbuffer,
             light_coverage: light_coverage.as_ref(),
@@ -149,4 +149,16 @@ impl TrainedSuperSampler {
         let image = self.net.forward(low, batch.gbuffer_tensor(&self.device), batch.light_coverage_tensor(&self.device));
         image_from_tensor(&image.clamp(0.0, 1.0), 0)
     }
+}
+
+/// An object's buffer 2x2-averaged; a through buffer's screen offsets, in pixels, halve with
+/// the pixels.
+fn downsample_object_buffer(buffer: &PlanarImage) -> Result<PlanarImage> {
+    let mut half = downsample_box2(buffer)?;
+    if half.channels().len() == layout::TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS {
+        for c in 0..2 {
+            half.plane_mut(layout::TRANSPARENT_CHANNELS + layout::through::SCREEN_OFFSET + c).iter_mut().for_each(|v| *v *= 0.5);
+        }
+    }
+    Ok(half)
 }

@@ -95,7 +95,15 @@ impl GlassNet {
         let scene_encoder = UNet::new(input_channels, &config.scene_encoder, device);
         let (transparency_encoder, blend_input) = match config.model {
             ModelKind::Glassnet => {
-                (Some(PlainCnn::new(config.encoded_buffer_width(config.object_channels()) + sigma, &config.transparency_encoder, device)), sigma + tau)
+                let warped_sigma = if config.through { sigma } else { 0 };
+                (
+                    Some(PlainCnn::new(
+                        config.encoded_buffer_width(config.encoded_object_channels()) + sigma + warped_sigma,
+                        &config.transparency_encoder,
+                        device,
+                    )),
+                    sigma + tau,
+                )
             }
             ModelKind::Concat => {
                 (Some(PlainCnn::new(config.transparent_objects * TRANSPARENT_CHANNELS * e + sigma, &config.transparency_encoder, device)), sigma + tau)
@@ -240,8 +248,13 @@ impl GlassNet {
         let buffer = self.object_input(buffer);
         let coverage = buffer.clone().narrow(1, layout::transparent::COVERAGE, 1);
         let direct = glass_direct(&buffer, self.config.through);
-        let encoded = self.encode_buffer(buffer, self.object_grid.as_ref(), layout::transparent::POSITION);
-        let term = h.forward(Tensor::cat(vec![encoded, scene.sigma.clone()], 1));
+        let read = self.config.encoded_object_channels();
+        let encoded = self.encode_buffer(buffer.clone().narrow(1, 0, read), self.object_grid.as_ref(), layout::transparent::POSITION);
+        let mut inputs = vec![encoded, scene.sigma.clone()];
+        if self.config.through {
+            inputs.push(sigma_at_hits(scene.sigma.clone(), buffer.narrow(1, read, 3)));
+        }
+        let term = h.forward(Tensor::cat(inputs, 1));
         let term = if self.config.terms_masked_by_coverage { term * coverage } else { term };
         snap_to_grid(Tensor::cat(vec![term, direct], 1))
     }
@@ -421,6 +434,31 @@ fn glass_direct(buffer: &Tensor<4>, through: bool) -> Tensor<4> {
         parts.push(at(layout::through::LD, 3).clamp(0.0, 1.0) * transmittance);
     }
     Tensor::cat(parts, 1) * coverage
+}
+
+/// `sigma` [N, C, H, W] read at the pixel each through hit projects to
+/// (`screen`: [N, 3, H, W], the through buffer's screen offset and on-screen flag), 0 where the
+/// hit is hidden or outside the frame (or the crop). What the scene encoder says of the surface
+/// seen through the glass, its light included: the through buffer's own L_d is direct light
+/// only. Gradients reach sigma at the pixels read.
+pub fn sigma_at_hits(sigma: Tensor<4>, screen: Tensor<4>) -> Tensor<4> {
+    let [n, c, h, w] = sigma.dims();
+    let device = sigma.device();
+    let screen = screen.detach();
+    let columns = Tensor::<1, Int>::arange(0..w as i64, &device).float().reshape([1, 1, 1, w]).expand([n, 1, h, w]);
+    let rows = Tensor::<1, Int>::arange(0..h as i64, &device).float().reshape([1, 1, h, 1]).expand([n, 1, h, w]);
+    let x = (columns + screen.clone().narrow(1, 0, 1)).round();
+    let y = (rows + screen.clone().narrow(1, 1, 1)).round();
+    let shown = screen.narrow(1, 2, 1).greater_elem(0.5);
+    let inside = x
+        .clone()
+        .greater_equal_elem(0.0)
+        .bool_and(x.clone().lower_elem(w as f32))
+        .bool_and(y.clone().greater_equal_elem(0.0))
+        .bool_and(y.clone().lower_elem(h as f32));
+    let read = shown.bool_and(inside).float();
+    let index = (y.clamp(0.0, (h - 1) as f32) * w as f32 + x.clamp(0.0, (w - 1) as f32)).int().reshape([n, 1, h * w]).expand([n, c, h * w]);
+    sigma.reshape([n, c, h * w]).gather(2, index).reshape([n, c, h, w]) * read.expand([n, c, h, w])
 }
 
 /// The G-buffer with its L_d clamped to [0, 1]. With the light coverage the lights come from

@@ -661,6 +661,34 @@ fn through_buffers_reach_glassnet_only_when_it_reads_them() {
     assert!(NetConfig { through: true, ..NetConfig::preset("tiny", ModelKind::Naive, 1, 2).unwrap() }.check("test").is_err());
 }
 
+/// h reads the scene code where each through hit lands on screen: at the pixel the offset
+/// names, 0 where the hit is hidden or off the frame.
+#[test]
+fn sigma_is_read_where_the_through_hits_land() {
+    let device = Device::flex();
+    let (c, h, w) = (3, 5, 6);
+    let sigma_values: Vec<f32> = (0..c * h * w).map(|i| i as f32 + 1.0).collect();
+    let sigma = Tensor::<4>::from_data(TensorData::new(sigma_values.clone(), [1, c, h, w]), &device);
+    // Every pixel looks 2 right and 1 up; pixel (0, 0) is hidden.
+    let mut screen = vec![0.0f32; 3 * h * w];
+    for i in 0..h * w {
+        screen[i] = 2.0;
+        screen[h * w + i] = -1.0;
+        screen[2 * h * w + i] = 1.0;
+    }
+    screen[2 * h * w] = 0.0;
+    let read = values(glassbake_net::model::sigma_at_hits(sigma, Tensor::from_data(TensorData::new(screen, [1, 3, h, w]), &device)));
+    for ch in 0..c {
+        for y in 0..h {
+            for x in 0..w {
+                let (tx, ty) = (x as i64 + 2, y as i64 - 1);
+                let expected = if (x, y) == (0, 0) || tx >= w as i64 || ty < 0 { 0.0 } else { sigma_values[(ch * h + ty as usize) * w + tx as usize] };
+                assert_eq!(read[(ch * h + y) * w + x], expected, "channel {ch} at ({x}, {y})");
+            }
+        }
+    }
+}
+
 /// `.ci/run` sets GLASSBAKE_TEST_RESOURCES=required after installing what the tests need:
 /// there a test must not skip for want of it.
 fn resources_required() -> bool {

@@ -138,6 +138,9 @@ fn through_buffers_agree_with_the_rasterized_frame_on_cornellbox() {
                     assert!(same_point, "through pane {k} at ({x}, {y}): {hit} vs the G-buffer's {seen}");
                     assert_eq!(at(cast, through::LD), at(&b.opaque, opaque::LD), "pane {k} at ({x}, {y})");
                     assert_eq!(cast.get(through::LENGTH, x, y), 0.0);
+                    // The hit is what the G-buffer shows at this very pixel.
+                    assert_eq!((cast.get(through::SCREEN_OFFSET, x, y), cast.get(through::SCREEN_OFFSET + 1, x, y)), (0.0, 0.0), "pane {k} at ({x}, {y})");
+                    assert_eq!(cast.get(through::ON_SCREEN, x, y), 1.0, "pane {k} at ({x}, {y})");
                 } else {
                     solid_pixels += 1;
                     bent += usize::from(!same_point);

@@ -189,7 +189,17 @@ pub fn through_buffer(
                     }
                     let ray = camera.pixel_center_ray(x, y, width, height);
                     let Some(hit) = trace_through(scene, geometry, k, ray.origin, ray.direction) else { return out };
-                    let light = if hit.is_light { hit.emitted } else { screen_light(camera, opaque_gbuffer, hit.position).unwrap_or(hit.emitted) };
+                    let on_screen = on_screen(camera, opaque_gbuffer, hit.position);
+                    let light = match on_screen {
+                        _ if hit.is_light => hit.emitted,
+                        Some(((sx, sy), true)) => opaque_light(opaque_gbuffer, sx, sy),
+                        _ => hit.emitted,
+                    };
+                    if let Some(((sx, sy), shown)) = on_screen {
+                        out[through::SCREEN_OFFSET] = sx as f32 - x as f32;
+                        out[through::SCREEN_OFFSET + 1] = sy as f32 - y as f32;
+                        out[through::ON_SCREEN] = f32::from(u8::from(shown));
+                    }
                     out[through::POSITION..through::POSITION + 3].copy_from_slice(&hit.position.to_array());
                     out[through::NORMAL..through::NORMAL + 3].copy_from_slice(&hit.normal.to_array());
                     out[through::ALBEDO..through::ALBEDO + 3].copy_from_slice(&hit.albedo.to_array());
@@ -210,9 +220,9 @@ pub fn through_buffer(
     PlanarImage::from_planes(width, height, layout::through_channel_names(k), data).expect("the through planes match their names")
 }
 
-/// The opaque G-buffer's L_d at the pixel `position` projects to, if the G-buffer shows that
-/// point there (and not something in front of it, or nothing).
-fn screen_light(camera: &Camera, opaque_gbuffer: &PlanarImage, position: Vec3) -> Option<Vec3> {
+/// The pixel `position` projects to, if inside the frame, and whether the opaque G-buffer
+/// shows that point there (and not something in front of it, or nothing).
+fn on_screen(camera: &Camera, opaque_gbuffer: &PlanarImage, position: Vec3) -> Option<((u32, u32), bool)> {
     let (width, height) = (opaque_gbuffer.width(), opaque_gbuffer.height());
     let (px, py) = camera.project(position, width, height)?;
     if !(0.0..width as f32).contains(&px) || !(0.0..height as f32).contains(&py) {
@@ -222,7 +232,11 @@ fn screen_light(camera: &Camera, opaque_gbuffer: &PlanarImage, position: Vec3) -
     let at = |c: usize| opaque_gbuffer.get(c, x, y);
     let shown = Vec3::new(at(opaque::POSITION), at(opaque::POSITION + 1), at(opaque::POSITION + 2));
     let distance = (position - camera.position).length();
-    ((shown - position).length() <= SAME_SURFACE * distance).then(|| Vec3::new(at(opaque::LD), at(opaque::LD + 1), at(opaque::LD + 2)))
+    Some(((x, y), (shown - position).length() <= SAME_SURFACE * distance))
+}
+
+fn opaque_light(opaque_gbuffer: &PlanarImage, x: u32, y: u32) -> Vec3 {
+    Vec3::new(opaque_gbuffer.get(opaque::LD, x, y), opaque_gbuffer.get(opaque::LD + 1, x, y), opaque_gbuffer.get(opaque::LD + 2, x, y))
 }
 
 /// Every transparency buffer's through buffer for a frame, with BVHs built for `scene`.
