@@ -86,14 +86,14 @@ pub mod light_coverage {
 ///
 /// - `position`, `normal` (the hit's shading normal, on the ray's side), `albedo` (textured):
 ///   the surface hit, as the opaque G-buffer would describe it if the glass did not bend;
-/// - `Ld`: the direct light there, read from the opaque G-buffer where the hit is visible on
-///   screen (within 1% of its distance), a light's radiance for a light, 0 elsewhere;
+/// - `Ld`: the direct light there, read from the opaque G-buffer at the pixel the hit projects
+///   to where the camera sees the hit, a light's radiance for a light, 0 elsewhere;
 /// - `transmittance`: the share the Fresnel equations let through along the path (1 - F at
 ///   each refraction; 1 at total internal reflection);
 /// - `length`: the distance travelled inside the object;
 /// - `screen_offset`: where the hit projects on the image, in pixels from this pixel's centre
-///   (right, down), and `on_screen`: 1 where the opaque G-buffer shows the hit there (it is in
-///   the frame and nothing hides it), else 0. GlassNet reads its scene code at that pixel.
+///   (right, down), and `on_screen`: 1 where the camera sees the hit there (it is in the frame
+///   and nothing opaque hides it), else 0. GlassNet reads its scene code at that pixel.
 ///
 /// A thin pane does not bend the ray (its transmittance is (1 - R) / (1 + R), the pane's two
 /// faces with their inter-reflections). Rough glass refracts with its shading normal: the
