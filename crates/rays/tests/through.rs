@@ -153,3 +153,83 @@ fn a_ray_that_misses_the_scene_gives_nothing() {
     let geometry = ThroughScene::build(&scene);
     assert!(trace_through(&scene, &geometry, 0, Vec3::new(0.0, 0.0, 5.0), Vec3::Z).is_none());
 }
+
+/// A frame's through buffer: nothing where the object covers nothing; where it does, the
+/// hit's screen offset is where the camera projects it, and the G-buffer's L_d is read there
+/// exactly where a ray from the camera reaches the hit (a comb of thin posts behind a thick
+/// slab hides some of the wall the slab shows, and the slab's sideways shift lets rays pass
+/// the posts that the camera's straight view meets).
+#[test]
+fn a_frame_reads_the_gbuffer_light_only_where_the_camera_sees_the_hit() {
+    use glassbake_core::camera::Camera;
+    use glassbake_core::image::PlanarImage;
+    use glassbake_core::layout::{self, opaque, through, transparent};
+    use glassbake_rays::through::through_buffer;
+
+    let mut scene = scene_with(shapes::cuboid(Vec3::new(3.0, 2.0, 0.8)), false);
+    let post = Vec3::new(0.05, 2.0, 0.05);
+    let posts: Vec<Vec3> = (0..20).map(|i| Vec3::new(-4.0 + 0.3 * i as f32, 0.0, -1.5)).collect();
+    for (i, &at) in posts.iter().enumerate() {
+        add(&mut scene, &format!("post{i}"), shapes::cuboid(post), Material::diffuse("post", Vec3::ONE), at, false);
+    }
+    let geometry = ThroughScene::build(&scene);
+    let camera = Camera::look_at(Vec3::new(3.0, 0.3, 4.0), Vec3::new(0.0, 0.0, -1.0), 60.0);
+    let (w, h) = (40u32, 30u32);
+    // The object covers the left half; the G-buffer's L_d is the pixel's index, so the test
+    // sees which pixel was read.
+    let mut coverage = PlanarImage::new(w, h, layout::transparent_channel_names(0));
+    let mut gbuffer = PlanarImage::new(w, h, layout::opaque_channel_names());
+    for y in 0..h {
+        for x in 0..w {
+            coverage.set(transparent::COVERAGE, x, y, f32::from(u8::from(x < w / 2)));
+            for c in 0..3 {
+                gbuffer.set(opaque::LD + c, x, y, (y * w + x) as f32 + 0.25 * c as f32);
+            }
+        }
+    }
+    let cast = through_buffer(&scene, &geometry, 0, &camera, &gbuffer, &coverage);
+    assert_eq!(cast.channels(), layout::through_channel_names(0).as_slice());
+    // Independently: whether the straight segment from the camera to `p` crosses a post.
+    let hidden_from_camera = |p: Vec3| {
+        let d = p - camera.position;
+        posts.iter().any(|&centre| {
+            let (lo, hi) = (centre - post, centre + post);
+            let (mut t0, mut t1) = (0.0f32, 1.0f32 - 1e-3);
+            for a in 0..3 {
+                let (ta, tb) = ((lo[a] - camera.position[a]) / d[a], (hi[a] - camera.position[a]) / d[a]);
+                t0 = t0.max(ta.min(tb));
+                t1 = t1.min(ta.max(tb));
+            }
+            t0 <= t1
+        })
+    };
+    let (mut seen, mut hidden) = (0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let get = |c: usize| cast.get(c, x, y);
+            if x >= w / 2 {
+                assert!((0..layout::THROUGH_CHANNELS).all(|c| get(c) == 0.0), "({x}, {y})");
+                continue;
+            }
+            let ray = camera.pixel_center_ray(x, y, w, h);
+            let Some(hit) = trace_through(&scene, &geometry, 0, ray.origin, ray.direction) else { continue };
+            assert_eq!(Vec3::new(get(through::POSITION), get(through::POSITION + 1), get(through::POSITION + 2)), hit.position);
+            let Some((px, py)) = camera.project(hit.position, w, h).filter(|&(px, py)| px >= 0.0 && py >= 0.0 && px < w as f32 && py < h as f32) else {
+                assert_eq!(get(through::ON_SCREEN), 0.0);
+                continue;
+            };
+            let (sx, sy) = (px as u32, py as u32);
+            assert_eq!((get(through::SCREEN_OFFSET), get(through::SCREEN_OFFSET + 1)), (sx as f32 - x as f32, sy as f32 - y as f32));
+            let blocked = hidden_from_camera(hit.position);
+            assert_eq!(get(through::ON_SCREEN), if blocked { 0.0 } else { 1.0 }, "({x}, {y}) -> ({sx}, {sy})");
+            if blocked {
+                hidden += 1;
+                assert_eq!(get(through::LD), 0.0);
+            } else {
+                seen += 1;
+                assert_eq!(get(through::LD), (sy * w + sx) as f32, "({x}, {y}) reads the G-buffer at ({sx}, {sy})");
+            }
+        }
+    }
+    assert!(seen > 20 && hidden > 20, "seen {seen}, hidden {hidden}");
+}
