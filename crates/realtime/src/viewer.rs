@@ -139,7 +139,14 @@ impl Viewer {
         ui.heading("glassbake");
         match self.frame_ms {
             Some(ms) => {
-                ui.label(format!("{:.1} FPS ({ms:.1} ms/frame)\nraster {:.1} ms, network {:.1} ms", 1000.0 / ms, self.last.raster_ms, self.last.network_ms))
+                let t = &self.last;
+                ui.label(format!(
+                    "{:.1} FPS ({ms:.1} ms/frame)\nraster {:.1} ms, through rays {:.1} ms, network {:.1} ms",
+                    1000.0 / ms,
+                    t.raster_ms,
+                    t.through_ms,
+                    t.network_ms
+                ))
             }
             None => ui.label("first frame..."),
         };

@@ -131,13 +131,14 @@ pub fn render(args: RenderArgs) -> Result<()> {
     let (image, times) = opened.pipeline.render(&camera, &values, args.res, args.res, &output)?;
     image.write_png_rgb(&args.out, [0, 1, 2])?;
     println!(
-        "{} ({}x{}, {}): {:.1} ms (raster {:.1}, network {:.1}; first frame, includes warm-up)",
+        "{} ({}x{}, {}): {:.1} ms (raster {:.1}, through rays {:.1}, network {:.1}; first frame, includes warm-up)",
         args.out.display(),
         args.res,
         args.res,
         args.output,
         times.total_ms,
         times.raster_ms,
+        times.through_ms,
         times.network_ms
     );
     Ok(())
