@@ -96,8 +96,10 @@ pub mod light_coverage {
 ///   and nothing opaque hides it), else 0. GlassNet reads its scene code at that pixel.
 ///
 /// A thin pane does not bend the ray (its transmittance is (1 - R) / (1 + R), the pane's two
-/// faces with their inter-reflections). Rough glass refracts with its shading normal: the
-/// mean direction of its lobe. All 17 are 0 where the object does not cover the pixel, where
+/// faces with their inter-reflections). Through rough glass the position, normal and screen
+/// offset are those of the mean direction of its lobe (the shading normal's), while albedo,
+/// L_d and transmittance are the mean over `glassbake_rays::through::LOBE_SAMPLES` rays drawn
+/// from its GGX lobe: a frosted pane shows what is behind it blurred. All 17 are 0 where the object does not cover the pixel, where
 /// the ray leaves the scene, and after `glassbake_rays::through::MAX_INTERFACES` surfaces.
 pub const THROUGH_ATTRIBUTES: [Attribute; 8] = [
     Attribute { name: "position", components: XYZ },

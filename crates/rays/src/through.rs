@@ -11,6 +11,7 @@ use glam::{Vec2, Vec3};
 use glassbake_core::camera::Camera;
 use glassbake_core::image::PlanarImage;
 use glassbake_core::layout::{self, opaque, through, transparent};
+use glassbake_scene::model::SMOOTH_ROUGHNESS;
 use glassbake_scene::Scene;
 use rayon::prelude::*;
 
@@ -83,9 +84,25 @@ fn shading_normal(triangle: &TriangleAttributes, hit: &Hit) -> Vec3 {
 }
 
 /// Follow the ray from `origin` along unit `direction` through transparent object `k` of
-/// `geometry` (index into `Scene::transparent_objects`). `None` when it leaves the scene or
+/// `geometry` (index into `Scene::transparent_objects`), bent by the shading normal at every
+/// surface: for rough glass the mean direction of its lobe. `None` when it leaves the scene or
 /// crosses more than [`MAX_INTERFACES`] surfaces.
 pub fn trace_through(scene: &Scene, geometry: &ThroughScene, k: usize, origin: Vec3, direction: Vec3) -> Option<ThroughHit> {
+    trace_path(scene, geometry, k, origin, direction, &mut |n, _| n)
+}
+
+/// [`trace_through`] with the normal at the `i`-th surface crossed chosen by
+/// `normal_at(shading normal, i)`: a microfacet normal of rough glass. A thin pane sends the
+/// ray on mirrored through its plane after reflecting it about that normal (the tracer's thin
+/// rough BTDF, `glassbake_trace::bsdf`), which for the shading normal itself is straight on.
+fn trace_path(
+    scene: &Scene,
+    geometry: &ThroughScene,
+    k: usize,
+    origin: Vec3,
+    direction: Vec3,
+    normal_at: &mut dyn FnMut(Vec3, usize) -> Vec3,
+) -> Option<ThroughHit> {
     let object = &scene.objects[geometry.object_indices[k]];
     let transmission = scene.materials[object.material].transmission;
     let ior = transmission.map_or(1.0, |t| t.ior);
@@ -105,8 +122,7 @@ pub fn trace_through(scene: &Scene, geometry: &ThroughScene, k: usize, origin: V
             return Some(surface_hit(scene, triangle, &hit, origin, direction, transmittance, length, interfaces));
         }
         let hit = glass_hit?;
-        interfaces += 1;
-        if interfaces > MAX_INTERFACES {
+        if interfaces == MAX_INTERFACES {
             return None;
         }
         if inside {
@@ -114,12 +130,19 @@ pub fn trace_through(scene: &Scene, geometry: &ThroughScene, k: usize, origin: V
         }
         let position = origin + direction * hit.t;
         let n = shading_normal(&glass.attributes[hit.triangle as usize], &hit);
+        let m = normal_at(n, interfaces);
+        interfaces += 1;
         let wo = -direction;
         if thin {
-            transmittance *= 1.0 - thin_slab_reflectance(n.dot(wo), ior);
+            let reflected = reflect(wo, m);
+            if reflected.dot(n).signum() != wo.dot(n).signum() {
+                return None;
+            }
+            transmittance *= 1.0 - thin_slab_reflectance(m.dot(wo), ior);
+            direction = (reflected - 2.0 * reflected.dot(n) * n).normalize();
         } else {
             // The normal on the outside: towards the ray's origin while it is outside.
-            let outward = if (n.dot(wo) > 0.0) != inside { n } else { -n };
+            let outward = if (n.dot(wo) > 0.0) != inside { m } else { -m };
             match refract(wo, outward, ior) {
                 Some((refracted, _)) => {
                     transmittance *= 1.0 - fresnel_dielectric(outward.dot(wo), ior);
@@ -132,6 +155,30 @@ pub fn trace_through(scene: &Scene, geometry: &ThroughScene, k: usize, origin: V
         origin = position;
         t_min = SELF_HIT;
     }
+}
+
+/// Rays per pixel through rough glass: what it shows is the mean over its lobe.
+pub const LOBE_SAMPLES: usize = 16;
+
+/// A GGX microfacet normal about `n` (alpha = roughness^2, the tracer's and the rasterizer's
+/// convention), from the distribution of normals D(m) cos(theta_m): tan^2 theta = alpha^2 u /
+/// (1 - u) (Walter et al. 2007, eq. 35-36).
+fn ggx_normal(n: Vec3, alpha: f32, u: Vec2) -> Vec3 {
+    let tan2 = alpha * alpha * u.x / (1.0 - u.x).max(1e-6);
+    let cos = 1.0 / (1.0 + tan2).sqrt();
+    let sin = (1.0 - cos * cos).max(0.0).sqrt();
+    let phi = std::f32::consts::TAU * u.y;
+    let (t, b) = n.any_orthonormal_pair();
+    (t * (sin * phi.cos()) + b * (sin * phi.sin()) + n * cos).normalize()
+}
+
+/// The `s`-th of [`LOBE_SAMPLES`] points for surface `interface` of pixel `pixel`: a Hammersley
+/// set, shifted per pixel and surface (Cranley-Patterson) so that neighbours do not share it.
+fn lobe_point(s: usize, interface: usize, pixel: u64) -> Vec2 {
+    let shift = glassbake_core::seed::mix64(pixel ^ ((interface as u64) << 40));
+    let (sx, sy) = ((shift >> 40) as f32 / (1u64 << 24) as f32, (shift & 0xff_ffff) as f32 / (1u64 << 24) as f32);
+    let u = Vec2::new((s as f32 + 0.5) / LOBE_SAMPLES as f32, (s as u32).reverse_bits() as f32 / 4_294_967_296.0);
+    Vec2::new((u.x + sx).fract(), (u.y + sy).fract())
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -178,6 +225,13 @@ pub fn through_buffer(
     let (width, height) = (transparency_buffer.width(), transparency_buffer.height());
     let pixels = (width * height) as usize;
     let coverage = transparency_buffer.plane(transparent::COVERAGE);
+    let material = &scene.materials[scene.objects[geometry.object_indices[k]].material];
+    let alpha = (material.roughness >= SMOOTH_ROUGHNESS).then_some(material.roughness * material.roughness);
+    let light_of = |hit: &ThroughHit| match on_screen(camera, geometry, opaque_gbuffer, hit.position) {
+        _ if hit.is_light => hit.emitted,
+        Some(((sx, sy), true)) => opaque_light(opaque_gbuffer, sx, sy),
+        _ => hit.emitted,
+    };
     let rows: Vec<Vec<[f32; layout::THROUGH_CHANNELS]>> = (0..height)
         .into_par_iter()
         .map(|y| {
@@ -189,12 +243,27 @@ pub fn through_buffer(
                     }
                     let ray = camera.pixel_center_ray(x, y, width, height);
                     let Some(hit) = trace_through(scene, geometry, k, ray.origin, ray.direction) else { return out };
+                    let (mut albedo, mut light, mut transmittance) = (hit.albedo, light_of(&hit), hit.transmittance);
+                    if let Some(alpha) = alpha {
+                        // Rough glass shows the mean over its lobe: a path a sample loses (it
+                        // leaves the scene, or is reflected away) adds nothing.
+                        (albedo, light, transmittance) = (Vec3::ZERO, Vec3::ZERO, 0.0);
+                        let pixel = (u64::from(y) << 32 | u64::from(x)) ^ (k as u64) << 56;
+                        for sample in 0..LOBE_SAMPLES {
+                            let mut microfacet = |n: Vec3, interface: usize| ggx_normal(n, alpha, lobe_point(sample, interface, pixel));
+                            if let Some(h) = trace_path(scene, geometry, k, ray.origin, ray.direction, &mut microfacet) {
+                                albedo += h.albedo * h.transmittance;
+                                light += light_of(&h) * h.transmittance;
+                                transmittance += h.transmittance;
+                            }
+                        }
+                        // Albedo and light as seen: weighted by what each path lets through.
+                        if transmittance > 0.0 {
+                            (albedo, light) = (albedo / transmittance, light / transmittance);
+                        }
+                        transmittance /= LOBE_SAMPLES as f32;
+                    }
                     let on_screen = on_screen(camera, geometry, opaque_gbuffer, hit.position);
-                    let light = match on_screen {
-                        _ if hit.is_light => hit.emitted,
-                        Some(((sx, sy), true)) => opaque_light(opaque_gbuffer, sx, sy),
-                        _ => hit.emitted,
-                    };
                     if let Some(((sx, sy), shown)) = on_screen {
                         out[through::SCREEN_OFFSET] = sx as f32 - x as f32;
                         out[through::SCREEN_OFFSET + 1] = sy as f32 - y as f32;
@@ -202,9 +271,9 @@ pub fn through_buffer(
                     }
                     out[through::POSITION..through::POSITION + 3].copy_from_slice(&hit.position.to_array());
                     out[through::NORMAL..through::NORMAL + 3].copy_from_slice(&hit.normal.to_array());
-                    out[through::ALBEDO..through::ALBEDO + 3].copy_from_slice(&hit.albedo.to_array());
+                    out[through::ALBEDO..through::ALBEDO + 3].copy_from_slice(&albedo.to_array());
                     out[through::LD..through::LD + 3].copy_from_slice(&light.to_array());
-                    out[through::TRANSMITTANCE] = hit.transmittance;
+                    out[through::TRANSMITTANCE] = transmittance;
                     out[through::LENGTH] = hit.length;
                     out
                 })

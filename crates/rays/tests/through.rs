@@ -233,3 +233,41 @@ fn a_frame_reads_the_gbuffer_light_only_where_the_camera_sees_the_hit() {
     }
     assert!(seen > 20 && hidden > 20, "seen {seen}, hidden {hidden}");
 }
+
+/// Through a frosted pane the albedo is the mean over its lobe: beside the edge between a black
+/// and a white wall it is grey, where the smooth pane's is black or white; far from the edge
+/// both are the wall's (the frosted one within GGX's long tail).
+#[test]
+fn a_rough_pane_blurs_the_albedo_behind_it() {
+    use glassbake_core::camera::Camera;
+    use glassbake_core::image::PlanarImage;
+    use glassbake_core::layout::{self, through, transparent};
+    use glassbake_rays::through::through_buffer;
+
+    let frame = |roughness: f32| {
+        let mut scene = Scene::empty("frosted");
+        let wall = |x: f32| shapes::rect(Vec3::new(x, 0.0, WALL_Z as f32), Vec3::X * 20.0, Vec3::Y * 40.0, Vec2::ONE);
+        add(&mut scene, "black", wall(-10.0), Material::diffuse("black", Vec3::ZERO), Vec3::ZERO, false);
+        add(&mut scene, "white", wall(10.0), Material::diffuse("white", Vec3::ONE), Vec3::ZERO, false);
+        let pane = shapes::rect(Vec3::ZERO, Vec3::X * 8.0, Vec3::Y * 8.0, Vec2::ONE);
+        add(&mut scene, "pane", pane, Material::glass("pane", Vec3::ONE, roughness, IOR as f32, true), Vec3::ZERO, true);
+        let geometry = ThroughScene::build(&scene);
+        let camera = Camera::look_at(Vec3::new(0.0, 0.0, 4.0), Vec3::new(0.0, 0.0, 0.0), 40.0);
+        let mut coverage = PlanarImage::new(32, 8, layout::transparent_channel_names(0));
+        coverage.plane_mut(transparent::COVERAGE).fill(1.0);
+        let gbuffer = PlanarImage::new(32, 8, layout::opaque_channel_names());
+        through_buffer(&scene, &geometry, 0, &camera, &gbuffer, &coverage)
+    };
+    let (smooth, frosted) = (frame(0.0), frame(0.3));
+    let grey = |image: &PlanarImage, x: u32| image.get(through::ALBEDO, x, 4);
+    for x in [0, 31] {
+        assert_eq!(grey(&smooth, x), if x == 0 { 0.0 } else { 1.0 });
+        assert!((grey(&frosted, x) - grey(&smooth, x)).abs() < 0.05, "far from the edge, column {x}: {}", grey(&frosted, x));
+    }
+    // The edge is between columns 15 and 16.
+    for x in [15, 16] {
+        assert!(grey(&smooth, x) == 0.0 || grey(&smooth, x) == 1.0);
+        assert!(grey(&frosted, x) > 0.05 && grey(&frosted, x) < 0.95, "column {x}: {}", grey(&frosted, x));
+    }
+    assert!(frosted.get(through::TRANSMITTANCE, 16, 4) > 0.0 && frosted.get(through::TRANSMITTANCE, 16, 4) <= 1.0);
+}

@@ -37,7 +37,17 @@ pub fn frame(seed: u64, size: usize, objects: usize, variables: usize) -> Synthe
     let transparent: Vec<PlanarImage> = (0..objects)
         .map(|k| {
             let names = [layout::transparent_channel_names(k), layout::through_channel_names(k)].concat();
-            PlanarImage::from_planes(size as u32, size as u32, names, planes(&mut rng, TRANSPARENT_CHANNELS + THROUGH_CHANNELS)).unwrap()
+            let mut data = planes(&mut rng, TRANSPARENT_CHANNELS + THROUGH_CHANNELS);
+            // As the through pass writes them: whole-pixel screen offsets and a 0/1 flag.
+            let n = size * size;
+            let screen = (TRANSPARENT_CHANNELS + layout::through::SCREEN_OFFSET) * n;
+            for v in &mut data[screen..screen + 2 * n] {
+                *v = ((*v - 0.5) * 6.0).round();
+            }
+            for v in &mut data[screen + 2 * n..screen + 3 * n] {
+                *v = f32::from(u8::from(*v > 0.5));
+            }
+            PlanarImage::from_planes(size as u32, size as u32, names, data).unwrap()
         })
         .collect();
     let values: Vec<f32> = (0..variables).map(|_| rng.random_range(0.0..1.0)).collect();
