@@ -319,7 +319,6 @@ impl NetConfig {
         terms * self.renderer_term_channels()
     }
 
-    /// Channels of one positionally encoded input channel.
     /// Channels of each transparent object's input: its transparency buffer, and with
     /// [`Self::through`] its through buffer after it.
     pub fn object_channels(&self) -> usize {
@@ -332,6 +331,7 @@ impl NetConfig {
         layout::TRANSPARENT_CHANNELS + if self.through { layout::through::SCREEN_OFFSET } else { 0 }
     }
 
+    /// Channels of one positionally encoded input channel.
     pub fn encoded_width(&self) -> usize {
         1 + 2 * self.encoding_frequencies
     }

@@ -70,19 +70,6 @@ pub struct ThroughHit {
     pub interfaces: usize,
 }
 
-fn interpolate<T: std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T> + Copy>(v: [T; 3], hit: &Hit) -> T {
-    v[0] * (1.0 - hit.b1 - hit.b2) + v[1] * hit.b1 + v[2] * hit.b2
-}
-
-fn shading_normal(triangle: &TriangleAttributes, hit: &Hit) -> Vec3 {
-    let [p0, p1, p2] = triangle.positions;
-    let face = (p1 - p0).cross(p2 - p0).normalize();
-    match triangle.normals {
-        Some(normals) => interpolate(normals, hit).try_normalize().unwrap_or(face),
-        None => face,
-    }
-}
-
 /// Follow the ray from `origin` along unit `direction` through transparent object `k` of
 /// `geometry` (index into `Scene::transparent_objects`), bent by the shading normal at every
 /// surface: for rough glass the mean direction of its lobe. `None` when it leaves the scene or
@@ -129,7 +116,8 @@ fn trace_path(
             length += hit.t;
         }
         let position = origin + direction * hit.t;
-        let n = shading_normal(&glass.attributes[hit.triangle as usize], &hit);
+        let triangle = &glass.attributes[hit.triangle as usize];
+        let n = triangle.shading_normal(&hit, triangle.face_normal());
         let m = normal_at(n, interfaces);
         interfaces += 1;
         let wo = -direction;
@@ -193,12 +181,12 @@ fn surface_hit(
     interfaces: usize,
 ) -> ThroughHit {
     let position = origin + direction * hit.t;
-    let n = shading_normal(triangle, hit);
+    let n = triangle.shading_normal(hit, triangle.face_normal());
     let normal = if n.dot(direction) > 0.0 { -n } else { n };
     let (albedo, emitted, is_light) = match triangle.owner {
         Owner::Object { material, .. } => {
             let material = &scene.materials[material as usize];
-            let uv: Vec2 = interpolate(triangle.uvs, hit);
+            let uv = triangle.uv(hit);
             let texture = material.base_color_texture.map_or(Vec3::ONE, |t| scene.textures[t].sample(uv).truncate());
             (material.base_color * texture, material.emission, false)
         }
@@ -212,22 +200,15 @@ fn surface_hit(
 }
 
 /// The through buffer of transparent object `k` for a frame: `layout::through_channel_names(k)`,
-/// cast for the pixels its transparency buffer covers. L_d comes from `opaque_gbuffer` where
+/// cast for the pixels where its transparency buffer's `coverage` plane is above 0. L_d comes from `opaque_gbuffer` where
 /// the camera sees the hit, at the pixel it projects to; a light's is its radiance.
-pub fn through_buffer(
-    scene: &Scene,
-    geometry: &ThroughScene,
-    k: usize,
-    camera: &Camera,
-    opaque_gbuffer: &PlanarImage,
-    transparency_buffer: &PlanarImage,
-) -> PlanarImage {
-    let (width, height) = (transparency_buffer.width(), transparency_buffer.height());
+pub fn through_buffer(scene: &Scene, geometry: &ThroughScene, k: usize, camera: &Camera, opaque_gbuffer: &PlanarImage, coverage: &[f32]) -> PlanarImage {
+    let (width, height) = (opaque_gbuffer.width(), opaque_gbuffer.height());
     let pixels = (width * height) as usize;
-    let coverage = transparency_buffer.plane(transparent::COVERAGE);
+    assert_eq!(coverage.len(), pixels, "one coverage value per pixel of the frame");
     let material = &scene.materials[scene.objects[geometry.object_indices[k]].material];
     let alpha = (material.roughness >= SMOOTH_ROUGHNESS).then_some(material.roughness * material.roughness);
-    let light_of = |hit: &ThroughHit| match on_screen(camera, geometry, opaque_gbuffer, hit.position) {
+    let light_at = |hit: &ThroughHit, view: Option<((u32, u32), bool)>| match view {
         _ if hit.is_light => hit.emitted,
         Some(((sx, sy), true)) => opaque_light(opaque_gbuffer, sx, sy),
         _ => hit.emitted,
@@ -243,28 +224,30 @@ pub fn through_buffer(
                     }
                     let ray = camera.pixel_center_ray(x, y, width, height);
                     let Some(hit) = trace_through(scene, geometry, k, ray.origin, ray.direction) else { return out };
-                    let (mut albedo, mut light, mut transmittance) = (hit.albedo, light_of(&hit), hit.transmittance);
-                    if let Some(alpha) = alpha {
-                        // Rough glass shows the mean over its lobe: a path a sample loses (it
-                        // leaves the scene, or is reflected away) adds nothing.
-                        (albedo, light, transmittance) = (Vec3::ZERO, Vec3::ZERO, 0.0);
-                        let pixel = (u64::from(y) << 32 | u64::from(x)) ^ (k as u64) << 56;
-                        for sample in 0..LOBE_SAMPLES {
-                            let mut microfacet = |n: Vec3, interface: usize| ggx_normal(n, alpha, lobe_point(sample, interface, pixel));
-                            if let Some(h) = trace_path(scene, geometry, k, ray.origin, ray.direction, &mut microfacet) {
-                                albedo += h.albedo * h.transmittance;
-                                light += light_of(&h) * h.transmittance;
-                                transmittance += h.transmittance;
+                    let view = on_screen(camera, geometry, opaque_gbuffer, hit.position);
+                    let (albedo, light, transmittance) = match alpha {
+                        None => (hit.albedo, light_at(&hit, view), hit.transmittance),
+                        Some(alpha) => {
+                            // Rough glass shows the mean over its lobe: a path a sample loses (it
+                            // leaves the scene, or is reflected away) adds nothing.
+                            let (mut albedo, mut light, mut transmittance) = (Vec3::ZERO, Vec3::ZERO, 0.0);
+                            let pixel = (u64::from(y) << 32 | u64::from(x)) ^ (k as u64) << 56;
+                            for sample in 0..LOBE_SAMPLES {
+                                let mut microfacet = |n: Vec3, interface: usize| ggx_normal(n, alpha, lobe_point(sample, interface, pixel));
+                                if let Some(h) = trace_path(scene, geometry, k, ray.origin, ray.direction, &mut microfacet) {
+                                    albedo += h.albedo * h.transmittance;
+                                    light += light_at(&h, on_screen(camera, geometry, opaque_gbuffer, h.position)) * h.transmittance;
+                                    transmittance += h.transmittance;
+                                }
                             }
+                            // Albedo and light as seen: weighted by what each path lets through.
+                            if transmittance > 0.0 {
+                                (albedo, light) = (albedo / transmittance, light / transmittance);
+                            }
+                            (albedo, light, transmittance / LOBE_SAMPLES as f32)
                         }
-                        // Albedo and light as seen: weighted by what each path lets through.
-                        if transmittance > 0.0 {
-                            (albedo, light) = (albedo / transmittance, light / transmittance);
-                        }
-                        transmittance /= LOBE_SAMPLES as f32;
-                    }
-                    let on_screen = on_screen(camera, geometry, opaque_gbuffer, hit.position);
-                    if let Some(((sx, sy), shown)) = on_screen {
+                    };
+                    if let Some(((sx, sy), shown)) = view {
                         out[through::SCREEN_OFFSET] = sx as f32 - x as f32;
                         out[through::SCREEN_OFFSET + 1] = sy as f32 - y as f32;
                         out[through::ON_SCREEN] = f32::from(u8::from(shown));
@@ -314,5 +297,9 @@ fn opaque_light(opaque_gbuffer: &PlanarImage, x: u32, y: u32) -> Vec3 {
 pub fn through_buffers(scene: &Scene, camera: &Camera, opaque_gbuffer: &PlanarImage, transparency_buffers: &[PlanarImage]) -> Vec<PlanarImage> {
     let geometry = ThroughScene::build(scene);
     assert_eq!(geometry.object_count(), transparency_buffers.len(), "one transparency buffer per transparent object");
-    transparency_buffers.iter().enumerate().map(|(k, buffer)| through_buffer(scene, &geometry, k, camera, opaque_gbuffer, buffer)).collect()
+    transparency_buffers
+        .iter()
+        .enumerate()
+        .map(|(k, buffer)| through_buffer(scene, &geometry, k, camera, opaque_gbuffer, buffer.plane(transparent::COVERAGE)))
+        .collect()
 }

@@ -30,6 +30,31 @@ pub struct TriangleAttributes {
     pub may_pass_through: bool,
 }
 
+impl TriangleAttributes {
+    /// The unit normal its winding gives.
+    #[inline]
+    pub fn face_normal(&self) -> Vec3 {
+        let [p0, p1, p2] = self.positions;
+        (p1 - p0).cross(p2 - p0).normalize()
+    }
+
+    /// The interpolated vertex normal at `hit`, or `face_normal` where the mesh has none.
+    #[inline]
+    pub fn shading_normal(&self, hit: &Hit, face_normal: Vec3) -> Vec3 {
+        match self.normals {
+            Some([n0, n1, n2]) => (n0 * (1.0 - hit.b1 - hit.b2) + n1 * hit.b1 + n2 * hit.b2).normalize_or(face_normal),
+            None => face_normal,
+        }
+    }
+
+    /// The texture coordinates at `hit`.
+    #[inline]
+    pub fn uv(&self, hit: &Hit) -> Vec2 {
+        let [t0, t1, t2] = self.uvs;
+        t0 * (1.0 - hit.b1 - hit.b2) + t1 * hit.b1 + t2 * hit.b2
+    }
+}
+
 /// Möller & Trumbore 1997, "Fast, Minimum Storage Ray/Triangle Intersection". Returns
 /// (t, b1, b2) with t in (t_min, t_max). The obvhs caster's triangle test, and the brute force
 /// the tests check both casters against.

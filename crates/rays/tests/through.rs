@@ -187,7 +187,7 @@ fn a_frame_reads_the_gbuffer_light_only_where_the_camera_sees_the_hit() {
             }
         }
     }
-    let cast = through_buffer(&scene, &geometry, 0, &camera, &gbuffer, &coverage);
+    let cast = through_buffer(&scene, &geometry, 0, &camera, &gbuffer, coverage.plane(transparent::COVERAGE));
     assert_eq!(cast.channels(), layout::through_channel_names(0).as_slice());
     // Independently: whether the straight segment from the camera to `p` crosses a post.
     let hidden_from_camera = |p: Vec3| {
@@ -256,7 +256,7 @@ fn a_rough_pane_blurs_the_albedo_behind_it() {
         let mut coverage = PlanarImage::new(32, 8, layout::transparent_channel_names(0));
         coverage.plane_mut(transparent::COVERAGE).fill(1.0);
         let gbuffer = PlanarImage::new(32, 8, layout::opaque_channel_names());
-        through_buffer(&scene, &geometry, 0, &camera, &gbuffer, &coverage)
+        through_buffer(&scene, &geometry, 0, &camera, &gbuffer, coverage.plane(transparent::COVERAGE))
     };
     let (smooth, frosted) = (frame(0.0), frame(0.3));
     let grey = |image: &PlanarImage, x: u32| image.get(through::ALBEDO, x, 4);

@@ -213,11 +213,12 @@ impl FramePipeline {
                     } else {
                         frame.transparent_into(k, planes).and_then(|()| match (&through_scene, &opaque_image) {
                             (Some(geometry), Some(opaque)) => {
-                                let buffer = PlanarImage::from_planes(lw, lh, layout::transparent_channel_names(k), planes.clone())?;
+                                let coverage = &planes[layout::transparent::COVERAGE * w * h..(layout::transparent::COVERAGE + 1) * w * h];
                                 let cast = Instant::now();
-                                let through = through_buffer(&instance, geometry, k, camera, opaque, &buffer);
+                                let through = through_buffer(&instance, geometry, k, camera, opaque, coverage);
                                 cast_ms += ms(cast);
-                                let mut data = buffer.data().to_vec();
+                                let mut data = Vec::with_capacity((TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS) * w * h);
+                                data.extend_from_slice(planes);
                                 data.extend_from_slice(through.data());
                                 Ok(to_tensor(data, TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS))
                             }

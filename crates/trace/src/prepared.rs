@@ -107,16 +107,12 @@ impl<'a> PreparedScene<'a> {
         let b0 = 1.0 - hit.b1 - hit.b2;
         let [p0, p1, p2] = a.positions;
         let position = p0 * b0 + p1 * hit.b1 + p2 * hit.b2;
-        let mut geometric_normal = (p1 - p0).cross(p2 - p0).normalize();
-        let shading_normal = match a.normals {
-            Some([n0, n1, n2]) => (n0 * b0 + n1 * hit.b1 + n2 * hit.b2).normalize_or(geometric_normal),
-            None => geometric_normal,
-        };
+        let mut geometric_normal = a.face_normal();
+        let shading_normal = a.shading_normal(hit, geometric_normal);
         if geometric_normal.dot(shading_normal) < 0.0 {
             geometric_normal = -geometric_normal;
         }
-        let [t0, t1, t2] = a.uvs;
-        SurfaceHit { position, distance: hit.t, geometric_normal, shading_normal, uv: t0 * b0 + t1 * hit.b1 + t2 * hit.b2, owner: a.owner, emitter: a.emitter }
+        SurfaceHit { position, distance: hit.t, geometric_normal, shading_normal, uv: a.uv(hit), owner: a.owner, emitter: a.emitter }
     }
 
     /// Whether object `object` is glass ([`Bsdf::is_glass`]) under `model`: its material
