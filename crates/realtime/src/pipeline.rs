@@ -211,7 +211,7 @@ impl FramePipeline {
                     let tensor = if zero_copy {
                         crate::gpu_handover::input_tensor(&device, TRANSPARENT_CHANNELS, h, w, |buffer, offset| frame.transparent_to_buffer(k, buffer, offset))
                     } else {
-                        frame.transparent_into(k, planes).and_then(|()| match (&through_scene, &opaque_image) {
+                        frame.transparent_into(k, planes).map(|()| match (&through_scene, &opaque_image) {
                             (Some(geometry), Some(opaque)) => {
                                 let coverage = &planes[layout::transparent::COVERAGE * w * h..(layout::transparent::COVERAGE + 1) * w * h];
                                 let cast = Instant::now();
@@ -220,9 +220,9 @@ impl FramePipeline {
                                 let mut data = Vec::with_capacity((TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS) * w * h);
                                 data.extend_from_slice(planes);
                                 data.extend_from_slice(through.data());
-                                Ok(to_tensor(data, TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS))
+                                to_tensor(data, TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS)
                             }
-                            _ => Ok(to_tensor(planes.clone(), TRANSPARENT_CHANNELS)),
+                            _ => to_tensor(planes.clone(), TRANSPARENT_CHANNELS),
                         })
                     };
                     raster_ms += ms(t);
