@@ -288,7 +288,7 @@ pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn
             for model in &models {
                 let naive = model.kind().reads_naive_gbuffer();
                 let (gbuffer, light_coverage) = e.gbuffer(naive);
-                let transparent: &[PlanarImage] = if naive { &[] } else { &e.transparent };
+                let transparent: &[PlanarImage] = if model.config().reads_object_buffers() { &e.transparent } else { &[] };
                 let started = Instant::now();
                 let image = model.render(FrameRef { gbuffer, light_coverage: Some(light_coverage), transparent, values: &e.values, ground_truth: None })?;
                 seconds.push(Some(started.elapsed().as_secs_f64()));

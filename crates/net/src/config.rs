@@ -164,8 +164,10 @@ pub struct NetConfig {
     /// Whether h also reads each transparency buffer's through buffer
     /// (`layout::THROUGH_ATTRIBUTES`: what the camera sees through that object, by refracted
     /// rays), and R its albedo and direct light times the Fresnel transmittance, summed over
-    /// the objects beside the glass light. GlassNet only. False in configs saved before this
-    /// existed.
+    /// the objects beside the glass light. For the naive baseline (the `front-through`
+    /// ablation of `glassbake train`), F reads beside its G-buffer the through buffer of the
+    /// object in front at each pixel: the same input without GlassNet's architecture. False
+    /// in configs saved before this existed.
     #[serde(default)]
     pub through: bool,
     /// B: (sigma, tau) -> phi.
@@ -279,8 +281,8 @@ impl NetConfig {
         if self.light_coverage && self.model == ModelKind::Pixelgen {
             return bad("light_coverage", "the pixelgen baseline keeps the paper's plain output".into());
         }
-        if self.through && self.model != ModelKind::Glassnet {
-            return bad("through", format!("only GlassNet reads through buffers, not {}", self.model.name()));
+        if self.through && !matches!(self.model, ModelKind::Glassnet | ModelKind::Naive) {
+            return bad("through", format!("only GlassNet and the naive baseline read through buffers, not {}", self.model.name()));
         }
         if let Some(grid) = &self.position_grid {
             if self.model == ModelKind::Pixelgen {
@@ -329,6 +331,27 @@ impl NetConfig {
     /// screen offset and on-screen flag, which say where h reads the scene code instead.
     pub fn encoded_object_channels(&self) -> usize {
         layout::TRANSPARENT_CHANNELS + if self.through { layout::through::SCREEN_OFFSET } else { 0 }
+    }
+
+    /// Whether the network is handed the transparent objects' buffers: the models that read
+    /// transparency buffers, and the naive baseline reading the front-most through buffer.
+    pub fn reads_object_buffers(&self) -> bool {
+        self.model.reads_transparency_buffers() || self.reads_front_through()
+    }
+
+    /// Whether F reads the through buffer of the object in front ([`Self::through`] on the
+    /// naive baseline).
+    pub fn reads_front_through(&self) -> bool {
+        self.through && self.model == ModelKind::Naive
+    }
+
+    /// Channels F reads beside the G-buffer with [`Self::reads_front_through`]: the front-most
+    /// through buffer Fourier-encoded but for its screen offset and on-screen flag, raw.
+    pub fn front_through_width(&self) -> usize {
+        if !self.reads_front_through() {
+            return 0;
+        }
+        layout::through::SCREEN_OFFSET * self.encoded_width() + layout::THROUGH_CHANNELS - layout::through::SCREEN_OFFSET
     }
 
     /// Channels of one positionally encoded input channel.

@@ -62,14 +62,14 @@ impl TrainedModel {
 
     /// Renders one frame at half its resolution, from its buffers 2x2-averaged: the image the
     /// x2 super-sampler brings up (train-sr trains on it, eval scores it). `frame.gbuffer` as
-    /// for [`Self::render`]; the transparency buffers are dropped for the naive-G-buffer models.
+    /// for [`Self::render`]; the transparency buffers are dropped for the models that read none.
     pub fn render_half(&self, frame: FrameRef) -> Result<PlanarImage> {
         let gbuffer = downsample_box2(frame.gbuffer)?;
         // A light's coverage of the larger pixel is the mean of its four quarters', and so is
         // the light it sees (summed over the pixel, divided by its area).
         let light_coverage = frame.light_coverage.map(downsample_box2).transpose()?;
         let transparent =
-            if self.kind().reads_naive_gbuffer() { Vec::new() } else { frame.transparent.iter().map(downsample_object_buffer).collect::<Result<Vec<_>>>()? };
+            if self.config().reads_object_buffers() { frame.transparent.iter().map(downsample_object_buffer).collect::<Result<Vec<_>>>()? } else { Vec::new() };
         self.render(FrameRef {
             gbuffer: &gbuffer,
             light_coverage: light_coverage.as_ref(),

@@ -76,7 +76,7 @@ impl GlassNet {
     pub fn new(config: &NetConfig, seed: u64, device: &Device) -> Result<GlassNet> {
         config.check("config")?;
         let e = config.encoded_width();
-        let input_channels = config.encoded_buffer_width(OPAQUE_CHANNELS) + config.variables;
+        let input_channels = config.encoded_buffer_width(OPAQUE_CHANNELS) + config.variables + config.front_through_width();
         if let (ModelKind::Pixelgen, Some(pixel)) = (config.model, &config.pixel_generator) {
             let net = GlassNet {
                 scene_encoder: None,
@@ -184,12 +184,18 @@ impl GlassNet {
     }
 
     /// The positionally encoded G-buffer with the variable values as constant planes: what F
-    /// (or the pixelgen MLP) reads.
-    fn encoded_inputs(&self, gbuffer: Tensor<4>, values: Tensor<2>) -> Tensor<4> {
+    /// (or the pixelgen MLP) reads; with [`NetConfig::reads_front_through`] followed by the
+    /// front-most through buffer (see [`front_through`]).
+    fn encoded_inputs(&self, gbuffer: Tensor<4>, values: Tensor<2>, front_through: Option<Tensor<4>>) -> Tensor<4> {
         let [n, _, h, w] = gbuffer.dims();
         let mut inputs = vec![self.encode_buffer(gbuffer, self.scene_grid.as_ref(), layout::opaque::POSITION)];
         if self.config.variables > 0 {
             inputs.push(values.reshape([n, self.config.variables, 1, 1]).expand([n, self.config.variables, h, w]));
+        }
+        if let Some(through) = front_through {
+            let encoded = layout::through::SCREEN_OFFSET;
+            inputs.push(positional_encoding(through.clone().narrow(1, 0, encoded), self.config.encoding_frequencies));
+            inputs.push(through.narrow(1, encoded, layout::THROUGH_CHANNELS - encoded));
         }
         Tensor::cat(inputs, 1)
     }
@@ -213,6 +219,17 @@ impl GlassNet {
     /// [`NetConfig::light_coverage`] panics without it (`TrainedModel::render` checks
     /// beforehand and returns an error).
     pub fn encode_scene(&self, gbuffer: Tensor<4>, light_coverage: Option<Tensor<4>>, values: Tensor<2>) -> SceneCode {
+        self.encode_scene_through(gbuffer, light_coverage, values, None)
+    }
+
+    /// [`Self::encode_scene`] for a network with [`NetConfig::reads_front_through`], given the
+    /// front-most through buffer ([`front_through`]); `None` for the others.
+    pub fn encode_scene_through(&self, gbuffer: Tensor<4>, light_coverage: Option<Tensor<4>>, values: Tensor<2>, front_through: Option<Tensor<4>>) -> SceneCode {
+        assert_eq!(
+            front_through.is_some(),
+            self.config.reads_front_through(),
+            "the naive baseline with through buffers, and only it, reads the front-most through buffer"
+        );
         let f = self.scene_encoder.as_ref().expect("pixelgen has no F: use forward_streaming");
         let (gbuffer, light_coverage) = if self.config.light_coverage {
             let light_coverage = light_coverage.expect("a network composited with the light coverage is given the G-buffer's light coverage");
@@ -222,7 +239,7 @@ impl GlassNet {
         };
         let direct_light = gbuffer.clone().narrow(1, layout::opaque::LD, 3);
         let albedo = gbuffer.clone().narrow(1, layout::opaque::ALBEDO, 3);
-        SceneCode { sigma: f.forward(self.encoded_inputs(gbuffer, values)), direct_light, albedo, light_coverage }
+        SceneCode { sigma: f.forward(self.encoded_inputs(gbuffer, values, front_through)), direct_light, albedo, light_coverage }
     }
 
     /// An object's buffer as h reads it: the transparency buffer with its through buffer
@@ -366,9 +383,13 @@ impl GlassNet {
         mut buffer: impl FnMut(usize) -> Option<Tensor<4>>,
     ) -> Tensor<4> {
         if let Some(pixel) = &self.pixel_generator {
-            return pixel.forward(self.encoded_inputs(gbuffer, values));
+            return pixel.forward(self.encoded_inputs(gbuffer, values, None));
         }
-        let scene = self.encode_scene(gbuffer, light_coverage, values);
+        let front = self.config.reads_front_through().then(|| {
+            let [n, _, h, w] = gbuffer.dims();
+            front_through((0..objects).filter_map(&mut buffer), [n, h, w], &gbuffer.device())
+        });
+        let scene = self.encode_scene_through(gbuffer, light_coverage, values, front);
         let [n, _, h, w] = scene.sigma.dims();
         let device = scene.sigma.device();
         let tau = match self.config.model {
@@ -390,6 +411,26 @@ impl GlassNet {
         };
         self.decode(&scene, tau)
     }
+}
+
+/// At each pixel, the through buffer of the object in front there (the covering transparency
+/// buffer of least depth), zeros where no object covers it: what the naive G-buffer's glass
+/// surface lets the camera see. `buffers` are transparency buffers each followed by its through
+/// buffer, taken one at a time so memory does not grow with their number.
+pub fn front_through(buffers: impl Iterator<Item = Tensor<4>>, [n, h, w]: [usize; 3], device: &Device) -> Tensor<4> {
+    let mut nearest = Tensor::<4>::full([n, 1, h, w], f32::MAX, device);
+    let mut through = Tensor::<4>::zeros([n, layout::THROUGH_CHANNELS, h, w], device);
+    for buffer in buffers {
+        assert_eq!(buffer.dims()[1], TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS, "a transparency buffer followed by its through buffer");
+        let covered = buffer.clone().narrow(1, layout::transparent::COVERAGE, 1).greater_elem(0.0);
+        let depth = buffer.clone().narrow(1, layout::transparent::DEPTH, 1);
+        let in_front = depth.clone().lower(nearest.clone()).float() * covered.float();
+        let keep = in_front.clone().neg().add_scalar(1.0);
+        nearest = nearest * keep.clone() + depth * in_front.clone();
+        let shape = [n, layout::THROUGH_CHANNELS, h, w];
+        through = through * keep.expand(shape) + buffer.narrow(1, TRANSPARENT_CHANNELS, layout::THROUGH_CHANNELS) * in_front.expand(shape);
+    }
+    through
 }
 
 /// Channels of a transparency buffer's glass light: L_d and L_d far, times its coverage.

@@ -657,8 +657,77 @@ fn through_buffers_reach_glassnet_only_when_it_reads_them() {
         assert_eq!(image, bits(net.forward(&with_through(0.5))), "{kind:?}");
         assert_eq!(image, bits(net.forward(&without_through)), "{kind:?}");
     }
-    // Only GlassNet reads them.
-    assert!(NetConfig { through: true, ..NetConfig::preset("tiny", ModelKind::Naive, 1, 2).unwrap() }.check("test").is_err());
+    // GlassNet and the naive baseline (its front-through ablation) read them, no other model.
+    assert!(NetConfig { through: true, ..NetConfig::preset("tiny", ModelKind::Naive, 1, 2).unwrap() }.check("test").is_ok());
+    assert!(NetConfig { through: true, ..NetConfig::preset("tiny", ModelKind::Concat, 1, 2).unwrap() }.check("test").is_err());
+}
+
+/// The front-most through buffer is, at each pixel, that of the covering object of least
+/// depth, whatever the order the objects come in, and zeros where no object covers the pixel.
+#[test]
+fn the_front_through_buffer_is_the_nearest_covering_objects() {
+    use glassbake_core::layout::{transparent, THROUGH_CHANNELS, TRANSPARENT_CHANNELS};
+    let device = Device::flex();
+    let (h, w) = (2, 3);
+    let pixels = h * w;
+    // Per object, per pixel: (coverage, depth). Object 2 is nearest at pixel 1 but does not
+    // cover it; pixel 5 is covered by none.
+    let objects: [[(f32, f32); 6]; 3] = [
+        [(1.0, 5.0), (1.0, 4.0), (0.0, 0.0), (0.5, 2.0), (1.0, 9.0), (0.0, 0.0)],
+        [(1.0, 3.0), (0.0, 0.0), (1.0, 7.0), (1.0, 1.0), (1.0, 8.0), (0.0, 0.0)],
+        [(0.0, 1.0), (0.0, 1.0), (1.0, 6.0), (1.0, 2.5), (0.0, 0.0), (0.0, 0.0)],
+    ];
+    let expected_object = [Some(1), Some(0), Some(2), Some(1), Some(1), None];
+    let through_value = |k: usize, c: usize, p: usize| (100 * (k + 1) + 10 * c + p) as f32;
+    let buffers: Vec<Tensor<4>> = objects
+        .iter()
+        .enumerate()
+        .map(|(k, object)| {
+            let mut data = vec![0.0f32; (TRANSPARENT_CHANNELS + THROUGH_CHANNELS) * pixels];
+            for (p, &(coverage, depth)) in object.iter().enumerate() {
+                data[transparent::COVERAGE * pixels + p] = coverage;
+                data[transparent::DEPTH * pixels + p] = depth;
+                for c in 0..THROUGH_CHANNELS {
+                    data[(TRANSPARENT_CHANNELS + c) * pixels + p] = through_value(k, c, p);
+                }
+            }
+            Tensor::<4>::from_data(TensorData::new(data, [1, TRANSPARENT_CHANNELS + THROUGH_CHANNELS, h, w]), &device)
+        })
+        .collect();
+    for order in [[0, 1, 2], [2, 0, 1], [1, 2, 0]] {
+        let front = values(glassbake_net::model::front_through(order.iter().map(|&k| buffers[k].clone()), [1, h, w], &device));
+        for p in 0..pixels {
+            for c in 0..THROUGH_CHANNELS {
+                let want = expected_object[p].map_or(0.0, |k| through_value(k, c, p));
+                assert_eq!(front[c * pixels + p], want, "order {order:?}, pixel {p}, channel {c}");
+            }
+        }
+    }
+}
+
+/// The naive baseline with `through` reads the front-most object's through buffer: a change
+/// there changes its image, and the objects' order does not.
+#[test]
+fn the_front_through_ablation_reads_the_front_objects_through_buffer() {
+    use glassbake_core::layout::{THROUGH_CHANNELS, TRANSPARENT_CHANNELS};
+    let device = Device::flex();
+    let frames = vec![common::frame(93, 16, 3, 1)];
+    let inputs = common::batch(&frames).inputs(&device);
+    let scaled = |scale: f32| NetInputs {
+        transparent: inputs
+            .transparent
+            .iter()
+            .map(|b| Tensor::cat(vec![b.clone().narrow(1, 0, TRANSPARENT_CHANNELS), b.clone().narrow(1, TRANSPARENT_CHANNELS, THROUGH_CHANNELS) * scale], 1))
+            .collect(),
+        ..inputs.clone()
+    };
+    let config = NetConfig { through: true, ..NetConfig::preset("tiny", ModelKind::Naive, 1, 3).unwrap() };
+    let net = random_net(&config, 7, &device);
+    let image = bits(net.forward(&scaled(1.0)));
+    assert_ne!(image, bits(net.forward(&scaled(0.5))));
+    let mut reversed = scaled(1.0);
+    reversed.transparent.reverse();
+    assert_eq!(image, bits(net.forward(&reversed)));
 }
 
 /// h reads the scene code where each through hit lands on screen: at the pixel the offset

@@ -157,7 +157,8 @@ impl FramePipeline {
                 }
                 let (lw, lh) = if sr { (width / 2, height / 2) } else { (width, height) };
                 let model = if naive { self.naive.as_ref().expect("checked") } else { &self.glassnet };
-                model.net.check_inputs(lw as usize, lh as usize, if naive { 0 } else { instance.transparent_count() })?;
+                let reads_objects = model.config().reads_object_buffers();
+                model.net.check_inputs(lw as usize, lh as usize, if reads_objects { instance.transparent_count() } else { 0 })?;
                 let device = model.device.clone();
                 let raster_start = Instant::now();
                 // With the super-sampler the coverage is drawn at the full resolution it composites
@@ -179,21 +180,27 @@ impl FramePipeline {
                     _ => None,
                 };
                 // The through buffers are cast on the CPU from read-back buffers.
-                let through = !naive && model.config().through;
+                let through = model.config().through;
                 let zero_copy = self.zero_copy && !naive && !through;
                 let mut frame = self.rasterizer.begin_frame(&instance, camera, lw, lh)?;
                 let (h, w) = (lh as usize, lw as usize);
                 let to_tensor = |data: Vec<f32>, channels: usize| Tensor::<4>::from_data(TensorData::new(data, [1, channels, h, w]), &device);
+                // The opaque G-buffer, kept for the through rays' direct light.
                 let mut opaque_image = None;
                 let gbuffer = if zero_copy {
                     crate::gpu_handover::input_tensor(&device, layout::OPAQUE_CHANNELS, h, w, |buffer, offset| frame.opaque_to_buffer(buffer, offset))?
+                } else if naive {
+                    if through {
+                        opaque_image = Some(frame.opaque()?);
+                    }
+                    to_tensor(frame.naive()?.data().to_vec(), layout::OPAQUE_CHANNELS)
                 } else {
-                    let image = if naive { frame.naive()? } else { frame.opaque()? };
+                    let image = frame.opaque()?;
                     let tensor = to_tensor(image.data().to_vec(), layout::OPAQUE_CHANNELS);
                     opaque_image = Some(image);
                     tensor
                 };
-                let objects = if naive { 0 } else { frame.transparent_count() };
+                let objects = if reads_objects { frame.transparent_count() } else { 0 };
                 times.raster_ms += ms(raster_start);
                 let values_tensor = Tensor::<2>::from_data(TensorData::new(normalised.clone(), [1, normalised.len()]), &device);
                 let planes = &mut self.planes;

@@ -63,7 +63,9 @@ pub struct TrainArgs {
     /// Weight of the (1 - SSIM) term (0 = the paper's "L1 only" ablation).
     #[arg(long)]
     pub ssim_weight: Option<f64>,
-    /// One of the paper's ablations (Table 2): no-encoding (no positional encoding) or l1-only.
+    /// An ablation: the paper's (Table 2) no-encoding (no positional encoding) or l1-only, or
+    /// front-through (the naive baseline also reading the through buffer of the transparent
+    /// object in front: GlassNet's input without its architecture).
     #[arg(long)]
     pub ablation: Option<String>,
     /// What the renderer R predicts: `rgb` (the image directly, as the paper; the default) or
@@ -83,15 +85,19 @@ pub enum Ablation {
     NoEncoding,
     /// L1 loss only, no SSIM term.
     L1Only,
+    /// The naive baseline given what is seen through the front-most transparent object (its
+    /// through buffer), which tells GlassNet's input from its architecture.
+    FrontThrough,
 }
 
 impl Ablation {
-    pub const ALL: [Ablation; 2] = [Ablation::NoEncoding, Ablation::L1Only];
+    pub const ALL: [Ablation; 3] = [Ablation::NoEncoding, Ablation::L1Only, Ablation::FrontThrough];
 
     pub fn name(self) -> &'static str {
         match self {
             Ablation::NoEncoding => "no-encoding",
             Ablation::L1Only => "l1-only",
+            Ablation::FrontThrough => "front-through",
         }
     }
 
@@ -99,7 +105,7 @@ impl Ablation {
         Ablation::ALL
             .into_iter()
             .find(|a| a.name() == text)
-            .ok_or_else(|| Error::bad_input("--ablation", "ablation", format!("{text:?} is not no-encoding or l1-only")))
+            .ok_or_else(|| Error::bad_input("--ablation", "ablation", format!("{text:?} is not no-encoding, l1-only or front-through")))
     }
 }
 
@@ -336,6 +342,12 @@ pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<bool> {
     let mut net_config = NetConfig::preset(&args.common.preset, kind, variables, info.transparent_objects)?;
     if ablation == Some(Ablation::NoEncoding) {
         net_config.encoding_frequencies = 0;
+    }
+    if ablation == Some(Ablation::FrontThrough) {
+        if kind != ModelKind::Naive {
+            return Err(Error::bad_input("--ablation", "ablation", format!("front-through is an ablation of the naive baseline, not of {}", kind.name())).into());
+        }
+        net_config.through = true;
     }
     if let Some(f) = args.encoding_frequencies {
         net_config.encoding_frequencies = f;
