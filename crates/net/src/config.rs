@@ -346,7 +346,8 @@ impl NetConfig {
     }
 
     /// Channels F reads beside the G-buffer with [`Self::reads_front_through`]: the front-most
-    /// through buffer Fourier-encoded but for its screen offset and on-screen flag, raw.
+    /// through buffer Fourier-encoded (its L_d clamped to 1) but for its screen offset (in
+    /// frame widths and heights) and on-screen flag.
     pub fn front_through_width(&self) -> usize {
         if !self.reads_front_through() {
             return 0;

@@ -185,7 +185,8 @@ impl GlassNet {
 
     /// The positionally encoded G-buffer with the variable values as constant planes: what F
     /// (or the pixelgen MLP) reads; with [`NetConfig::reads_front_through`] followed by the
-    /// front-most through buffer (see [`front_through`]).
+    /// front-most through buffer (see [`front_through`]) as [`NetConfig::front_through_width`]
+    /// says.
     fn encoded_inputs(&self, gbuffer: Tensor<4>, values: Tensor<2>, front_through: Option<Tensor<4>>) -> Tensor<4> {
         let [n, _, h, w] = gbuffer.dims();
         let mut inputs = vec![self.encode_buffer(gbuffer, self.scene_grid.as_ref(), layout::opaque::POSITION)];
@@ -193,9 +194,17 @@ impl GlassNet {
             inputs.push(values.reshape([n, self.config.variables, 1, 1]).expand([n, self.config.variables, h, w]));
         }
         if let Some(through) = front_through {
-            let encoded = layout::through::SCREEN_OFFSET;
-            inputs.push(positional_encoding(through.clone().narrow(1, 0, encoded), self.config.encoding_frequencies));
-            inputs.push(through.narrow(1, encoded, layout::THROUGH_CHANNELS - encoded));
+            use layout::through::{LD, ON_SCREEN, SCREEN_OFFSET};
+            // L_d clamped to 1 as the G-buffer's (a light seen through glass is 10-50), and the
+            // screen offset in frame widths and heights rather than pixels.
+            let encoded = Tensor::cat(
+                vec![through.clone().narrow(1, 0, LD), through.clone().narrow(1, LD, 3).clamp(0.0, 1.0), through.clone().narrow(1, LD + 3, SCREEN_OFFSET - LD - 3)],
+                1,
+            );
+            inputs.push(positional_encoding(encoded, self.config.encoding_frequencies));
+            inputs.push(through.clone().narrow(1, SCREEN_OFFSET, 1).div_scalar(w as f32));
+            inputs.push(through.clone().narrow(1, SCREEN_OFFSET + 1, 1).div_scalar(h as f32));
+            inputs.push(through.narrow(1, ON_SCREEN, 1));
         }
         Tensor::cat(inputs, 1)
     }
