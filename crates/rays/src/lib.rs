@@ -7,8 +7,10 @@
 //! and the rasterizer's frame both build on it; it knows nothing of either.
 
 pub mod geometry;
+pub mod gpu_bvh;
 pub mod optics;
 pub mod through;
+pub mod through_gpu;
 pub mod triangle;
 
 #[cfg(feature = "embree")]

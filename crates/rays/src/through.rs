@@ -25,11 +25,11 @@ use crate::triangle::{Hit, Owner, TriangleAttributes};
 pub const MAX_INTERFACES: usize = 8;
 
 /// A hit closer than this (in scene units) to where the ray left a surface is that surface.
-const SELF_HIT: f32 = 1e-4;
+pub(crate) const SELF_HIT: f32 = 1e-4;
 
 /// A hit is in view of the camera when nothing opaque lies between them, short of the hit by
 /// this share of its distance (so the hit's own surface does not hide it).
-const VIEW_SLACK: f32 = 1e-3;
+pub(crate) const VIEW_SLACK: f32 = 1e-3;
 
 /// The BVHs a frame's through buffers are cast in: the opaque scene (its lights included)
 /// and each transparent object alone, in `Scene::transparent_objects` order.
@@ -160,13 +160,30 @@ fn ggx_normal(n: Vec3, alpha: f32, u: Vec2) -> Vec3 {
     (t * (sin * phi.cos()) + b * (sin * phi.sin()) + n * cos).normalize()
 }
 
-/// The `s`-th of [`LOBE_SAMPLES`] points for surface `interface` of pixel `pixel`: a Hammersley
-/// set, shifted per pixel and surface (Cranley-Patterson) so that neighbours do not share it.
-fn lobe_point(s: usize, interface: usize, pixel: u64) -> Vec2 {
-    let shift = glassbake_core::seed::mix64(pixel ^ ((interface as u64) << 40));
-    let (sx, sy) = ((shift >> 40) as f32 / (1u64 << 24) as f32, (shift & 0xff_ffff) as f32 / (1u64 << 24) as f32);
+/// The `s`-th of [`LOBE_SAMPLES`] points for surface `interface` of pixel (`x`, `y`) of
+/// object `k`: a Hammersley set, shifted per pixel and surface (Cranley-Patterson) so that
+/// neighbours do not share it. The GPU pass (`shaders/through.wgsl`) draws the same points.
+fn lobe_point(s: usize, interface: usize, x: u32, y: u32, k: usize) -> Vec2 {
+    let shift = pcg4d([x, y, k as u32, interface as u32]);
+    let unit = |v: u32| (v >> 8) as f32 / (1u32 << 24) as f32;
     let u = Vec2::new((s as f32 + 0.5) / LOBE_SAMPLES as f32, (s as u32).reverse_bits() as f32 / 4_294_967_296.0);
-    Vec2::new((u.x + sx).fract(), (u.y + sy).fract())
+    Vec2::new((u.x + unit(shift[0])).fract(), (u.y + unit(shift[1])).fract())
+}
+
+/// pcg4d (Jarzynski & Olano 2020, "Hash Functions for GPU Rendering", JCGT 9(3)): four
+/// well-mixed words from four, in 32-bit arithmetic a shader has too.
+fn pcg4d(input: [u32; 4]) -> [u32; 4] {
+    let mut v = input.map(|w| w.wrapping_mul(1_664_525).wrapping_add(1_013_904_223));
+    let mix = |v: &mut [u32; 4]| {
+        v[0] = v[0].wrapping_add(v[1].wrapping_mul(v[3]));
+        v[1] = v[1].wrapping_add(v[2].wrapping_mul(v[0]));
+        v[2] = v[2].wrapping_add(v[0].wrapping_mul(v[1]));
+        v[3] = v[3].wrapping_add(v[1].wrapping_mul(v[2]));
+    };
+    mix(&mut v);
+    v = v.map(|w| w ^ (w >> 16));
+    mix(&mut v);
+    v
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -231,9 +248,8 @@ pub fn through_buffer(scene: &Scene, geometry: &ThroughScene, k: usize, camera: 
                             // Rough glass shows the mean over its lobe: a path a sample loses (it
                             // leaves the scene, or is reflected away) adds nothing.
                             let (mut albedo, mut light, mut transmittance) = (Vec3::ZERO, Vec3::ZERO, 0.0);
-                            let pixel = (u64::from(y) << 32 | u64::from(x)) ^ (k as u64) << 56;
                             for sample in 0..LOBE_SAMPLES {
-                                let mut microfacet = |n: Vec3, interface: usize| ggx_normal(n, alpha, lobe_point(sample, interface, pixel));
+                                let mut microfacet = |n: Vec3, interface: usize| ggx_normal(n, alpha, lobe_point(sample, interface, x, y, k));
                                 if let Some(h) = trace_path(scene, geometry, k, ray.origin, ray.direction, &mut microfacet) {
                                     albedo += h.albedo * h.transmittance;
                                     light += light_at(&h, on_screen(camera, geometry, opaque_gbuffer, h.position)) * h.transmittance;

@@ -30,8 +30,8 @@ struct Params {
     _pad2: u32,
 }
 
-// FLAG_LAMBERTIAN, the record sizes (`*_VEC4S`), the attribute flags (`ATTR_*`), NONE,
-// STACK_SIZE and MAX_VERTICES come from Rust: `shared_constants` in src/tracer.rs prepends
+// FLAG_LAMBERTIAN, the record sizes (`*_VEC4S`), the attribute flags (`ATTR_*`), NONE
+// and MAX_VERTICES come from Rust: `shared_constants` in src/tracer.rs prepends
 // them from the constants src/upload.rs writes the buffers with and the CPU tracer's own.
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -99,155 +99,14 @@ fn rng_vec2() -> vec2f {
 
 // ---- geometry ----
 
-struct Hit {
-    valid: bool,
-    t: f32,
-    triangle: u32,
-    b1: f32,
-    b2: f32,
-}
-
-fn no_hit() -> Hit {
-    return Hit(false, 0.0, 0u, 0.0, 0.0);
-}
-
-// Möller & Trumbore 1997; (t, b1, b2) with t in (t_min, t_max), t < 0 when missed.
-fn intersect_triangle(index: u32, origin: vec3f, direction: vec3f, t_min: f32, t_max: f32) -> vec3f {
-    let base = index * TRIANGLE_VEC4S;
-    let v0 = triangles[base].xyz;
-    let edge1 = triangles[base + 1u].xyz;
-    let edge2 = triangles[base + 2u].xyz;
-    let p = cross(direction, edge2);
-    let det = dot(edge1, p);
-    if det == 0.0 {
-        return vec3f(-1.0);
-    }
-    let inv_det = 1.0 / det;
-    let s = origin - v0;
-    let b1 = dot(s, p) * inv_det;
-    if b1 < 0.0 || b1 > 1.0 {
-        return vec3f(-1.0);
-    }
-    let q = cross(s, edge1);
-    let b2 = dot(direction, q) * inv_det;
-    if b2 < 0.0 || b1 + b2 > 1.0 {
-        return vec3f(-1.0);
-    }
-    let t = dot(edge2, q) * inv_det;
-    if t > t_min && t < t_max {
-        return vec3f(t, b1, b2);
-    }
-    return vec3f(-1.0);
-}
-
-fn triangle_passes_light(index: u32) -> bool {
-    return (bitcast<u32>(triangles[index * TRIANGLE_VEC4S + 1u].w) & ATTR_PASS_THROUGH) != 0u;
-}
-
-// Entry distance of the ray into a node's box, or FLT_MAX when it misses within (t_min, t_max).
-fn node_entry(node: u32, origin: vec3f, inv_direction: vec3f, t_min: f32, t_max: f32) -> f32 {
-    let lo = (nodes[node * NODE_VEC4S].xyz - origin) * inv_direction;
-    let hi = (nodes[node * NODE_VEC4S + 1u].xyz - origin) * inv_direction;
-    let near = min(lo, hi);
-    let far = max(lo, hi);
-    // The far distance grows by 2 gamma(3) (Ize 2013, "Robust BVH Ray Traversal"): boxes of
-    // axis-aligned walls are flat, and rounding would otherwise let rays slip past them.
-    let t0 = max(max(near.x, near.y), max(near.z, t_min));
-    let t1 = min(min(far.x, far.y), far.z) * 1.0000008;
-    let t1_clamped = min(t1, t_max);
-    return select(FLT_MAX, t0, t0 <= t1_clamped);
-}
-
-fn safe_inverse(d: vec3f) -> vec3f {
-    let tiny = 1e-30;
-    let safe = select(d, vec3f(tiny), abs(d) < vec3f(tiny));
-    return 1.0 / safe;
-}
-
-// Which triangles a traversal considers.
-const CONSIDER_ALL: u32 = 0u;
-const CONSIDER_PANES: u32 = 1u;
-const CONSIDER_OPAQUE: u32 = 2u;
+// The BVH traversal (Hit, traverse) is the rays crate's shaders/bvh.wgsl, prepended by
+// src/tracer.rs; the scene's BVH is the only one in `nodes`, at root 0.
+const CONSIDER_PANES: u32 = CONSIDER_FLAGGED;
+const CONSIDER_OPAQUE: u32 = CONSIDER_UNFLAGGED;
 
 // The closest considered triangle with t in (t_min, t_max); with `any_hit`, the first found.
-fn traverse(origin: vec3f, direction: vec3f, t_min: f32, t_max_in: f32, consider: u32, any_hit: bool) -> Hit {
-    var best = no_hit();
-    if arrayLength(&nodes) < NODE_VEC4S {
-        return best;
-    }
-    let inv_direction = safe_inverse(direction);
-    var t_max = t_max_in;
-    var stack: array<u32, STACK_SIZE>;
-    var depth = 0u;
-    var node = 0u;
-    if node_entry(0u, origin, inv_direction, t_min, t_max) == FLT_MAX {
-        return best;
-    }
-    loop {
-        let count = bitcast<u32>(nodes[node * NODE_VEC4S + 1u].w);
-        let first = bitcast<u32>(nodes[node * NODE_VEC4S].w);
-        if count == 0u {
-            let near_t = node_entry(first, origin, inv_direction, t_min, t_max);
-            let far_t = node_entry(first + 1u, origin, inv_direction, t_min, t_max);
-            let near_hit = near_t != FLT_MAX;
-            let far_hit = far_t != FLT_MAX;
-            if near_hit && far_hit {
-                var nearer = first;
-                var farther = first + 1u;
-                if far_t < near_t {
-                    nearer = first + 1u;
-                    farther = first;
-                }
-                stack[depth] = farther;
-                depth += 1u;
-                node = nearer;
-                continue;
-            }
-            if near_hit {
-                node = first;
-                continue;
-            }
-            if far_hit {
-                node = first + 1u;
-                continue;
-            }
-        } else {
-            for (var i = first; i < first + count; i++) {
-                if consider != CONSIDER_ALL {
-                    let pane = triangle_passes_light(i);
-                    if pane != (consider == CONSIDER_PANES) {
-                        continue;
-                    }
-                }
-                let r = intersect_triangle(i, origin, direction, t_min, t_max);
-                if r.x >= 0.0 {
-                    t_max = r.x;
-                    best = Hit(true, r.x, bitcast<u32>(triangles[i * TRIANGLE_VEC4S].w), r.y, r.z);
-                    if any_hit {
-                        return best;
-                    }
-                }
-            }
-        }
-        // Next: the deepest deferred node still in front of the closest hit.
-        var found = false;
-        loop {
-            if depth == 0u {
-                break;
-            }
-            depth -= 1u;
-            let candidate = stack[depth];
-            if node_entry(candidate, origin, inv_direction, t_min, t_max) != FLT_MAX {
-                node = candidate;
-                found = true;
-                break;
-            }
-        }
-        if !found {
-            break;
-        }
-    }
-    return best;
+fn traverse_scene(origin: vec3f, direction: vec3f, t_min: f32, t_max: f32, consider: u32, any_hit: bool) -> Hit {
+    return traverse(0u, origin, direction, t_min, t_max, consider, ATTR_PASS_THROUGH, any_hit);
 }
 
 struct SurfaceHit {
@@ -473,7 +332,7 @@ fn shadow_transmittance(origin: vec3f, direction: vec3f, t_max: f32, max_crossin
         return blocked;
     }
     let consider = select(CONSIDER_ALL, CONSIDER_OPAQUE, params.has_panes != 0u);
-    if traverse(origin, direction, 0.0, t_max, consider, true).valid {
+    if traverse_scene(origin, direction, 0.0, t_max, consider, true).valid {
         return blocked;
     }
     var result = vec4f(1.0);
@@ -485,7 +344,7 @@ fn shadow_transmittance(origin: vec3f, direction: vec3f, t_max: f32, max_crossin
     var t0 = 0.0;
     var crossings = 0u;
     for (var guard = 0u; guard < MAX_VERTICES; guard++) {
-        let hit = traverse(origin, direction, t0, t_max, CONSIDER_PANES, false);
+        let hit = traverse_scene(origin, direction, t0, t_max, CONSIDER_PANES, false);
         if !hit.valid {
             break;
         }
@@ -521,7 +380,7 @@ fn trace_path(origin_in: vec3f, direction_in: vec3f) -> vec3f {
     var mis_pdf = 0.0;
 
     for (var vertex = 0u; vertex < MAX_VERTICES; vertex++) {
-        let hit = traverse(origin, direction, 0.0, FLT_MAX, CONSIDER_ALL, false);
+        let hit = traverse_scene(origin, direction, 0.0, FLT_MAX, CONSIDER_ALL, false);
         if !hit.valid {
             radiance += throughput * params.background.xyz;
             break;

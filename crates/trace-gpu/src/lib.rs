@@ -1,7 +1,7 @@
 //! glassbake-trace-gpu: the ground-truth path tracer in wgpu compute shaders.
 //!
 //! It owns the GPU side of ground truth: flattening a scene instance into storage buffers
-//! (a binary BVH built by obvhs, triangles, materials, textures, the CPU tracer's emitter
+//! (a binary BVH, built and traversed by the rays crate's `gpu_bvh`, triangles, materials, textures, the CPU tracer's emitter
 //! table), the WGSL port of the CPU tracer's BSDFs, light sampling and its `plain` estimator
 //! (`shaders/`: next-event estimation through smooth thin panes, MIS, area sampling of
 //! lights picked by power, Russian roulette), and the passes that accumulate samples per

@@ -12,6 +12,8 @@ use glassbake_scene::Scene;
 use glassbake_trace::{unlit_warning, Estimator, MaterialModel, Progress, TraceOutput, TraceSettings};
 use wgpu::util::DeviceExt;
 
+use glassbake_rays::gpu_bvh::GpuBvhs;
+
 use crate::upload::SceneBuffers;
 
 /// Threads a pass aims for: a pixel gets several threads (slots) when the image alone has
@@ -69,10 +71,8 @@ pub struct GpuTracer {
 /// `upload.rs` writes, and the CPU tracer's path-length guard.
 pub(crate) fn shared_constants() -> String {
     use crate::upload::*;
-    let constants: [(&str, u64); 12] = [
+    let constants: [(&str, u64); 9] = [
         ("FLAG_LAMBERTIAN", FLAG_LAMBERTIAN as u64),
-        ("NODE_VEC4S", NODE_VEC4S as u64),
-        ("TRIANGLE_VEC4S", TRIANGLE_VEC4S as u64),
         ("ATTRIBUTE_VEC4S", ATTRIBUTE_VEC4S as u64),
         ("MATERIAL_VEC4S", MATERIAL_VEC4S as u64),
         ("EMITTER_VEC4S", EMITTER_VEC4S as u64),
@@ -80,16 +80,15 @@ pub(crate) fn shared_constants() -> String {
         ("ATTR_RECT_LIGHT", ATTR_RECT_LIGHT as u64),
         ("ATTR_HAS_NORMALS", ATTR_HAS_NORMALS as u64),
         ("ATTR_PASS_THROUGH", ATTR_PASS_THROUGH as u64),
-        ("STACK_SIZE", MAX_BVH_DEPTH as u64),
         ("MAX_VERTICES", glassbake_trace::prepared::MAX_VERTICES as u64),
     ];
     constants.iter().map(|(name, value)| format!("const {name}: u32 = {value}u;\n")).collect()
 }
 
-/// The WGSL source of the trace kernel: the constants it shares with Rust, the BSDF, then
-/// the integrator.
+/// The WGSL source of the trace kernel: the constants it shares with Rust, the BSDF, the BVH
+/// traversal (the rays crate's), then the integrator.
 pub(crate) fn trace_source() -> String {
-    [shared_constants().as_str(), include_str!("../shaders/bsdf.wgsl"), include_str!("../shaders/trace.wgsl")].join("\n")
+    [shared_constants().as_str(), include_str!("../shaders/bsdf.wgsl"), &GpuBvhs::wgsl(), include_str!("../shaders/trace.wgsl")].join("\n")
 }
 
 /// Compile `source` into a compute pipeline with the layout its bindings imply.

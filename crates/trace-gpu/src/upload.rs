@@ -1,21 +1,15 @@
 //! A scene instance as the flat arrays of vec4s that `shaders/trace.wgsl` reads. The record
 //! sizes here and the `*_VEC4S` constants there describe the same layouts.
 
-use std::time::Duration;
-
 use glam::Vec3;
-use glam_bvh::Vec3A as BvhVec3;
-use glassbake_core::{Error, Result};
+use glassbake_core::Result;
 use glassbake_scene::Scene;
 use glassbake_trace::geometry::Owner;
 use glassbake_trace::lights::Shape;
 use glassbake_trace::{PreparedScene, SurfaceMaterial};
-use obvhs::bvh2::builder::build_bvh2_from_tris;
-use obvhs::triangle::Triangle as BvhTriangle;
-use obvhs::BvhBuildParams;
 
-/// Deepest BVH the shader's traversal stack holds (its `STACK_SIZE`).
-pub const MAX_BVH_DEPTH: usize = 64;
+pub use glassbake_rays::gpu_bvh::MAX_BVH_DEPTH;
+use glassbake_rays::gpu_bvh::{GpuBvhs, GpuTriangle};
 
 /// No texture, emitter or node.
 pub(crate) const NONE: u32 = u32::MAX;
@@ -26,8 +20,6 @@ pub(crate) const ATTR_PASS_THROUGH: u32 = 4;
 
 /// Record sizes in vec4s. These constants, not copies, reach the shader
 /// (`tracer::shared_constants`).
-pub(crate) const NODE_VEC4S: usize = 2;
-pub(crate) const TRIANGLE_VEC4S: usize = 3;
 pub(crate) const ATTRIBUTE_VEC4S: usize = 8;
 pub(crate) const MATERIAL_VEC4S: usize = 4;
 pub(crate) const EMITTER_VEC4S: usize = 6;
@@ -91,38 +83,17 @@ impl SceneBuffers {
             attributes.push([t2.x, t2.y, 0.0, 0.0]);
         }
 
-        let mut nodes = Vec::new();
-        let mut triangles = Vec::new();
-        let mut bvh_depth = 0;
-        if !attributes_cpu.is_empty() {
-            let to_bvh = |v: Vec3| BvhVec3::new(v.x, v.y, v.z);
-            let bvh_triangles: Vec<BvhTriangle> =
-                attributes_cpu.iter().map(|a| BvhTriangle { v0: to_bvh(a.positions[0]), v1: to_bvh(a.positions[1]), v2: to_bvh(a.positions[2]) }).collect();
-            let bvh = build_bvh2_from_tris(&bvh_triangles, BvhBuildParams::medium_build(), &mut Duration::default());
-            nodes.reserve(bvh.nodes.len() * NODE_VEC4S);
-            triangles.reserve(bvh.primitive_indices.len() * TRIANGLE_VEC4S);
-            for node in &bvh.nodes {
-                let (lo, hi) = (node.aabb.min, node.aabb.max);
-                nodes.push([lo.x, lo.y, lo.z, bits(node.first_index)]);
-                nodes.push([hi.x, hi.y, hi.z, bits(node.prim_count)]);
-            }
-            for &index in &bvh.primitive_indices {
-                let a = &attributes_cpu[index as usize];
-                let [p0, p1, p2] = a.positions;
-                let flags = if a.may_pass_through { ATTR_PASS_THROUGH } else { 0 };
-                triangles.push(v4(p0, bits(index)));
-                triangles.push(v4(p1 - p0, bits(flags)));
-                triangles.push(v4(p2 - p0, 0.0));
-            }
-            bvh_depth = depth(&bvh.nodes);
-            if bvh_depth >= MAX_BVH_DEPTH {
-                return Err(Error::bad_input(
-                    &scene.name,
-                    "geometry",
-                    format!("its BVH is {bvh_depth} levels deep; the GPU tracer's traversal stack holds {MAX_BVH_DEPTH}"),
-                ));
-            }
-        }
+        let bvh_triangles: Vec<GpuTriangle> = attributes_cpu
+            .iter()
+            .enumerate()
+            .map(|(index, a)| GpuTriangle {
+                positions: a.positions,
+                attribute: index as u32,
+                flags: if a.may_pass_through { ATTR_PASS_THROUGH } else { 0 },
+            })
+            .collect();
+        let mut bvh = GpuBvhs::default();
+        bvh.push(&bvh_triangles, &scene.name)?;
 
         let texture_ref = |t: Option<usize>| match t {
             Some(i) if i < scene.textures.len() => i as u32,
@@ -172,8 +143,8 @@ impl SceneBuffers {
         let emitter_count = if lights.is_empty() { 0 } else { lights.emitters.len() as u32 };
 
         Ok(SceneBuffers {
-            nodes,
-            triangles,
+            nodes: bvh.nodes,
+            triangles: bvh.triangles,
             attributes,
             materials,
             texture_table,
@@ -181,7 +152,7 @@ impl SceneBuffers {
             emitters,
             emitter_count,
             has_panes: attributes_cpu.iter().any(|a| a.may_pass_through),
-            bvh_depth,
+            bvh_depth: bvh.depth,
         })
     }
 
@@ -209,61 +180,10 @@ pub(crate) fn material_vec4s(m: &SurfaceMaterial) -> [[f32; 4]; 3] {
     [v4(m.base_color, m.roughness), v4(m.specular_color, m.specular), [m.metallic, weight, ior, thin]]
 }
 
-/// Depth of the deepest leaf below node 0.
-fn depth(nodes: &[obvhs::bvh2::node::Bvh2Node]) -> usize {
-    let mut deepest = 0;
-    let mut stack = vec![(0usize, 0usize)];
-    while let Some((node, d)) = stack.pop() {
-        deepest = deepest.max(d);
-        let n = &nodes[node];
-        if n.prim_count == 0 {
-            stack.push((n.first_index as usize, d + 1));
-            stack.push((n.first_index as usize + 1, d + 1));
-        }
-    }
-    deepest
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use glassbake_scene::builtin::builtin;
-
-    #[test]
-    fn every_triangle_is_in_exactly_one_leaf_and_inside_its_boxes() {
-        let scene = builtin("cornellbox").unwrap();
-        let buffers = SceneBuffers::build(&scene).unwrap();
-        let triangle_count = buffers.attributes.len() / ATTRIBUTE_VEC4S;
-        assert_eq!(buffers.triangles.len() / TRIANGLE_VEC4S, triangle_count);
-        let mut seen = vec![0u32; triangle_count];
-        // Walk the tree: each leaf's triangles lie inside every box on the way down.
-        let mut stack = vec![(0usize, Vec::<([f32; 4], [f32; 4])>::new())];
-        while let Some((node, mut boxes)) = stack.pop() {
-            let (lo, hi) = (buffers.nodes[2 * node], buffers.nodes[2 * node + 1]);
-            boxes.push((lo, hi));
-            let (first, count) = (lo[3].to_bits() as usize, hi[3].to_bits() as usize);
-            if count == 0 {
-                stack.push((first, boxes.clone()));
-                stack.push((first + 1, boxes));
-                continue;
-            }
-            for k in first..first + count {
-                let t = &buffers.triangles[TRIANGLE_VEC4S * k..TRIANGLE_VEC4S * (k + 1)];
-                let v0 = Vec3::new(t[0][0], t[0][1], t[0][2]);
-                let corners = [v0, v0 + Vec3::new(t[1][0], t[1][1], t[1][2]), v0 + Vec3::new(t[2][0], t[2][1], t[2][2])];
-                for (lo, hi) in &boxes {
-                    for c in corners {
-                        for axis in 0..3 {
-                            assert!(c[axis] >= lo[axis] - 1e-5 && c[axis] <= hi[axis] + 1e-5, "triangle {k} outside a box");
-                        }
-                    }
-                }
-                seen[t[0][3].to_bits() as usize] += 1;
-            }
-        }
-        assert!(seen.iter().all(|&n| n == 1), "a triangle is missing from the leaves or in two of them");
-        assert!(buffers.bvh_depth > 0 && buffers.bvh_depth < MAX_BVH_DEPTH);
-    }
 
     #[test]
     fn emitter_table_ends_with_a_cumulative_probability_of_one() {

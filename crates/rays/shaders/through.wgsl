@@ -1,0 +1,368 @@
+// The through pass as one compute kernel: the GPU twin of `through.rs` (same rays, same
+// surfaces, same lobe points), one invocation per pixel of transparent object k. The BVHs of
+// the opaque scene (with its lights) and of every transparent object alone share `nodes`
+// and `triangles`, each from its root. `through_gpu.rs` prepends the constants shared with
+// Rust and `bvh.wgsl`, and writes the buffers.
+
+struct Params {
+    view_projection: mat4x4f,
+    camera_position: vec4f,
+    camera_forward: vec4f,
+    // right * tan(fov_x / 2) and up * tan(fov_y / 2).
+    camera_right: vec4f,
+    camera_up: vec4f,
+    width: u32,
+    height: u32,
+    opaque_root: u32,
+    object_root: u32,
+    ior: f32,
+    thin: u32,
+    rough: u32,
+    alpha: f32,
+    object: u32,
+    texture_table: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> nodes: array<vec4f>;
+@group(0) @binding(2) var<storage, read> triangles: array<vec4f>;
+// Per triangle: p0..p2 (w: material or light, flags, -), n0..n2, (uv0, uv1), (uv2, -).
+@group(0) @binding(3) var<storage, read> attributes: array<vec4f>;
+// Per material (base colour, base colour texture or NONE), (emission, -); then from
+// params.texture_table one (offset, width, height, -) per texture.
+@group(0) @binding(4) var<storage, read> materials: array<vec4f>;
+@group(0) @binding(5) var<storage, read> texels: array<vec4f>;
+// Per rectangle light: (normal, two-sided), (radiance, -).
+@group(0) @binding(6) var<storage, read> lights: array<vec4f>;
+// Per pixel: the opaque G-buffer's L_d and object k's coverage.
+@group(0) @binding(7) var<storage, read> frame: array<vec4f>;
+// THROUGH_CHANNELS planes of width x height.
+@group(0) @binding(8) var<storage, read_write> through: array<f32>;
+
+// ---- light at a dielectric interface (optics.rs) ----
+
+fn fresnel_dielectric(cos_in: f32, eta_in: f32) -> f32 {
+    var cos_i = cos_in;
+    var eta = eta_in;
+    if cos_i < 0.0 {
+        cos_i = -cos_i;
+        eta = 1.0 / eta;
+    }
+    let sin2_t = max(1.0 - cos_i * cos_i, 0.0) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = sqrt(1.0 - sin2_t);
+    let r_parallel = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let r_perpendicular = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    return 0.5 * (r_parallel * r_parallel + r_perpendicular * r_perpendicular);
+}
+
+fn thin_slab_reflectance(cos_i: f32, eta: f32) -> f32 {
+    let r = fresnel_dielectric(abs(cos_i), eta);
+    if r >= 1.0 {
+        return 1.0;
+    }
+    return 2.0 * r / (1.0 + r);
+}
+
+fn reflect_about(w: vec3f, m: vec3f) -> vec3f {
+    return 2.0 * dot(w, m) * m - w;
+}
+
+// The refracted direction (xyz) and 1 in w, or w = 0 at total internal reflection.
+fn refract_through(w: vec3f, n_in: vec3f, eta_in: f32) -> vec4f {
+    var cos_i = dot(n_in, w);
+    var n = n_in;
+    var eta = eta_in;
+    if cos_i < 0.0 {
+        eta = 1.0 / eta;
+        cos_i = -cos_i;
+        n = -n;
+    }
+    let sin2_t = max(1.0 - cos_i * cos_i, 0.0) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return vec4f(0.0);
+    }
+    let cos_t = sqrt(1.0 - sin2_t);
+    return vec4f(-w / eta + (cos_i / eta - cos_t) * n, 1.0);
+}
+
+// ---- triangles (triangle.rs) ----
+
+fn face_normal(triangle: u32) -> vec3f {
+    let base = triangle * ATTRIBUTE_VEC4S;
+    let p0 = attributes[base].xyz;
+    return normalize(cross(attributes[base + 1u].xyz - p0, attributes[base + 2u].xyz - p0));
+}
+
+fn shading_normal(hit: Hit) -> vec3f {
+    let base = hit.triangle * ATTRIBUTE_VEC4S;
+    let face = face_normal(hit.triangle);
+    if (bitcast<u32>(attributes[base + 1u].w) & ATTR_HAS_NORMALS) == 0u {
+        return face;
+    }
+    let b0 = 1.0 - hit.b1 - hit.b2;
+    let n = attributes[base + 3u].xyz * b0 + attributes[base + 4u].xyz * hit.b1 + attributes[base + 5u].xyz * hit.b2;
+    let len = length(n);
+    if len > 0.0 && len < 3.0e38 {
+        return n / len;
+    }
+    return face;
+}
+
+fn texel(texture: vec4u, x: i32, y: i32) -> vec4f {
+    let w = i32(texture.y);
+    let h = i32(texture.z);
+    let xi = ((x % w) + w) % w;
+    let yi = ((y % h) + h) % h;
+    return texels[texture.x + u32(yi * w + xi)];
+}
+
+// Bilinear with repeat wrapping, v = 0 the top row (scene::Texture::sample).
+fn sample_texture(index: u32, uv: vec2f) -> vec4f {
+    let texture = bitcast<vec4u>(materials[params.texture_table + index]);
+    let x = uv.x * f32(texture.y) - 0.5;
+    let y = uv.y * f32(texture.z) - 0.5;
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let ix = i32(x0);
+    let iy = i32(y0);
+    let top = mix(texel(texture, ix, iy), texel(texture, ix + 1, iy), x - x0);
+    let bottom = mix(texel(texture, ix, iy + 1), texel(texture, ix + 1, iy + 1), x - x0);
+    return mix(top, bottom, y - y0);
+}
+
+// ---- the path through object k (through.rs: trace_path) ----
+
+struct PathEnd {
+    valid: bool,
+    position: vec3f,
+    normal: vec3f,
+    albedo: vec3f,
+    emitted: vec3f,
+    is_light: bool,
+    transmittance: f32,
+    length: f32,
+}
+
+fn lost() -> PathEnd {
+    return PathEnd(false, vec3f(0.0), vec3f(0.0), vec3f(0.0), vec3f(0.0), false, 0.0, 0.0);
+}
+
+fn surface_end(hit: Hit, origin: vec3f, direction: vec3f, transmittance: f32, length: f32) -> PathEnd {
+    var end: PathEnd;
+    end.valid = true;
+    end.position = origin + direction * hit.t;
+    let n = shading_normal(hit);
+    end.normal = select(n, -n, dot(n, direction) > 0.0);
+    end.transmittance = transmittance;
+    end.length = length;
+    let base = hit.triangle * ATTRIBUTE_VEC4S;
+    let owner = bitcast<u32>(attributes[base].w);
+    if (bitcast<u32>(attributes[base + 1u].w) & ATTR_RECT_LIGHT) != 0u {
+        let normal = lights[owner * LIGHT_VEC4S];
+        let front = dot(normal.xyz, direction) < 0.0;
+        end.albedo = vec3f(0.0);
+        end.emitted = select(vec3f(0.0), lights[owner * LIGHT_VEC4S + 1u].xyz, front || normal.w != 0.0);
+        end.is_light = true;
+        return end;
+    }
+    let material = materials[owner * MATERIAL_VEC4S];
+    var albedo = material.xyz;
+    let texture = bitcast<u32>(material.w);
+    if texture != NONE {
+        let b0 = 1.0 - hit.b1 - hit.b2;
+        let uv01 = attributes[base + 6u];
+        let uv = uv01.xy * b0 + uv01.zw * hit.b1 + attributes[base + 7u].xy * hit.b2;
+        albedo *= sample_texture(texture, uv).xyz;
+    }
+    end.albedo = albedo;
+    end.emitted = materials[owner * MATERIAL_VEC4S + 1u].xyz;
+    end.is_light = false;
+    return end;
+}
+
+// pcg4d (Jarzynski & Olano 2020, "Hash Functions for GPU Rendering", JCGT 9(3)).
+fn pcg4d(input: vec4u) -> vec4u {
+    var v = input * 1664525u + 1013904223u;
+    v.x += v.y * v.w;
+    v.y += v.z * v.x;
+    v.z += v.x * v.y;
+    v.w += v.y * v.z;
+    v ^= v >> vec4u(16u);
+    v.x += v.y * v.w;
+    v.y += v.z * v.x;
+    v.z += v.x * v.y;
+    v.w += v.y * v.z;
+    return v;
+}
+
+// through.rs: lobe_point.
+fn lobe_point(s: u32, surface: u32, pixel: vec2u) -> vec2f {
+    let shift = pcg4d(vec4u(pixel.x, pixel.y, params.object, surface));
+    let unit = vec2f(f32(shift.x >> 8u), f32(shift.y >> 8u)) / 16777216.0;
+    let u = vec2f((f32(s) + 0.5) / f32(LOBE_SAMPLES), f32(reverseBits(s)) / 4294967296.0);
+    return fract(u + unit);
+}
+
+// through.rs: ggx_normal, with glam's any_orthonormal_pair (Duff et al. 2017).
+fn ggx_normal(n: vec3f, alpha: f32, u: vec2f) -> vec3f {
+    let tan2 = alpha * alpha * u.x / max(1.0 - u.x, 1e-6);
+    let cos_theta = 1.0 / sqrt(1.0 + tan2);
+    let sin_theta = sqrt(max(1.0 - cos_theta * cos_theta, 0.0));
+    let phi = 6.2831855 * u.y;
+    let sign = select(1.0, -1.0, n.z < 0.0);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    let t = vec3f(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+    let bt = vec3f(b, sign + n.y * n.y * a, -n.y);
+    return normalize(t * (sin_theta * cos(phi)) + bt * (sin_theta * sin(phi)) + n * cos_theta);
+}
+
+// The mean direction's path with `sample` = NO_SAMPLE, else the path of lobe sample `sample`.
+fn trace_path(origin_in: vec3f, direction_in: vec3f, pixel: vec2u, sample: u32) -> PathEnd {
+    var origin = origin_in;
+    var direction = direction_in;
+    var inside = false;
+    var transmittance = 1.0;
+    var travelled = 0.0;
+    var interfaces = 0u;
+    var t_min = 0.0;
+    loop {
+        let glass = traverse(params.object_root, origin, direction, t_min, BVH_MISS, CONSIDER_ALL, 0u, false);
+        let glass_t = select(BVH_MISS, glass.t, glass.valid);
+        let opaque = traverse(params.opaque_root, origin, direction, t_min, glass_t, CONSIDER_ALL, 0u, false);
+        if opaque.valid {
+            if inside {
+                travelled += opaque.t;
+            }
+            return surface_end(opaque, origin, direction, transmittance, travelled);
+        }
+        if !glass.valid || interfaces == MAX_INTERFACES {
+            return lost();
+        }
+        if inside {
+            travelled += glass.t;
+        }
+        let position = origin + direction * glass.t;
+        let n = shading_normal(glass);
+        var m = n;
+        if sample != NO_SAMPLE {
+            m = ggx_normal(n, params.alpha, lobe_point(sample, interfaces, pixel));
+        }
+        interfaces += 1u;
+        let wo = -direction;
+        if params.thin != 0u {
+            let reflected = reflect_about(wo, m);
+            if (dot(reflected, n) < 0.0) != (dot(wo, n) < 0.0) {
+                return lost();
+            }
+            transmittance *= 1.0 - thin_slab_reflectance(dot(m, wo), params.ior);
+            direction = normalize(reflected - 2.0 * dot(reflected, n) * n);
+        } else {
+            // The normal on the outside: towards the ray's origin while it is outside.
+            let outward = select(-m, m, (dot(n, wo) > 0.0) != inside);
+            let refracted = refract_through(wo, outward, params.ior);
+            if refracted.w != 0.0 {
+                transmittance *= 1.0 - fresnel_dielectric(dot(outward, wo), params.ior);
+                direction = normalize(refracted.xyz);
+                inside = !inside;
+            } else {
+                direction = normalize(reflect_about(wo, outward));
+            }
+        }
+        origin = position;
+        t_min = SELF_HIT;
+    }
+    return lost();
+}
+
+// through.rs: on_screen. The pixel `position` projects to (xy), whether it is in the frame (z)
+// and whether the camera sees it there (w).
+fn on_screen(position: vec3f) -> vec4f {
+    let clip = params.view_projection * vec4f(position, 1.0);
+    if clip.w <= 0.0 {
+        return vec4f(0.0);
+    }
+    let ndc = clip.xyz / clip.w;
+    let px = (ndc.x + 1.0) * 0.5 * f32(params.width);
+    let py = (1.0 - ndc.y) * 0.5 * f32(params.height);
+    if !(px >= 0.0 && px < f32(params.width) && py >= 0.0 && py < f32(params.height)) {
+        return vec4f(0.0);
+    }
+    let to_hit = position - params.camera_position.xyz;
+    let distance = length(to_hit);
+    let blocked = traverse(params.opaque_root, params.camera_position.xyz, to_hit / distance, 0.0, distance * (1.0 - VIEW_SLACK), CONSIDER_ALL, 0u, true).valid;
+    return vec4f(floor(px), floor(py), 1.0, select(1.0, 0.0, blocked));
+}
+
+// through.rs: light_at.
+fn light_at(end: PathEnd, view: vec4f) -> vec3f {
+    if !end.is_light && view.z != 0.0 && view.w != 0.0 {
+        return frame[u32(view.y) * params.width + u32(view.x)].xyz;
+    }
+    return end.emitted;
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn through_pass(@builtin(global_invocation_id) id: vec3u) {
+    if id.x >= params.width || id.y >= params.height {
+        return;
+    }
+    let pixels = params.width * params.height;
+    let i = id.y * params.width + id.x;
+    for (var c = 0u; c < THROUGH_CHANNELS; c++) {
+        through[c * pixels + i] = 0.0;
+    }
+    if frame[i].w <= 0.0 {
+        return;
+    }
+    // core::camera: Camera::pixel_center_ray.
+    let ndc_x = 2.0 * (f32(id.x) + 0.5) / f32(params.width) - 1.0;
+    let ndc_y = 1.0 - 2.0 * (f32(id.y) + 0.5) / f32(params.height);
+    let origin = params.camera_position.xyz;
+    let direction = normalize(params.camera_forward.xyz + params.camera_right.xyz * ndc_x + params.camera_up.xyz * ndc_y);
+    let end = trace_path(origin, direction, id.xy, NO_SAMPLE);
+    if !end.valid {
+        return;
+    }
+    let view = on_screen(end.position);
+    var albedo = end.albedo;
+    var light = light_at(end, view);
+    var transmittance = end.transmittance;
+    if params.rough != 0u {
+        // Rough glass shows the mean over its lobe: a path a sample loses adds nothing.
+        albedo = vec3f(0.0);
+        light = vec3f(0.0);
+        transmittance = 0.0;
+        for (var s = 0u; s < LOBE_SAMPLES; s++) {
+            let h = trace_path(origin, direction, id.xy, s);
+            if h.valid {
+                albedo += h.albedo * h.transmittance;
+                light += light_at(h, on_screen(h.position)) * h.transmittance;
+                transmittance += h.transmittance;
+            }
+        }
+        if transmittance > 0.0 {
+            albedo /= transmittance;
+            light /= transmittance;
+        }
+        transmittance /= f32(LOBE_SAMPLES);
+    }
+    if view.z != 0.0 {
+        through[(THROUGH_SCREEN_OFFSET) * pixels + i] = view.x - f32(id.x);
+        through[(THROUGH_SCREEN_OFFSET + 1u) * pixels + i] = view.y - f32(id.y);
+        through[THROUGH_ON_SCREEN * pixels + i] = view.w;
+    }
+    for (var c = 0u; c < 3u; c++) {
+        through[(THROUGH_POSITION + c) * pixels + i] = end.position[c];
+        through[(THROUGH_NORMAL + c) * pixels + i] = end.normal[c];
+        through[(THROUGH_ALBEDO + c) * pixels + i] = albedo[c];
+        through[(THROUGH_LD + c) * pixels + i] = light[c];
+    }
+    through[THROUGH_TRANSMITTANCE * pixels + i] = transmittance;
+    through[THROUGH_LENGTH * pixels + i] = end.length;
+}

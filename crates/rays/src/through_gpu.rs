@@ -1,0 +1,299 @@
+//! The through pass on a GPU: the rays of `through.rs`, cast by a wgpu compute kernel
+//! (`shaders/through.wgsl`) in BVHs `gpu_bvh.rs` lays out. Same surfaces, same optics, same
+//! lobe points for rough glass: the two agree up to rounding (tests/through_gpu.rs).
+//!
+//! The kernel reads the opaque G-buffer's L_d and the object's coverage from the host and
+//! writes the through buffer back to it, so a frame that keeps its buffers on the host (the
+//! real-time frame of a model reading through buffers) can take either pass.
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use glassbake_core::camera::Camera;
+use glassbake_core::image::PlanarImage;
+use glassbake_core::layout::{self, opaque, through};
+use glassbake_core::{Error, Result};
+use glassbake_scene::model::SMOOTH_ROUGHNESS;
+use glassbake_scene::Scene;
+use wgpu::util::DeviceExt;
+
+use crate::geometry::scene_triangles;
+use crate::gpu_bvh::{GpuBvhs, GpuTriangle};
+use crate::through::{LOBE_SAMPLES, MAX_INTERFACES, SELF_HIT, VIEW_SLACK};
+use crate::triangle::{Owner, TriangleAttributes};
+
+/// Record sizes in vec4s, and the flags of a triangle's attributes: these constants reach the
+/// shader (`shader_source`).
+const ATTRIBUTE_VEC4S: usize = 8;
+const MATERIAL_VEC4S: usize = 2;
+const LIGHT_VEC4S: usize = 2;
+const ATTR_RECT_LIGHT: u32 = 1;
+const ATTR_HAS_NORMALS: u32 = 2;
+const NONE: u32 = u32::MAX;
+const WORKGROUP_SIDE: u32 = 8;
+
+/// The kernel's uniform block (`Params` in through.wgsl).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct Params {
+    view_projection: [[f32; 4]; 4],
+    camera_position: [f32; 4],
+    camera_forward: [f32; 4],
+    camera_right: [f32; 4],
+    camera_up: [f32; 4],
+    width: u32,
+    height: u32,
+    opaque_root: u32,
+    object_root: u32,
+    ior: f32,
+    thin: u32,
+    rough: u32,
+    alpha: f32,
+    object: u32,
+    texture_table: u32,
+    _pad: [u32; 2],
+}
+
+fn shader_source() -> String {
+    let integers: [(&str, usize); 16] = [
+        ("ATTRIBUTE_VEC4S", ATTRIBUTE_VEC4S),
+        ("MATERIAL_VEC4S", MATERIAL_VEC4S),
+        ("LIGHT_VEC4S", LIGHT_VEC4S),
+        ("ATTR_RECT_LIGHT", ATTR_RECT_LIGHT as usize),
+        ("ATTR_HAS_NORMALS", ATTR_HAS_NORMALS as usize),
+        ("NONE", NONE as usize),
+        ("NO_SAMPLE", NONE as usize),
+        ("MAX_INTERFACES", MAX_INTERFACES),
+        ("LOBE_SAMPLES", LOBE_SAMPLES),
+        ("THROUGH_CHANNELS", layout::THROUGH_CHANNELS),
+        ("THROUGH_POSITION", through::POSITION),
+        ("THROUGH_NORMAL", through::NORMAL),
+        ("THROUGH_ALBEDO", through::ALBEDO),
+        ("THROUGH_LD", through::LD),
+        ("THROUGH_TRANSMITTANCE", through::TRANSMITTANCE),
+        ("THROUGH_LENGTH", through::LENGTH),
+    ];
+    let mut source: String = integers.iter().map(|(name, value)| format!("const {name}: u32 = {value}u;\n")).collect();
+    source.push_str(&format!(
+        "const THROUGH_SCREEN_OFFSET: u32 = {}u;\nconst THROUGH_ON_SCREEN: u32 = {}u;\nconst SELF_HIT: f32 = {SELF_HIT:e};\nconst VIEW_SLACK: f32 = {VIEW_SLACK:e};\n",
+        through::SCREEN_OFFSET,
+        through::ON_SCREEN
+    ));
+    source.push_str(&GpuBvhs::wgsl());
+    source.push_str(include_str!("../shaders/through.wgsl"));
+    source
+}
+
+/// The compiled kernel on a wgpu device (the rasterizer's, to share it).
+pub struct GpuThroughPass {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    pipeline: wgpu::ComputePipeline,
+}
+
+/// One scene instance uploaded for the kernel: the BVHs of the opaque scene and of each
+/// transparent object (in `Scene::transparent_objects` order), their triangles' attributes,
+/// the materials, textures and rectangle lights.
+pub struct GpuThroughScene {
+    arrays: [wgpu::Buffer; 6],
+    opaque_root: u32,
+    objects: Vec<ObjectParams>,
+    texture_table: u32,
+}
+
+#[derive(Clone, Copy)]
+struct ObjectParams {
+    root: u32,
+    ior: f32,
+    thin: bool,
+    /// GGX alpha (roughness squared) of rough glass; `None` for smooth glass.
+    alpha: Option<f32>,
+}
+
+fn v4(v: Vec3, w: f32) -> [f32; 4] {
+    [v.x, v.y, v.z, w]
+}
+
+fn bits(x: u32) -> f32 {
+    f32::from_bits(x)
+}
+
+impl GpuThroughPass {
+    /// Compile the kernel on `device`.
+    pub fn new(device: wgpu::Device, queue: wgpu::Queue) -> Result<GpuThroughPass> {
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("through.wgsl"), source: wgpu::ShaderSource::Wgsl(shader_source().into()) });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("through pass"),
+            layout: None,
+            module: &module,
+            entry_point: Some("through_pass"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(Error::Internal(format!("compiling through.wgsl: {e}")));
+        }
+        Ok(GpuThroughPass { device, queue, pipeline })
+    }
+
+    /// Upload `scene`'s geometry, materials, textures and lights. Fails, naming the scene or
+    /// object, when a BVH is deeper than the kernel's traversal stack.
+    pub fn upload(&self, scene: &Scene) -> Result<GpuThroughScene> {
+        let mut bvhs = GpuBvhs::default();
+        let mut attributes: Vec<[f32; 4]> = Vec::new();
+        let mut add = |triangles: Vec<TriangleAttributes>, owner: &str| -> Result<u32> {
+            let first = (attributes.len() / ATTRIBUTE_VEC4S) as u32;
+            let bvh_triangles: Vec<GpuTriangle> = triangles
+                .iter()
+                .enumerate()
+                .map(|(i, t)| GpuTriangle { positions: t.positions, attribute: first + i as u32, flags: 0 })
+                .collect();
+            for t in &triangles {
+                let (owner_index, mut flags) = match t.owner {
+                    Owner::Object { material, .. } => (material, 0),
+                    Owner::RectLight { light } => (light, ATTR_RECT_LIGHT),
+                };
+                if t.normals.is_some() {
+                    flags |= ATTR_HAS_NORMALS;
+                }
+                let [p0, p1, p2] = t.positions;
+                attributes.extend([v4(p0, bits(owner_index)), v4(p1, bits(flags)), v4(p2, 0.0)]);
+                attributes.extend(t.normals.unwrap_or([Vec3::ZERO; 3]).map(|n| v4(n, 0.0)));
+                let [t0, t1, t2] = t.uvs;
+                attributes.extend([[t0.x, t0.y, t1.x, t1.y], [t2.x, t2.y, 0.0, 0.0]]);
+            }
+            bvhs.push(&bvh_triangles, owner)
+        };
+        let opaque_root = add(scene_triangles(scene, &|o| !scene.objects[o].transparent, true, &|_, _| None), &scene.name)?;
+        let mut objects = Vec::new();
+        for index in scene.transparent_objects() {
+            let object = &scene.objects[index];
+            let root = add(scene_triangles(scene, &|o| o == index, false, &|_, _| None), &format!("{} (object {})", scene.name, object.name))?;
+            let material = &scene.materials[object.material];
+            let transmission = material.transmission;
+            objects.push(ObjectParams {
+                root,
+                ior: transmission.map_or(1.0, |t| t.ior),
+                thin: transmission.is_some_and(|t| t.thin),
+                alpha: (material.roughness >= SMOOTH_ROUGHNESS).then_some(material.roughness * material.roughness),
+            });
+        }
+
+        let mut materials = Vec::with_capacity(scene.materials.len() * MATERIAL_VEC4S + scene.textures.len());
+        for m in &scene.materials {
+            let texture = m.base_color_texture.filter(|&t| t < scene.textures.len()).map_or(NONE, |t| t as u32);
+            materials.extend([v4(m.base_color, bits(texture)), v4(m.emission, 0.0)]);
+        }
+        let texture_table = materials.len() as u32;
+        let mut texels = Vec::new();
+        for t in &scene.textures {
+            materials.push([bits(texels.len() as u32), bits(t.width), bits(t.height), 0.0]);
+            texels.extend(t.texels.iter().map(|c| c.to_array()));
+        }
+        let lights: Vec<[f32; 4]> =
+            scene.rect_lights.iter().flat_map(|l| [v4(l.normal(), if l.two_sided { 1.0 } else { 0.0 }), v4(l.radiance, 0.0)]).collect();
+
+        let storage = |label: &str, data: &[[f32; 4]]| {
+            // Bindings cannot be empty: an empty array travels as one unused vec4.
+            let padded: &[[f32; 4]] = if data.is_empty() { &[[0.0; 4]] } else { data };
+            self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytemuck::cast_slice(padded), usage: wgpu::BufferUsages::STORAGE })
+        };
+        Ok(GpuThroughScene {
+            arrays: [
+                storage("through BVH nodes", &bvhs.nodes),
+                storage("through triangles", &bvhs.triangles),
+                storage("through attributes", &attributes),
+                storage("through materials", &materials),
+                storage("through texels", &texels),
+                storage("through lights", &lights),
+            ],
+            opaque_root,
+            objects,
+            texture_table,
+        })
+    }
+
+    /// The through buffer of transparent object `k` of `scene` for a frame, as
+    /// `through::through_buffer` computes it: cast where `coverage` is above 0, L_d read
+    /// from `opaque_gbuffer`.
+    pub fn through_buffer(&self, scene: &GpuThroughScene, k: usize, camera: &Camera, opaque_gbuffer: &PlanarImage, coverage: &[f32]) -> Result<PlanarImage> {
+        let (width, height) = (opaque_gbuffer.width(), opaque_gbuffer.height());
+        let pixels = (width * height) as usize;
+        assert_eq!(coverage.len(), pixels, "one coverage value per pixel of the frame");
+        let object = scene.objects[k];
+        let ld = [opaque::LD, opaque::LD + 1, opaque::LD + 2].map(|c| opaque_gbuffer.plane(c));
+        let frame: Vec<[f32; 4]> = (0..pixels).map(|i| [ld[0][i], ld[1][i], ld[2][i], coverage[i]]).collect();
+        let frame_buffer = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("through frame"),
+            contents: bytemuck::cast_slice(&frame),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let out_bytes = (layout::THROUGH_CHANNELS * pixels * 4) as u64;
+        let output = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("through buffer"),
+            size: out_bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("through readback"),
+            size: out_bytes,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let f = camera.frame();
+        let (tx, ty) = camera.tan_half_fov(width, height);
+        let params = Params {
+            view_projection: camera.view_projection(width, height).to_cols_array_2d(),
+            camera_position: v4(camera.position, 0.0),
+            camera_forward: v4(f.forward, 0.0),
+            camera_right: v4(f.right * tx, 0.0),
+            camera_up: v4(f.up * ty, 0.0),
+            width,
+            height,
+            opaque_root: scene.opaque_root,
+            object_root: object.root,
+            ior: object.ior,
+            thin: object.thin as u32,
+            rough: object.alpha.is_some() as u32,
+            alpha: object.alpha.unwrap_or(0.0),
+            object: k as u32,
+            texture_table: scene.texture_table,
+            _pad: [0; 2],
+        };
+        let uniform = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("through params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() }];
+        for (i, buffer) in scene.arrays.iter().enumerate() {
+            entries.push(wgpu::BindGroupEntry { binding: i as u32 + 1, resource: buffer.as_entire_binding() });
+        }
+        entries.push(wgpu::BindGroupEntry { binding: 7, resource: frame_buffer.as_entire_binding() });
+        entries.push(wgpu::BindGroupEntry { binding: 8, resource: output.as_entire_binding() });
+        let bind_group =
+            self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("through"), layout: &self.pipeline.get_bind_group_layout(0), entries: &entries });
+        let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("through pass") });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("through pass"), timestamp_writes: None });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &bind_group, &[]);
+            pass.dispatch_workgroups(width.div_ceil(WORKGROUP_SIDE), height.div_ceil(WORKGROUP_SIDE), 1);
+        }
+        encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, out_bytes);
+        self.queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        readback.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| Error::Internal(format!("waiting for the GPU: {e}")))?;
+        rx.recv().map_err(|_| Error::Internal("readback callback dropped".into()))?.map_err(|e| Error::Internal(format!("reading the through buffer: {e}")))?;
+        let data: Vec<f32> = match readback.get_mapped_range(..) {
+            Ok(view) => bytemuck::pod_collect_to_vec(&view),
+            Err(e) => return Err(Error::Internal(format!("reading the through buffer: {e}"))),
+        };
+        readback.unmap();
+        PlanarImage::from_planes(width, height, layout::through_channel_names(k), data)
+    }
+}
