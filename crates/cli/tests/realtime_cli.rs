@@ -125,6 +125,19 @@ fn render_and_bench() {
     eprintln!("render --sample {index} against eval's {scored}: {differing} of {} values differ, by at most {largest_step}", drawn.as_raw().len());
     assert_eq!(largest_step, 0, "render --sample {index} differs from eval's {scored} by up to {largest_step}/255 ({differing} values)");
 
+    // The GPU through pass draws the frame the CPU's does (here, on lavapipe, `auto` casts the
+    // rays on the CPU).
+    let gpu_drawn = dir.path().join("gpu-drawn.png");
+    let (code, out, err) = glassbake(&["render", path(&model), "--sample", index, "--res", &resolution, "--through-rays", "gpu", "--out", path(&gpu_drawn)]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("through rays"), "{out}");
+    let gpu_drawn = image::open(&gpu_drawn).unwrap().to_rgb8();
+    let largest_step = drawn.as_raw().iter().zip(gpu_drawn.as_raw()).map(|(&a, &b)| a.abs_diff(b)).max().unwrap();
+    assert_eq!(largest_step, 0, "the GPU through pass moves the frame by up to {largest_step}/255");
+    let (code, _, err) = glassbake(&["render", path(&model), "--sample", index, "--through-rays", "sideways", "--out", path(&dir.path().join("z.png"))]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("through-rays") && err.contains("sideways"), "{err}");
+
     let json = dir.path().join("bench.json");
     let (code, out, err) = glassbake(&["bench", path(&model), "--res", "32,64", "--objects", "1,3", "--frames", "2", "--warmup", "1", "--out", path(&json)]);
     assert_eq!(code, 0, "{err}");

@@ -346,13 +346,13 @@ impl NetConfig {
     }
 
     /// Channels F reads beside the G-buffer with [`Self::reads_front_through`]: the front-most
-    /// through buffer Fourier-encoded (its L_d clamped to 1) but for its screen offset (in
-    /// frame widths and heights) and on-screen flag.
+    /// through buffer's channels before its screen offset Fourier-encoded (L_d clamped to 1),
+    /// then its on-screen flag.
     pub fn front_through_width(&self) -> usize {
         if !self.reads_front_through() {
             return 0;
         }
-        layout::through::SCREEN_OFFSET * self.encoded_width() + layout::THROUGH_CHANNELS - layout::through::SCREEN_OFFSET
+        layout::through::SCREEN_OFFSET * self.encoded_width() + 1
     }
 
     /// Channels of one positionally encoded input channel.

@@ -195,15 +195,14 @@ impl GlassNet {
         }
         if let Some(through) = front_through {
             use layout::through::{LD, ON_SCREEN, SCREEN_OFFSET};
-            // L_d clamped to 1 as the G-buffer's (a light seen through glass is 10-50), and the
-            // screen offset in frame widths and heights rather than pixels.
+            // L_d clamped to 1 as the G-buffer's (a light seen through glass is 10-50). The
+            // screen offset is left out: in pixels it means one thing in a training crop and
+            // another in the whole frame.
             let encoded = Tensor::cat(
                 vec![through.clone().narrow(1, 0, LD), through.clone().narrow(1, LD, 3).clamp(0.0, 1.0), through.clone().narrow(1, LD + 3, SCREEN_OFFSET - LD - 3)],
                 1,
             );
             inputs.push(positional_encoding(encoded, self.config.encoding_frequencies));
-            inputs.push(through.clone().narrow(1, SCREEN_OFFSET, 1).div_scalar(w as f32));
-            inputs.push(through.clone().narrow(1, SCREEN_OFFSET + 1, 1).div_scalar(h as f32));
             inputs.push(through.narrow(1, ON_SCREEN, 1));
         }
         Tensor::cat(inputs, 1)

@@ -2,9 +2,11 @@
 //!
 //! It owns the flattened world-space triangles and their shading attributes (`triangle.rs`,
 //! `geometry.rs`), the two ray casters (obvhs' wide BVH, or Intel Embree with the `embree`
-//! feature), light at a dielectric interface (`optics.rs`), and the frame's refraction pass
-//! (`through.rs`: what each transparent object shows through itself). The ground-truth tracer
-//! and the rasterizer's frame both build on it; it knows nothing of either.
+//! feature), light at a dielectric interface (`optics.rs`), the frame's refraction pass
+//! (`through.rs`: what each transparent object shows through itself) and its wgpu twin
+//! (`through_gpu.rs`), and the BVH layout and WGSL traversal GPU kernels share (`gpu_bvh.rs`,
+//! `shaders/bvh.wgsl`). The ground-truth tracers and the rasterizer's frame build on it; it
+//! knows nothing of them.
 
 pub mod geometry;
 pub mod gpu_bvh;

@@ -15,5 +15,5 @@ pub mod synth;
 pub mod viewer;
 
 pub use bench::{run_bench, BenchOptions, BenchReport, BenchRow};
-pub use pipeline::{FramePipeline, FrameTimes, Output};
+pub use pipeline::{FramePipeline, FrameTimes, Output, ThroughRays};
 pub use scene_source::{scene_of_model, ModelScene};

@@ -19,6 +19,7 @@ use glassbake_net::{TrainedModel, TrainedSuperSampler};
 use glassbake_raster::light_coverage::{coverage_factor, light_coverage_of, LIGHT_COVERAGE_FACTOR};
 use glassbake_raster::{Rasterizer, RasterizerOptions};
 use glassbake_rays::through::{through_buffer, ThroughScene};
+use glassbake_rays::through_gpu::{GpuThroughPass, GpuThroughScene};
 use glassbake_scene::Scene;
 
 /// What a frame shows.
@@ -33,14 +34,39 @@ pub enum Output {
     Buffer { layer: String, attribute: String },
 }
 
+/// Where a frame's through rays are cast, for a model that reads through buffers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ThroughRays {
+    /// On the CPU (`glassbake_rays::through`), with rayon over the rows.
+    Cpu,
+    /// In a wgpu compute pass on the rasterizer's device (`glassbake_rays::through_gpu`).
+    Gpu,
+}
+
+impl ThroughRays {
+    pub fn name(self) -> &'static str {
+        match self {
+            ThroughRays::Cpu => "cpu",
+            ThroughRays::Gpu => "gpu",
+        }
+    }
+}
+
+/// A frame's through-ray caster, with what it built for the frame's scene instance.
+enum ThroughCaster {
+    Cpu(ThroughScene),
+    Gpu(GpuThroughScene),
+}
+
 /// Wall-clock split of one frame, milliseconds.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct FrameTimes {
     /// Rasterizing and reading back buffers (including the transparency buffers fed while the
     /// network runs).
     pub raster_ms: f64,
-    /// Casting the through buffers' refracted rays (CPU), for a model that reads them;
-    /// part of neither of the others.
+    /// Casting the through buffers' refracted rays (on the CPU or the GPU, see
+    /// [`ThroughRays`]: BVHs and rays), for a model that reads them; part of neither of the
+    /// others.
     pub through_ms: f64,
     /// Everything else: the network, uploads, the image read-back.
     pub network_ms: f64,
@@ -64,6 +90,9 @@ pub struct FramePipeline {
     /// GlassNet's inputs are written by the rasterizer straight into tensors on the shared
     /// wgpu device (`gpu_handover`) instead of going through `planes`.
     zero_copy: bool,
+    through_rays: ThroughRays,
+    /// The GPU through pass, compiled when first used.
+    gpu_through: Option<GpuThroughPass>,
 }
 
 fn ms(since: Instant) -> f64 {
@@ -104,6 +133,8 @@ impl FramePipeline {
             }
         }
         let coverage_rasterizer = rasterizer.sibling()?;
+        // On a CPU adapter (lavapipe) the CPU caster is the faster (docs/realtime.md).
+        let through_rays = if rasterizer.adapter_info().device_type == glassbake_raster::wgpu::DeviceType::Cpu { ThroughRays::Cpu } else { ThroughRays::Gpu };
         Ok(FramePipeline {
             scene,
             glassnet,
@@ -114,7 +145,19 @@ impl FramePipeline {
             coverage_rasterizer,
             planes: Vec::new(),
             zero_copy,
+            through_rays,
+            gpu_through: None,
         })
+    }
+
+    /// Where the through rays are cast: the GPU pass on a GPU adapter, the CPU caster on a
+    /// CPU adapter, unless [`Self::set_through_rays`] chose.
+    pub fn through_rays(&self) -> ThroughRays {
+        self.through_rays
+    }
+
+    pub fn set_through_rays(&mut self, through_rays: ThroughRays) {
+        self.through_rays = through_rays;
     }
 
     /// Whether frame data stays on the GPU between the rasterizer and the network.
@@ -181,6 +224,9 @@ impl FramePipeline {
                 };
                 // The through buffers are cast on the CPU from read-back buffers.
                 let through = model.config().through;
+                if through && self.through_rays == ThroughRays::Gpu && self.gpu_through.is_none() {
+                    self.gpu_through = Some(GpuThroughPass::new(self.rasterizer.device().clone(), self.rasterizer.queue().clone())?);
+                }
                 let zero_copy = self.zero_copy && !naive && !through;
                 let mut frame = self.rasterizer.begin_frame(&instance, camera, lw, lh)?;
                 let (h, w) = (lh as usize, lw as usize);
@@ -208,7 +254,12 @@ impl FramePipeline {
                     planes.resize(TRANSPARENT_CHANNELS * w * h, 0.0);
                 }
                 let build_start = Instant::now();
-                let through_scene = through.then(|| ThroughScene::build(&instance));
+                let gpu_through = self.gpu_through.as_ref();
+                let caster = match (through, gpu_through) {
+                    (false, _) => None,
+                    (true, Some(pass)) if self.through_rays == ThroughRays::Gpu => Some(ThroughCaster::Gpu(pass.upload(&instance)?)),
+                    (true, _) => Some(ThroughCaster::Cpu(ThroughScene::build(&instance))),
+                };
                 let build_ms = ms(build_start);
                 let mut cast_ms = 0.0;
                 let mut failure = None;
@@ -218,18 +269,21 @@ impl FramePipeline {
                     let tensor = if zero_copy {
                         crate::gpu_handover::input_tensor(&device, TRANSPARENT_CHANNELS, h, w, |buffer, offset| frame.transparent_to_buffer(k, buffer, offset))
                     } else {
-                        frame.transparent_into(k, planes).map(|()| match (&through_scene, &opaque_image) {
-                            (Some(geometry), Some(opaque)) => {
+                        frame.transparent_into(k, planes).and_then(|()| match (&caster, &opaque_image) {
+                            (Some(caster), Some(opaque)) => {
                                 let coverage = &planes[layout::transparent::COVERAGE * w * h..(layout::transparent::COVERAGE + 1) * w * h];
                                 let cast = Instant::now();
-                                let through = through_buffer(&instance, geometry, k, camera, opaque, coverage);
+                                let through = match caster {
+                                    ThroughCaster::Cpu(geometry) => through_buffer(&instance, geometry, k, camera, opaque, coverage),
+                                    ThroughCaster::Gpu(uploaded) => gpu_through.expect("compiled above").through_buffer(uploaded, k, camera, opaque, coverage)?,
+                                };
                                 cast_ms += ms(cast);
                                 let mut data = Vec::with_capacity((TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS) * w * h);
                                 data.extend_from_slice(planes);
                                 data.extend_from_slice(through.data());
-                                to_tensor(data, TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS)
+                                Ok(to_tensor(data, TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS))
                             }
-                            _ => to_tensor(planes.clone(), TRANSPARENT_CHANNELS),
+                            _ => Ok(to_tensor(planes.clone(), TRANSPARENT_CHANNELS)),
                         })
                     };
                     raster_ms += ms(t);

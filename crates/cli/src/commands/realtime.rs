@@ -14,7 +14,7 @@ use glassbake_realtime::bench::{marginal_ms_per_object, table};
 use glassbake_realtime::gpu_handover::open_shared;
 #[cfg(feature = "viewer")]
 use glassbake_realtime::viewer::{check_display, run_viewer, ViewerOptions};
-use glassbake_realtime::{run_bench, scene_of_model, BenchOptions, FramePipeline, Output};
+use glassbake_realtime::{run_bench, scene_of_model, BenchOptions, FramePipeline, Output, ThroughRays};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::camera_arg::parse_camera;
@@ -47,6 +47,11 @@ pub struct PipelineArgs {
     /// CPU frame's rasterizing); 1 samples each pixel's centre, lights drawn whole pixels at a time.
     #[arg(long, default_value_t = glassbake_raster::light_coverage::LIGHT_COVERAGE_FACTOR, value_parser = clap::value_parser!(u32).range(1..=4))]
     pub light_coverage_samples: u32,
+    /// Where the through buffers' refracted rays are cast, for a model that reads them: auto
+    /// (a wgpu compute pass on a GPU adapter, the CPU on a CPU adapter such as lavapipe,
+    /// where it is the faster), cpu or gpu.
+    #[arg(long, default_value = "auto")]
+    pub through_rays: String,
 }
 
 struct Opened {
@@ -74,6 +79,12 @@ fn open(args: &PipelineArgs) -> Result<Opened> {
         ),
     };
     pipeline.light_coverage_factor = args.light_coverage_samples;
+    match args.through_rays.as_str() {
+        "auto" => {}
+        "cpu" => pipeline.set_through_rays(ThroughRays::Cpu),
+        "gpu" => pipeline.set_through_rays(ThroughRays::Gpu),
+        other => return Err(Error::bad_input("--through-rays", "through_rays", format!("{other:?} is not auto, cpu or gpu")).into()),
+    }
     Ok(Opened { pipeline, dataset_seed: scene.dataset_seed, device: name.to_string() })
 }
 
@@ -185,7 +196,12 @@ pub fn bench(args: BenchArgs) -> Result<()> {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
     };
-    let device = format!("network on {} ({} cores)", opened.device, std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let device = format!(
+        "network on {} ({} cores), through rays on the {}",
+        opened.device,
+        std::thread::available_parallelism().map_or(1, |n| n.get()),
+        opened.pipeline.through_rays().name()
+    );
     let report = run_bench(&mut opened.pipeline, &device, &options, &progress);
     bar.finish_and_clear();
     let report = report?;
