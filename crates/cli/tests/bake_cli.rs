@@ -220,6 +220,23 @@ fn ablations_are_trained_with_their_settings_and_evaluated() {
     let (code, _, err) = glassbake(&["train", path(&out.join("dataset")), "--ablation", "no-ssim", "--preset", "tiny", "--out", path(&dir.path().join("x"))]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--ablation") && err.contains("l1-only"), "{err}");
+
+    // The naive baseline given the front-most through buffer trains (fed every object's
+    // buffers: the model refuses to run without them) and is scored; GlassNet has no such
+    // ablation.
+    let front = dir.path().join("naive-front-through");
+    let (code, _, err) =
+        glassbake(&["train", path(&out.join("dataset")), "--model", "naive", "--ablation", "front-through", "--preset", "tiny", "--out", path(&front)]);
+    assert_eq!(code, 0, "{err}");
+    let front_config: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(front.join("config.json")).unwrap()).unwrap();
+    assert_eq!((&front_config["network"]["model"], &front_config["network"]["through"]), (&"naive".into(), &true.into()));
+    let scores = dir.path().join("front-eval");
+    let (code, _, err) = glassbake(&["eval", path(&out.join("naive")), path(&front), path(&out.join("dataset")), "--out", path(&scores)]);
+    assert_eq!(code, 0, "{err}");
+    let (code, _, err) =
+        glassbake(&["train", path(&out.join("dataset")), "--ablation", "front-through", "--preset", "tiny", "--out", path(&dir.path().join("y"))]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("front-through") && err.contains("naive"), "{err}");
 }
 
 #[test]

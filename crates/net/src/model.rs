@@ -174,6 +174,14 @@ impl GlassNet {
                 "transparent",
                 format!("the concat baseline was built for {} transparency buffers, got {objects}", self.config.transparent_objects),
             )),
+            ModelKind::Naive if self.config.reads_front_through() && objects != self.config.transparent_objects => Err(Error::bad_input(
+                "inputs",
+                "transparent",
+                format!(
+                    "the naive baseline reading the front-most through buffer was built for {} transparency buffers, got {objects}",
+                    self.config.transparent_objects
+                ),
+            )),
             ModelKind::Glassnet if objects > crate::config::MAX_EXACT_OBJECTS => Err(Error::bad_input(
                 "inputs",
                 "transparent",
@@ -393,6 +401,11 @@ impl GlassNet {
         if let Some(pixel) = &self.pixel_generator {
             return pixel.forward(self.encoded_inputs(gbuffer, values, None));
         }
+        // Given none, it would read no glass at all: a caller that forgot the buffers.
+        assert!(
+            !self.config.reads_front_through() || objects == self.config.transparent_objects,
+            "the naive baseline reading the front-most through buffer is given every transparency buffer"
+        );
         let front = self.config.reads_front_through().then(|| {
             let [n, _, h, w] = gbuffer.dims();
             front_through((0..objects).filter_map(&mut buffer), [n, h, w], &gbuffer.device())

@@ -88,7 +88,7 @@ fn models(ablations: bool, baselines: bool) -> Vec<(String, &'static str, Option
         list.push(("pixelgen".to_string(), "pixelgen", None));
     }
     if ablations {
-        list.extend(Ablation::ALL.map(|a| (format!("glassnet-{}", a.name()), "glassnet", Some(a))));
+        list.extend(Ablation::PAPER.map(|a| (format!("glassnet-{}", a.name()), "glassnet", Some(a))));
     }
     list
 }

@@ -92,6 +92,8 @@ pub enum Ablation {
 
 impl Ablation {
     pub const ALL: [Ablation; 3] = [Ablation::NoEncoding, Ablation::L1Only, Ablation::FrontThrough];
+    /// The paper's ablations of GlassNet (Table 2), which `bake --ablations` trains.
+    pub const PAPER: [Ablation; 2] = [Ablation::NoEncoding, Ablation::L1Only];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -230,11 +232,13 @@ struct DatasetData {
     batch_size: usize,
     /// Feed the naive G-buffer instead of the opaque one.
     naive: bool,
+    /// Feed the transparent objects' buffers (`NetConfig::reads_object_buffers`).
+    objects: bool,
     /// For the super-sampler: GlassNet renders the low-resolution image of each frame.
     low_res: Option<TrainedModel>,
 }
 
-fn host_batch(examples: &[Example], naive: bool, low_res: Option<&TrainedModel>) -> glassbake_core::Result<HostBatch> {
+fn host_batch(examples: &[Example], naive: bool, objects: bool, low_res: Option<&TrainedModel>) -> glassbake_core::Result<HostBatch> {
     let refs: Vec<FrameRef> = examples
         .iter()
         .map(|e| {
@@ -242,7 +246,7 @@ fn host_batch(examples: &[Example], naive: bool, low_res: Option<&TrainedModel>)
             FrameRef {
                 gbuffer,
                 light_coverage: Some(light_coverage),
-                transparent: if naive { &[] } else { &e.transparent },
+                transparent: if objects { &e.transparent } else { &[] },
                 values: &e.values,
                 ground_truth: Some(&e.ground_truth),
             }
@@ -270,20 +274,20 @@ impl TrainingData for DatasetData {
     }
 
     fn epoch(&mut self, epoch: u64, skip: usize) -> Box<dyn Iterator<Item = glassbake_core::Result<HostBatch>> + '_> {
-        let (naive, low_res) = (self.naive, self.low_res.as_ref());
-        Box::new(self.train.epoch_iter(epoch).skip(skip).map(move |examples| host_batch(&examples?, naive, low_res)))
+        let (naive, objects, low_res) = (self.naive, self.objects, self.low_res.as_ref());
+        Box::new(self.train.epoch_iter(epoch).skip(skip).map(move |examples| host_batch(&examples?, naive, objects, low_res)))
     }
 
     fn validation(&mut self) -> glassbake_core::Result<Vec<HostBatch>> {
         let limit = self.validation_frames.unwrap_or(usize::MAX).min(self.val.len());
         let mut batches = Vec::new();
         let mut taken = 0;
-        let (naive, low_res) = (self.naive, self.low_res.as_ref());
+        let (naive, objects, low_res) = (self.naive, self.objects, self.low_res.as_ref());
         for examples in self.val.epoch_iter(0) {
             let mut examples = examples?;
             examples.truncate(limit - taken);
             taken += examples.len();
-            batches.push(host_batch(&examples, naive, low_res)?);
+            batches.push(host_batch(&examples, naive, objects, low_res)?);
             if taken >= limit {
                 break;
             }
@@ -384,7 +388,15 @@ pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<bool> {
     let naive = kind.reads_naive_gbuffer();
     let (train_loader, val) = loaders(&args.common.dataset, scene, &train_config, args.common.workers, naive)?;
     let mut data =
-        DatasetData { train: train_loader, val, validation_frames: train_config.validation_frames, batch_size: train_config.batch_size, naive, low_res: None };
+        DatasetData {
+            train: train_loader,
+            val,
+            validation_frames: train_config.validation_frames,
+            batch_size: train_config.batch_size,
+            naive,
+            objects: net_config.reads_object_buffers(),
+            low_res: None,
+        };
     let device = select_device(device_choice, train_config.seed, true);
     let model = GlassNet::new(&net_config, train_config.seed, &device)?;
     let message = format!(
@@ -408,14 +420,14 @@ pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<bool> {
     if already_done && files.dir.join("preview").exists() {
         return Ok(false);
     }
-    let previews = write_previews(&files, &mut data.val, naive, device_choice)?;
+    let previews = write_previews(&files, &mut data.val, naive, net_config.reads_object_buffers(), device_choice)?;
     bar.suspend(|| println!("  preview {} (model | ground truth)", previews.display()));
     Ok(!already_done)
 }
 
 /// `DIR/preview/val_NNN.png`: the model's image beside the path-traced ground truth for the
 /// first validation frames, so a run can be looked at, not only read off a loss.
-fn write_previews(files: &ModelFiles, val: &mut Loader, naive: bool, device_choice: DeviceChoice) -> Result<PathBuf> {
+fn write_previews(files: &ModelFiles, val: &mut Loader, naive: bool, objects: bool, device_choice: DeviceChoice) -> Result<PathBuf> {
     const FRAMES: usize = 4;
     let model = TrainedModel::load(&files.dir, &select_device(device_choice, 0, false))?;
     let dir = files.dir.join("preview");
@@ -427,7 +439,7 @@ fn write_previews(files: &ModelFiles, val: &mut Loader, naive: bool, device_choi
                 break;
             }
             let (gbuffer, light_coverage) = e.gbuffer(naive);
-            let transparent: &[glassbake_core::PlanarImage] = if naive { &[] } else { &e.transparent };
+            let transparent: &[glassbake_core::PlanarImage] = if objects { &e.transparent } else { &[] };
             let image = model.render(FrameRef { gbuffer, light_coverage: Some(light_coverage), transparent, values: &e.values, ground_truth: None })?;
             let pair = side_by_side(&image, &e.ground_truth)?;
             pair.write_png_rgb(&dir.join(format!("val_{:03}.png", e.index)), [0, 1, 2])?;
@@ -491,6 +503,7 @@ pub fn run_super_sampler(args: TrainSrArgs) -> Result<()> {
         validation_frames: train_config.validation_frames,
         batch_size: train_config.batch_size,
         naive: false,
+        objects: true,
         low_res: Some(glassnet),
     };
     let device = select_device(device_choice, train_config.seed, true);
