@@ -207,7 +207,11 @@ impl GlassNet {
             // screen offset is left out: in pixels it means one thing in a training crop and
             // another in the whole frame.
             let encoded = Tensor::cat(
-                vec![through.clone().narrow(1, 0, LD), through.clone().narrow(1, LD, 3).clamp(0.0, 1.0), through.clone().narrow(1, LD + 3, SCREEN_OFFSET - LD - 3)],
+                vec![
+                    through.clone().narrow(1, 0, LD),
+                    through.clone().narrow(1, LD, 3).clamp(0.0, 1.0),
+                    through.clone().narrow(1, LD + 3, SCREEN_OFFSET - LD - 3),
+                ],
                 1,
             );
             inputs.push(positional_encoding(encoded, self.config.encoding_frequencies));
@@ -240,7 +244,13 @@ impl GlassNet {
 
     /// [`Self::encode_scene`] for a network with [`NetConfig::reads_front_through`], given the
     /// front-most through buffer ([`front_through`]); `None` for the others.
-    pub fn encode_scene_through(&self, gbuffer: Tensor<4>, light_coverage: Option<Tensor<4>>, values: Tensor<2>, front_through: Option<Tensor<4>>) -> SceneCode {
+    pub fn encode_scene_through(
+        &self,
+        gbuffer: Tensor<4>,
+        light_coverage: Option<Tensor<4>>,
+        values: Tensor<2>,
+        front_through: Option<Tensor<4>>,
+    ) -> SceneCode {
         assert_eq!(
             front_through.is_some(),
             self.config.reads_front_through(),

@@ -121,7 +121,8 @@ impl GpuThroughPass {
     /// Compile the kernel on `device`.
     pub fn new(device: wgpu::Device, queue: wgpu::Queue) -> Result<GpuThroughPass> {
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("through.wgsl"), source: wgpu::ShaderSource::Wgsl(shader_source().into()) });
+        let module =
+            device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("through.wgsl"), source: wgpu::ShaderSource::Wgsl(shader_source().into()) });
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("through pass"),
             layout: None,
@@ -143,11 +144,8 @@ impl GpuThroughPass {
         let mut attributes: Vec<[f32; 4]> = Vec::new();
         let mut add = |triangles: Vec<TriangleAttributes>, owner: &str| -> Result<u32> {
             let first = (attributes.len() / ATTRIBUTE_VEC4S) as u32;
-            let bvh_triangles: Vec<GpuTriangle> = triangles
-                .iter()
-                .enumerate()
-                .map(|(i, t)| GpuTriangle { positions: t.positions, attribute: first + i as u32, flags: 0 })
-                .collect();
+            let bvh_triangles: Vec<GpuTriangle> =
+                triangles.iter().enumerate().map(|(i, t)| GpuTriangle { positions: t.positions, attribute: first + i as u32, flags: 0 }).collect();
             for t in &triangles {
                 let (owner_index, mut flags) = match t.owner {
                     Owner::Object { material, .. } => (material, 0),
@@ -190,13 +188,16 @@ impl GpuThroughPass {
             materials.push([bits(texels.len() as u32), bits(t.width), bits(t.height), 0.0]);
             texels.extend(t.texels.iter().map(|c| c.to_array()));
         }
-        let lights: Vec<[f32; 4]> =
-            scene.rect_lights.iter().flat_map(|l| [v4(l.normal(), if l.two_sided { 1.0 } else { 0.0 }), v4(l.radiance, 0.0)]).collect();
+        let lights: Vec<[f32; 4]> = scene.rect_lights.iter().flat_map(|l| [v4(l.normal(), if l.two_sided { 1.0 } else { 0.0 }), v4(l.radiance, 0.0)]).collect();
 
         let storage = |label: &str, data: &[[f32; 4]]| {
             // Bindings cannot be empty: an empty array travels as one unused vec4.
             let padded: &[[f32; 4]] = if data.is_empty() { &[[0.0; 4]] } else { data };
-            self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytemuck::cast_slice(padded), usage: wgpu::BufferUsages::STORAGE })
+            self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytemuck::cast_slice(padded),
+                usage: wgpu::BufferUsages::STORAGE,
+            })
         };
         Ok(GpuThroughScene {
             arrays: [
@@ -272,8 +273,11 @@ impl GpuThroughPass {
         }
         entries.push(wgpu::BindGroupEntry { binding: 7, resource: frame_buffer.as_entire_binding() });
         entries.push(wgpu::BindGroupEntry { binding: 8, resource: output.as_entire_binding() });
-        let bind_group =
-            self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("through"), layout: &self.pipeline.get_bind_group_layout(0), entries: &entries });
+        let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("through"),
+            layout: &self.pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        });
         let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("through pass") });
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("through pass"), timestamp_writes: None });

@@ -203,6 +203,10 @@ impl FramePipeline {
                 let reads_objects = model.config().reads_object_buffers();
                 model.net.check_inputs(lw as usize, lh as usize, if reads_objects { instance.transparent_count() } else { 0 })?;
                 let device = model.device.clone();
+                let through = model.config().through;
+                if through && self.through_rays == ThroughRays::Gpu && self.gpu_through.is_none() {
+                    self.gpu_through = Some(GpuThroughPass::new(self.rasterizer.device().clone(), self.rasterizer.queue().clone())?);
+                }
                 let raster_start = Instant::now();
                 // With the super-sampler the coverage is drawn at the full resolution it composites
                 // at, and 2x2-averaged for the network, as train-sr and eval do.
@@ -222,11 +226,7 @@ impl FramePipeline {
                     Some(image) if model.config().light_coverage => Some(coverage_tensor(&if sr { downsample_box2(image)? } else { image.clone() }, &device)),
                     _ => None,
                 };
-                // The through buffers are cast on the CPU from read-back buffers.
-                let through = model.config().through;
-                if through && self.through_rays == ThroughRays::Gpu && self.gpu_through.is_none() {
-                    self.gpu_through = Some(GpuThroughPass::new(self.rasterizer.device().clone(), self.rasterizer.queue().clone())?);
-                }
+                // The through buffers are cast from read-back buffers (on the CPU or the GPU).
                 let zero_copy = self.zero_copy && !naive && !through;
                 let mut frame = self.rasterizer.begin_frame(&instance, camera, lw, lh)?;
                 let (h, w) = (lh as usize, lw as usize);
@@ -275,7 +275,9 @@ impl FramePipeline {
                                 let cast = Instant::now();
                                 let through = match caster {
                                     ThroughCaster::Cpu(geometry) => through_buffer(&instance, geometry, k, camera, opaque, coverage),
-                                    ThroughCaster::Gpu(uploaded) => gpu_through.expect("compiled above").through_buffer(uploaded, k, camera, opaque, coverage)?,
+                                    ThroughCaster::Gpu(uploaded) => {
+                                        gpu_through.expect("compiled above").through_buffer(uploaded, k, camera, opaque, coverage)?
+                                    }
                                 };
                                 cast_ms += ms(cast);
                                 let mut data = Vec::with_capacity((TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS) * w * h);

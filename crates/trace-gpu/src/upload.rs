@@ -86,11 +86,7 @@ impl SceneBuffers {
         let bvh_triangles: Vec<GpuTriangle> = attributes_cpu
             .iter()
             .enumerate()
-            .map(|(index, a)| GpuTriangle {
-                positions: a.positions,
-                attribute: index as u32,
-                flags: if a.may_pass_through { ATTR_PASS_THROUGH } else { 0 },
-            })
+            .map(|(index, a)| GpuTriangle { positions: a.positions, attribute: index as u32, flags: if a.may_pass_through { ATTR_PASS_THROUGH } else { 0 } })
             .collect();
         let mut bvh = GpuBvhs::default();
         bvh.push(&bvh_triangles, &scene.name)?;

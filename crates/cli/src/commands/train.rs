@@ -349,7 +349,9 @@ pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<bool> {
     }
     if ablation == Some(Ablation::FrontThrough) {
         if kind != ModelKind::Naive {
-            return Err(Error::bad_input("--ablation", "ablation", format!("front-through is an ablation of the naive baseline, not of {}", kind.name())).into());
+            return Err(
+                Error::bad_input("--ablation", "ablation", format!("front-through is an ablation of the naive baseline, not of {}", kind.name())).into()
+            );
         }
         net_config.through = true;
     }
@@ -387,16 +389,15 @@ pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<bool> {
     )?;
     let naive = kind.reads_naive_gbuffer();
     let (train_loader, val) = loaders(&args.common.dataset, scene, &train_config, args.common.workers, naive)?;
-    let mut data =
-        DatasetData {
-            train: train_loader,
-            val,
-            validation_frames: train_config.validation_frames,
-            batch_size: train_config.batch_size,
-            naive,
-            objects: net_config.reads_object_buffers(),
-            low_res: None,
-        };
+    let mut data = DatasetData {
+        train: train_loader,
+        val,
+        validation_frames: train_config.validation_frames,
+        batch_size: train_config.batch_size,
+        naive,
+        objects: net_config.reads_object_buffers(),
+        low_res: None,
+    };
     let device = select_device(device_choice, train_config.seed, true);
     let model = GlassNet::new(&net_config, train_config.seed, &device)?;
     let message = format!(
