@@ -188,8 +188,9 @@ fn viewer_opens_under_xvfb_and_fails_clearly_without_a_display() {
     assert!(colours.len() > 50, "{} colours", colours.len());
 }
 
-/// With --device wgpu the rasterizer writes GlassNet's inputs straight into tensors on the
-/// shared device; the frame must be the one the host-copy path makes. (On lavapipe here; on a
+/// With --device wgpu the rasterizer (and the GPU through pass) writes GlassNet's inputs
+/// straight into tensors on the shared device; the frame must be the one the host-copy path
+/// makes. (On lavapipe here; on a
 /// GPU machine the same code runs on the GPU.)
 #[test]
 fn zero_copy_frames_equal_host_copy_frames() {
@@ -207,6 +208,14 @@ fn zero_copy_frames_equal_host_copy_frames() {
     assert!(a == b, "zero-copy and host-copy frames differ");
     let first = a.get_pixel(0, 0);
     assert!(a.pixels().any(|p| p != first), "a rendered frame is not one flat colour");
+    // With the through rays cast by the GPU pass, a GlassNet that reads through buffers stays
+    // zero-copy too: the pass reads the input tensors and writes its buffer into them.
+    let cast_on_gpu = dir.path().join("through-gpu.png");
+    let (code, _, err) =
+        glassbake(&["render", path(&model), "--device", "wgpu", "--through-rays", "gpu", "--sample", "1", "--res", "32", "--out", path(&cast_on_gpu)]);
+    assert_eq!(code, 0, "{err}");
+    let c = image::open(&cast_on_gpu).unwrap().to_rgb8();
+    assert!(c == b, "zero-copy frames with the GPU through pass differ from host-copy frames");
 }
 
 /// `.ci/run` sets GLASSBAKE_TEST_RESOURCES=required after installing what the tests need:

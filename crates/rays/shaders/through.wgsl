@@ -21,8 +21,14 @@ struct Params {
     alpha: f32,
     object: u32,
     texture_table: u32,
+    // Where the planes start, in f32 elements of their bindings: the opaque G-buffer's L_d (3
+    // planes), the object's coverage (1), the through buffer written (THROUGH_CHANNELS).
+    ld_offset: u32,
+    coverage_offset: u32,
+    through_offset: u32,
     _pad0: u32,
     _pad1: u32,
+    _pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -36,10 +42,12 @@ struct Params {
 @group(0) @binding(5) var<storage, read> texels: array<vec4f>;
 // Per rectangle light: (normal, two-sided), (radiance, -).
 @group(0) @binding(6) var<storage, read> lights: array<vec4f>;
-// Per pixel: the opaque G-buffer's L_d and object k's coverage.
-@group(0) @binding(7) var<storage, read> frame: array<vec4f>;
-// THROUGH_CHANNELS planes of width x height.
-@group(0) @binding(8) var<storage, read_write> through: array<f32>;
+// Planes of width x height: the opaque G-buffer's L_d from params.ld_offset on.
+@group(0) @binding(7) var<storage, read> gbuffer: array<f32>;
+// Planes of width x height: object k's coverage from params.coverage_offset on, and its
+// through buffer written from params.through_offset on (in the real-time frame, the network's
+// input tensor for the object, its transparency buffer followed by its through buffer).
+@group(0) @binding(8) var<storage, read_write> object_planes: array<f32>;
 
 // ---- light at a dielectric interface (optics.rs) ----
 
@@ -302,7 +310,9 @@ fn on_screen(position: vec3f) -> vec4f {
 // through.rs: light_at.
 fn light_at(end: PathEnd, view: vec4f) -> vec3f {
     if !end.is_light && view.z != 0.0 && view.w != 0.0 {
-        return frame[u32(view.y) * params.width + u32(view.x)].xyz;
+        let pixels = params.width * params.height;
+        let j = params.ld_offset + u32(view.y) * params.width + u32(view.x);
+        return vec3f(gbuffer[j], gbuffer[j + pixels], gbuffer[j + 2u * pixels]);
     }
     return end.emitted;
 }
@@ -315,9 +325,9 @@ fn through_pass(@builtin(global_invocation_id) id: vec3u) {
     let pixels = params.width * params.height;
     let i = id.y * params.width + id.x;
     for (var c = 0u; c < THROUGH_CHANNELS; c++) {
-        through[c * pixels + i] = 0.0;
+        object_planes[params.through_offset + c * pixels + i] = 0.0;
     }
-    if frame[i].w <= 0.0 {
+    if object_planes[params.coverage_offset + i] <= 0.0 {
         return;
     }
     // core::camera: Camera::pixel_center_ray.
@@ -353,16 +363,16 @@ fn through_pass(@builtin(global_invocation_id) id: vec3u) {
         transmittance /= f32(LOBE_SAMPLES);
     }
     if view.z != 0.0 {
-        through[(THROUGH_SCREEN_OFFSET) * pixels + i] = view.x - f32(id.x);
-        through[(THROUGH_SCREEN_OFFSET + 1u) * pixels + i] = view.y - f32(id.y);
-        through[THROUGH_ON_SCREEN * pixels + i] = view.w;
+        object_planes[params.through_offset + (THROUGH_SCREEN_OFFSET) * pixels + i] = view.x - f32(id.x);
+        object_planes[params.through_offset + (THROUGH_SCREEN_OFFSET + 1u) * pixels + i] = view.y - f32(id.y);
+        object_planes[params.through_offset + THROUGH_ON_SCREEN * pixels + i] = view.w;
     }
     for (var c = 0u; c < 3u; c++) {
-        through[(THROUGH_POSITION + c) * pixels + i] = end.position[c];
-        through[(THROUGH_NORMAL + c) * pixels + i] = end.normal[c];
-        through[(THROUGH_ALBEDO + c) * pixels + i] = albedo[c];
-        through[(THROUGH_LD + c) * pixels + i] = light[c];
+        object_planes[params.through_offset + (THROUGH_POSITION + c) * pixels + i] = end.position[c];
+        object_planes[params.through_offset + (THROUGH_NORMAL + c) * pixels + i] = end.normal[c];
+        object_planes[params.through_offset + (THROUGH_ALBEDO + c) * pixels + i] = albedo[c];
+        object_planes[params.through_offset + (THROUGH_LD + c) * pixels + i] = light[c];
     }
-    through[THROUGH_TRANSMITTANCE * pixels + i] = transmittance;
-    through[THROUGH_LENGTH * pixels + i] = end.length;
+    object_planes[params.through_offset + THROUGH_TRANSMITTANCE * pixels + i] = transmittance;
+    object_planes[params.through_offset + THROUGH_LENGTH * pixels + i] = end.length;
 }

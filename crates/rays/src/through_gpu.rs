@@ -2,9 +2,9 @@
 //! (`shaders/through.wgsl`) in BVHs `gpu_bvh.rs` lays out. Same surfaces, same optics, same
 //! lobe points for rough glass: the two agree up to rounding (tests/through_gpu.rs).
 //!
-//! The kernel reads the opaque G-buffer's L_d and the object's coverage from the host and
-//! writes the through buffer back to it, so a frame that keeps its buffers on the host (the
-//! real-time frame of a model reading through buffers) can take either pass.
+//! [`GpuThroughPass::through_buffer`] takes its inputs from the host and reads the buffer back,
+//! as the CPU pass does; [`GpuThroughPass::cast_into`] reads and writes GPU buffers (the
+//! real-time frame's zero-copy path: the network's input tensors).
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -50,7 +50,10 @@ struct Params {
     alpha: f32,
     object: u32,
     texture_table: u32,
-    _pad: [u32; 2],
+    ld_offset: u32,
+    coverage_offset: u32,
+    through_offset: u32,
+    _pad: [u32; 3],
 }
 
 fn shader_source() -> String {
@@ -216,76 +219,30 @@ impl GpuThroughPass {
 
     /// The through buffer of transparent object `k` of `scene` for a frame, as
     /// `through::through_buffer` computes it: cast where `coverage` is above 0, L_d read
-    /// from `opaque_gbuffer`.
+    /// from `opaque_gbuffer`. Uploads its inputs and reads the buffer back.
     pub fn through_buffer(&self, scene: &GpuThroughScene, k: usize, camera: &Camera, opaque_gbuffer: &PlanarImage, coverage: &[f32]) -> Result<PlanarImage> {
         let (width, height) = (opaque_gbuffer.width(), opaque_gbuffer.height());
         let pixels = (width * height) as usize;
         assert_eq!(coverage.len(), pixels, "one coverage value per pixel of the frame");
-        let object = scene.objects[k];
-        let ld = [opaque::LD, opaque::LD + 1, opaque::LD + 2].map(|c| opaque_gbuffer.plane(c));
-        let frame: Vec<[f32; 4]> = (0..pixels).map(|i| [ld[0][i], ld[1][i], ld[2][i], coverage[i]]).collect();
-        let frame_buffer = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("through frame"),
-            contents: bytemuck::cast_slice(&frame),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
+        let ld = &opaque_gbuffer.data()[opaque::LD * pixels..(opaque::LD + 3) * pixels];
+        let storage = |label: &str, contents: &[f32], usage: wgpu::BufferUsages| {
+            self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytemuck::cast_slice(contents), usage })
+        };
+        let light = storage("through direct light", ld, wgpu::BufferUsages::COPY_SRC);
+        // The coverage plane, then room for the through planes.
+        let mut planes = vec![0.0f32; (1 + layout::THROUGH_CHANNELS) * pixels];
+        planes[..pixels].copy_from_slice(coverage);
+        let object = storage("through object planes", &planes, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC);
         let out_bytes = (layout::THROUGH_CHANNELS * pixels * 4) as u64;
-        let output = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("through buffer"),
-            size: out_bytes,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
         let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("through readback"),
             size: out_bytes,
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let f = camera.frame();
-        let (tx, ty) = camera.tan_half_fov(width, height);
-        let params = Params {
-            view_projection: camera.view_projection(width, height).to_cols_array_2d(),
-            camera_position: v4(camera.position, 0.0),
-            camera_forward: v4(f.forward, 0.0),
-            camera_right: v4(f.right * tx, 0.0),
-            camera_up: v4(f.up * ty, 0.0),
-            width,
-            height,
-            opaque_root: scene.opaque_root,
-            object_root: object.root,
-            ior: object.ior,
-            thin: object.thin as u32,
-            rough: object.alpha.is_some() as u32,
-            alpha: object.alpha.unwrap_or(0.0),
-            object: k as u32,
-            texture_table: scene.texture_table,
-            _pad: [0; 2],
-        };
-        let uniform = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("through params"),
-            contents: bytemuck::bytes_of(&params),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() }];
-        for (i, buffer) in scene.arrays.iter().enumerate() {
-            entries.push(wgpu::BindGroupEntry { binding: i as u32 + 1, resource: buffer.as_entire_binding() });
-        }
-        entries.push(wgpu::BindGroupEntry { binding: 7, resource: frame_buffer.as_entire_binding() });
-        entries.push(wgpu::BindGroupEntry { binding: 8, resource: output.as_entire_binding() });
-        let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("through"),
-            layout: &self.pipeline.get_bind_group_layout(0),
-            entries: &entries,
-        });
-        let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("through pass") });
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("through pass"), timestamp_writes: None });
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &bind_group, &[]);
-            pass.dispatch_workgroups(width.div_ceil(WORKGROUP_SIDE), height.div_ceil(WORKGROUP_SIDE), 1);
-        }
-        encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, out_bytes);
+        self.cast_into(scene, k, camera, width, height, PlanesAt { buffer: &light, byte_offset: 0, plane: 0 }, &object, 0, 0, 1)?;
+        let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("through readback") });
+        encoder.copy_buffer_to_buffer(&object, (pixels * 4) as u64, &readback, 0, out_bytes);
         self.queue.submit([encoder.finish()]);
         let (tx, rx) = std::sync::mpsc::channel();
         readback.map_async(wgpu::MapMode::Read, .., move |r| {
@@ -299,5 +256,127 @@ impl GpuThroughPass {
         };
         readback.unmap();
         PlanarImage::from_planes(width, height, layout::through_channel_names(k), data)
+    }
+
+    /// Cast object `k`'s through buffer for a `width` x `height` frame on the GPU, without
+    /// host copies: L_d read from the opaque G-buffer's planes in `gbuffer` (its L_d plane
+    /// index `gbuffer.plane` is taken as the first of the three; they are copied out, so the
+    /// buffer needs `COPY_SRC`), the coverage read from plane
+    /// `coverage` of the planes at `object_byte_offset` in `object`, the
+    /// [`layout::THROUGH_CHANNELS`] through planes written from plane `through` on there. The
+    /// real-time frame passes the network's input tensors' buffers. Submits one command buffer
+    /// on the queue, after whatever wrote the inputs.
+    #[allow(clippy::too_many_arguments)]
+    pub fn cast_into(
+        &self,
+        scene: &GpuThroughScene,
+        k: usize,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+        gbuffer: PlanesAt,
+        object: &wgpu::Buffer,
+        object_byte_offset: u64,
+        coverage: u64,
+        through: u64,
+    ) -> Result<()> {
+        let pixels = u64::from(width) * u64::from(height);
+        let object_planes = PlanesAt { buffer: object, byte_offset: object_byte_offset, plane: 0 };
+        // The L_d planes are copied out first: the network's input tensors may share one
+        // buffer, which a dispatch cannot bind both read-only and read-write.
+        let ld_bytes = 3 * pixels * 4;
+        let ld_source = gbuffer.byte_offset + gbuffer.plane * pixels * 4;
+        if ld_source + ld_bytes > gbuffer.buffer.size() || !ld_source.is_multiple_of(4) {
+            return Err(Error::Internal(format!("the L_d planes at byte {ld_source} do not fit their buffer of {}", gbuffer.buffer.size())));
+        }
+        let ld_copy = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("through direct light"),
+            size: ld_bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let (object_binding, object_offset) = object_planes.binding(&self.device, pixels, (coverage + 1).max(through + layout::THROUGH_CHANNELS as u64))?;
+        let object_params = scene.objects[k];
+        let f = camera.frame();
+        let (tx, ty) = camera.tan_half_fov(width, height);
+        let element = |offset: u64| u32::try_from(offset).map_err(|_| Error::Internal(format!("a through-pass binding of {offset} elements")));
+        let params = Params {
+            view_projection: camera.view_projection(width, height).to_cols_array_2d(),
+            camera_position: v4(camera.position, 0.0),
+            camera_forward: v4(f.forward, 0.0),
+            camera_right: v4(f.right * tx, 0.0),
+            camera_up: v4(f.up * ty, 0.0),
+            width,
+            height,
+            opaque_root: scene.opaque_root,
+            object_root: object_params.root,
+            ior: object_params.ior,
+            thin: object_params.thin as u32,
+            rough: object_params.alpha.is_some() as u32,
+            alpha: object_params.alpha.unwrap_or(0.0),
+            object: k as u32,
+            texture_table: scene.texture_table,
+            ld_offset: 0,
+            coverage_offset: element(object_offset + coverage * pixels)?,
+            through_offset: element(object_offset + through * pixels)?,
+            _pad: [0; 3],
+        };
+        let uniform = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("through params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() }];
+        for (i, buffer) in scene.arrays.iter().enumerate() {
+            entries.push(wgpu::BindGroupEntry { binding: i as u32 + 1, resource: buffer.as_entire_binding() });
+        }
+        entries.push(wgpu::BindGroupEntry { binding: 7, resource: ld_copy.as_entire_binding() });
+        entries.push(wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::Buffer(object_binding) });
+        let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("through"),
+            layout: &self.pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        });
+        let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("through pass") });
+        encoder.copy_buffer_to_buffer(gbuffer.buffer, ld_source, &ld_copy, 0, ld_bytes);
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("through pass"), timestamp_writes: None });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &bind_group, &[]);
+            pass.dispatch_workgroups(width.div_ceil(WORKGROUP_SIDE), height.div_ceil(WORKGROUP_SIDE), 1);
+        }
+        self.queue.submit([encoder.finish()]);
+        Ok(())
+    }
+}
+
+/// Planes of f32 in a GPU buffer, from `byte_offset` on; `plane` names one of them.
+#[derive(Clone, Copy)]
+pub struct PlanesAt<'a> {
+    pub buffer: &'a wgpu::Buffer,
+    pub byte_offset: u64,
+    pub plane: u64,
+}
+
+impl<'a> PlanesAt<'a> {
+    /// A binding of the first `planes` planes of `pixels` values, starting at the nearest
+    /// offset below the planes that the device lets a storage binding start at, and how many
+    /// elements the planes start after it.
+    fn binding(&self, device: &wgpu::Device, pixels: u64, planes: u64) -> Result<(wgpu::BufferBinding<'a>, u64)> {
+        let alignment = u64::from(device.limits().min_storage_buffer_offset_alignment);
+        let start = self.byte_offset / alignment * alignment;
+        let skip = self.byte_offset - start;
+        if !skip.is_multiple_of(4) {
+            return Err(Error::Internal(format!("planes at byte {} are not f32-aligned", self.byte_offset)));
+        }
+        let size = skip + planes * pixels * 4;
+        if start + size > self.buffer.size() {
+            return Err(Error::Internal(format!(
+                "{planes} planes of {pixels} values from byte {} overrun a buffer of {}",
+                self.byte_offset,
+                self.buffer.size()
+            )));
+        }
+        Ok((wgpu::BufferBinding { buffer: self.buffer, offset: start, size: std::num::NonZeroU64::new(size) }, skip / 4))
     }
 }

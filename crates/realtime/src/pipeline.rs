@@ -19,7 +19,7 @@ use glassbake_net::{TrainedModel, TrainedSuperSampler};
 use glassbake_raster::light_coverage::{coverage_factor, light_coverage_of, LIGHT_COVERAGE_FACTOR};
 use glassbake_raster::{Rasterizer, RasterizerOptions};
 use glassbake_rays::through::{through_buffer, ThroughScene};
-use glassbake_rays::through_gpu::{GpuThroughPass, GpuThroughScene};
+use glassbake_rays::through_gpu::{GpuThroughPass, GpuThroughScene, PlanesAt};
 use glassbake_scene::Scene;
 
 /// What a frame shows.
@@ -227,7 +227,8 @@ impl FramePipeline {
                     _ => None,
                 };
                 // The through buffers are cast from read-back buffers (on the CPU or the GPU).
-                let zero_copy = self.zero_copy && !naive && !through;
+                // A model reading through buffers stays on the GPU when the GPU pass casts them.
+                let zero_copy = self.zero_copy && !naive && (!through || self.through_rays == ThroughRays::Gpu);
                 let mut frame = self.rasterizer.begin_frame(&instance, camera, lw, lh)?;
                 let (h, w) = (lh as usize, lw as usize);
                 let to_tensor = |data: Vec<f32>, channels: usize| Tensor::<4>::from_data(TensorData::new(data, [1, channels, h, w]), &device);
@@ -247,6 +248,8 @@ impl FramePipeline {
                     tensor
                 };
                 let objects = if reads_objects { frame.transparent_count() } else { 0 };
+                // The GPU pass reads the opaque G-buffer's L_d from the network's input tensor.
+                let gbuffer_on_gpu = (zero_copy && through).then(|| gbuffer.clone());
                 times.raster_ms += ms(raster_start);
                 let values_tensor = Tensor::<2>::from_data(TensorData::new(normalised.clone(), [1, normalised.len()]), &device);
                 let planes = &mut self.planes;
@@ -266,7 +269,33 @@ impl FramePipeline {
                 let mut raster_ms = 0.0;
                 let prediction = model.net.forward_streaming(gbuffer, light_coverage, values_tensor, objects, |k| {
                     let t = Instant::now();
-                    let tensor = if zero_copy {
+                    let tensor = if let (true, Some(ThroughCaster::Gpu(uploaded)), Some(opaque)) = (zero_copy, &caster, &gbuffer_on_gpu) {
+                        // The transparency buffer, then the through buffer the GPU pass casts
+                        // from its coverage and the opaque G-buffer's L_d, into one tensor.
+                        let channels = TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS;
+                        crate::gpu_handover::input_tensor(&device, channels, h, w, |buffer, offset| {
+                            frame.transparent_to_buffer(k, buffer, offset)?;
+                            let cast = Instant::now();
+                            crate::gpu_handover::with_buffer(opaque, |gbuffer, gbuffer_offset| {
+                                let ld = PlanesAt { buffer: gbuffer, byte_offset: gbuffer_offset, plane: layout::opaque::LD as u64 };
+                                let pass = gpu_through.expect("compiled above");
+                                pass.cast_into(
+                                    uploaded,
+                                    k,
+                                    camera,
+                                    lw,
+                                    lh,
+                                    ld,
+                                    buffer,
+                                    offset,
+                                    layout::transparent::COVERAGE as u64,
+                                    TRANSPARENT_CHANNELS as u64,
+                                )
+                            })?;
+                            cast_ms += ms(cast);
+                            Ok(())
+                        })
+                    } else if zero_copy {
                         crate::gpu_handover::input_tensor(&device, TRANSPARENT_CHANNELS, h, w, |buffer, offset| frame.transparent_to_buffer(k, buffer, offset))
                     } else {
                         frame.transparent_into(k, planes).and_then(|()| match (&caster, &opaque_image) {
