@@ -106,6 +106,8 @@ benches() { # benches DIR: DIR/quick, DIR/paper and DIR/sr hold the models
   local dir="$1"
   bench quick "$dir/quick" wgpu
   bench quick_host_copy "$dir/quick" wgpu --host-copy
+  # A GlassNet reading through buffers: their rays on the CPU instead of the GPU pass.
+  bench quick_through_cpu "$dir/quick" wgpu --through-rays cpu
   bench paper "$dir/paper" wgpu
   bench quick_sr "$dir/quick" wgpu --sr "$dir/sr"
   # The CUDA backend: buffers reach it through host memory.

@@ -81,8 +81,10 @@ def bench_table(out, name, title):
     if split:
         lines.append("")
         lines.append(
-            f"Raster / network split at t = {counts[-1]}: "
-            + ", ".join(f"{r['resolution']}x{r['resolution']} {r['raster_ms']:.2f} / {r['network_ms']:.2f} ms" for r in split)
+            f"Raster / through rays / network split at t = {counts[-1]}: "
+            + ", ".join(
+                f"{r['resolution']}x{r['resolution']} {r['raster_ms']:.2f} / {r.get('through_ms', 0.0):.2f} / {r['network_ms']:.2f} ms" for r in split
+            )
             + "."
         )
     return "\n".join(lines) + "\n"
@@ -153,6 +155,7 @@ def main():
     parts.append(bench_table(out, "quick", "Real-time frame, `quick` GlassNet, zero-copy hand-over"))
     parts.append(bench_table(out, "paper", "Real-time frame, `paper` GlassNet (the paper's widths), zero-copy hand-over"))
     parts.append(bench_table(out, "quick_host_copy", "Real-time frame, `quick` GlassNet, buffers through host memory (`--host-copy`)"))
+    parts.append(bench_table(out, "quick_through_cpu", "Real-time frame, `quick` GlassNet, through rays cast on the CPU (`--through-rays cpu`, buffers through host memory)"))
     parts.append(bench_table(out, "quick_sr", "Real-time frame, `quick` GlassNet at half resolution + the x2 super-sampler (`--sr`)"))
     if (out / "bench_quick_cuda.json").is_file():
         parts.append(bench_table(out, "quick_cuda", "Real-time frame, `quick` GlassNet on burn's CUDA backend (buffers through host memory)"))

@@ -165,6 +165,12 @@ impl FramePipeline {
         self.zero_copy
     }
 
+    /// Whether GlassNet's frames stay on the GPU: zero-copy, unless its through rays are cast
+    /// on the CPU.
+    pub fn glassnet_frames_zero_copy(&self) -> bool {
+        self.zero_copy && !(self.glassnet.config().through && self.through_rays == ThroughRays::Cpu)
+    }
+
     /// Replaces the scene (the benchmark's object counts); the models stay.
     pub fn set_scene(&mut self, scene: Scene) {
         self.scene = scene;

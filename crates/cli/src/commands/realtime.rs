@@ -197,10 +197,11 @@ pub fn bench(args: BenchArgs) -> Result<()> {
         bar.set_position(done as u64);
     };
     let device = format!(
-        "network on {} ({} cores), through rays on the {}",
+        "network on {} ({} cores), through rays on the {}{}",
         opened.device,
         std::thread::available_parallelism().map_or(1, |n| n.get()),
-        opened.pipeline.through_rays().name()
+        opened.pipeline.through_rays().name(),
+        if opened.pipeline.zero_copy() && !opened.pipeline.glassnet_frames_zero_copy() { " (so GlassNet's buffers go through host memory)" } else { "" }
     );
     let report = run_bench(&mut opened.pipeline, &device, &options, &progress);
     bar.finish_and_clear();
