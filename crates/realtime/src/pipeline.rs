@@ -66,7 +66,8 @@ pub struct FrameTimes {
     pub raster_ms: f64,
     /// Casting the through buffers' refracted rays (on the CPU or the GPU, see
     /// [`ThroughRays`]: BVHs and rays), for a model that reads them; part of neither of the
-    /// others.
+    /// others. In the zero-copy frame the GPU pass is only submitted here and runs with the
+    /// network.
     pub through_ms: f64,
     /// Everything else: the network, uploads, the image read-back.
     pub network_ms: f64,
