@@ -124,7 +124,17 @@ pub fn run_bench(pipeline: &mut FramePipeline, device: &str, options: &BenchOpti
 
 /// Least-squares slope of ms per frame against the object count, per resolution.
 pub fn marginal_ms_per_object(report: &BenchReport, resolution: u32) -> Option<f64> {
-    let points: Vec<(f64, f64)> = report.rows.iter().filter(|r| r.resolution == resolution).map(|r| (r.objects as f64, r.ms_per_frame)).collect();
+    marginal_per_object(report, resolution, |r| r.ms_per_frame)
+}
+
+/// Least-squares slope of the through rays' ms per frame against the object count, per
+/// resolution: what casting one more object's through buffer costs.
+pub fn marginal_through_ms_per_object(report: &BenchReport, resolution: u32) -> Option<f64> {
+    marginal_per_object(report, resolution, |r| r.through_ms)
+}
+
+fn marginal_per_object(report: &BenchReport, resolution: u32, value: impl Fn(&BenchRow) -> f64) -> Option<f64> {
+    let points: Vec<(f64, f64)> = report.rows.iter().filter(|r| r.resolution == resolution).map(|r| (r.objects as f64, value(r))).collect();
     if points.len() < 2 {
         return None;
     }
@@ -171,6 +181,10 @@ pub fn table(report: &BenchReport) -> String {
         if let Some(slope) = marginal_ms_per_object(report, res) {
             let _ = writeln!(out, "{:<10} {:<22} {slope:+.2} ms per extra object (least squares)", "", "marginal cost");
         }
+        let casts = report.rows.iter().any(|r| r.resolution == res && r.through_ms > 0.0);
+        if let Some(slope) = marginal_through_ms_per_object(report, res).filter(|_| casts) {
+            let _ = writeln!(out, "{:<10} {:<22} {slope:+.2} ms per extra object", "", "  of it, through rays");
+        }
     }
     out
 }
@@ -212,5 +226,12 @@ mod tests {
         assert!((slope - 88.25 / 28.75).abs() < 1e-9, "{slope}");
         let text = table(&report);
         assert!(text.contains("512x512") && text.contains("50.0") && text.contains("+3.07 ms per extra object"), "{text}");
+        // The through rays' own slope: 10 ms per object.
+        let mut through = report.clone();
+        for r in &mut through.rows {
+            r.through_ms = 10.0 * r.objects as f64;
+        }
+        assert!((marginal_through_ms_per_object(&through, 512).unwrap() - 10.0).abs() < 1e-9);
+        assert!(table(&through).contains("through rays") && table(&through).contains("+10.00 ms per extra object"), "{}", table(&through));
     }
 }
