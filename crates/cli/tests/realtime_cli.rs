@@ -190,7 +190,9 @@ fn viewer_opens_under_xvfb_and_fails_clearly_without_a_display() {
 
 /// With --device wgpu the rasterizer (and the GPU through pass) writes GlassNet's inputs
 /// straight into tensors on the shared device; the frame must be the one the host-copy path
-/// makes. (On lavapipe here; on a
+/// makes. (The tiny bake's GlassNet reads through buffers: with `auto` on lavapipe their rays
+/// are cast on the CPU, which takes the host path, so the zero-copy frame is the one with
+/// `--through-rays gpu`.) (On lavapipe here; on a
 /// GPU machine the same code runs on the GPU.)
 #[test]
 fn zero_copy_frames_equal_host_copy_frames() {

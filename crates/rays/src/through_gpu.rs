@@ -193,6 +193,15 @@ impl GpuThroughPass {
         }
         let lights: Vec<[f32; 4]> = scene.rect_lights.iter().flat_map(|l| [v4(l.normal(), if l.two_sided { 1.0 } else { 0.0 }), v4(l.radiance, 0.0)]).collect();
 
+        let limit = self.device.limits().max_storage_buffer_binding_size.min(self.device.limits().max_buffer_size);
+        for (what, data) in
+            [("BVH nodes", &bvhs.nodes), ("triangles", &bvhs.triangles), ("triangle attributes", &attributes), ("materials", &materials), ("texels", &texels)]
+        {
+            let bytes = (data.len() * 16) as u64;
+            if bytes > limit {
+                return Err(Error::bad_input(&scene.name, what, format!("{bytes} bytes for the GPU through pass; this GPU binds at most {limit}")));
+            }
+        }
         let storage = |label: &str, data: &[[f32; 4]]| {
             // Bindings cannot be empty: an empty array travels as one unused vec4.
             let padded: &[[f32; 4]] = if data.is_empty() { &[[0.0; 4]] } else { data };
@@ -321,6 +330,8 @@ impl GpuThroughPass {
             through_offset: element(object_offset + through * pixels)?,
             _pad: [0; 3],
         };
+        // Whatever wgpu refuses below comes back as an error, not as a panic of its handler.
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let uniform = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("through params"),
             contents: bytemuck::bytes_of(&params),
@@ -345,7 +356,11 @@ impl GpuThroughPass {
             pass.set_bind_group(0, &bind_group, &[]);
             pass.dispatch_workgroups(width.div_ceil(WORKGROUP_SIDE), height.div_ceil(WORKGROUP_SIDE), 1);
         }
-        self.queue.submit([encoder.finish()]);
+        let commands = encoder.finish();
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(Error::Internal(format!("the GPU through pass: {e}")));
+        }
+        self.queue.submit([commands]);
         Ok(())
     }
 }
@@ -370,6 +385,14 @@ impl<'a> PlanesAt<'a> {
             return Err(Error::Internal(format!("planes at byte {} are not f32-aligned", self.byte_offset)));
         }
         let size = skip + planes * pixels * 4;
+        let limit = device.limits().max_storage_buffer_binding_size;
+        if size > limit {
+            return Err(Error::bad_input(
+                "frame",
+                "resolution",
+                format!("the through pass binds {size} bytes of planes for {pixels} pixels; this GPU binds at most {limit}"),
+            ));
+        }
         if start + size > self.buffer.size() {
             return Err(Error::Internal(format!(
                 "{planes} planes of {pixels} values from byte {} overrun a buffer of {}",

@@ -1,7 +1,9 @@
 //! The zero-copy hand-over on a GPU: the rasterizer and burn's wgpu runtime share one wgpu
 //! device, each network input tensor is allocated by burn, and the rasterizer writes its planes
 //! straight into the tensor's storage buffer (`raster::Frame::opaque_to_buffer` /
-//! `transparent_to_buffer`), so no frame data passes through host memory.
+//! `transparent_to_buffer`), as the GPU through pass does its through buffer
+//! (`rays::through_gpu::GpuThroughPass::cast_into`, reading the tensors via [`with_buffer`]),
+//! so no frame data passes through host memory.
 //!
 //! Ordering: burn queues kernels and submits them in batches; `Device::flush` submits what is
 //! queued before the rasterizer's own submission on the shared queue, and wgpu executes

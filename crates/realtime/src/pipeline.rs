@@ -1,10 +1,12 @@
 //! One frame: camera + variable values -> rasterizer -> GlassNet -> optional x2 super-sampler.
 //!
 //! The rasterizer renders the opaque G-buffer, then each transparency buffer into one reused
-//! set of targets, read back into one reused host buffer and handed to GlassNet's streaming
-//! forward pass, so neither the GPU nor the host holds more than one transparency buffer
-//! whatever the object count. The rasterizer's wgpu device and burn's are separate devices:
-//! each buffer crosses the host once (see docs/realtime.md for why and what it costs).
+//! set of targets, handed to GlassNet's streaming forward pass, so neither the GPU nor the host
+//! holds more than one transparency buffer whatever the object count. With separate devices
+//! (the CPU network, or `--host-copy`) each buffer is read back into one reused host buffer and
+//! crosses the host once; with burn's wgpu runtime on the rasterizer's device it is written
+//! straight into the network's input tensor (`gpu_handover`), and so is its through buffer when
+//! the GPU pass casts it (see docs/realtime.md for why and what each costs).
 
 use std::time::Instant;
 
