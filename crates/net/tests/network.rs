@@ -622,23 +622,29 @@ fn with_the_light_coverage_direct_light_above_one_reads_as_one() {
     }
 }
 
-/// GlassNet with `through` reads the through buffer after each transparency buffer (a change
-/// there changes the image); a network without it reads only the transparency buffer (given
-/// with or without the through channels, the image is the same to the last bit).
-#[test]
-fn through_buffers_reach_glassnet_only_when_it_reads_them() {
+/// `inputs` with every object's through channels (after its transparency buffer) times `scale`.
+fn through_scaled(inputs: &NetInputs, scale: f32) -> NetInputs {
     use glassbake_core::layout::{THROUGH_CHANNELS, TRANSPARENT_CHANNELS};
-    let device = Device::flex();
-    let frames = vec![common::frame(91, 16, 2, 1)];
-    let inputs = common::batch(&frames).inputs(&device);
-    let with_through = |scale: f32| NetInputs {
+    NetInputs {
         transparent: inputs
             .transparent
             .iter()
             .map(|b| Tensor::cat(vec![b.clone().narrow(1, 0, TRANSPARENT_CHANNELS), b.clone().narrow(1, TRANSPARENT_CHANNELS, THROUGH_CHANNELS) * scale], 1))
             .collect(),
         ..inputs.clone()
-    };
+    }
+}
+
+/// GlassNet with `through` reads the through buffer after each transparency buffer (a change
+/// there changes the image); a network without it reads only the transparency buffer (given
+/// with or without the through channels, the image is the same to the last bit).
+#[test]
+fn through_buffers_reach_glassnet_only_when_it_reads_them() {
+    use glassbake_core::layout::TRANSPARENT_CHANNELS;
+    let device = Device::flex();
+    let frames = vec![common::frame(91, 16, 2, 1)];
+    let inputs = common::batch(&frames).inputs(&device);
+    let with_through = |scale: f32| through_scaled(&inputs, scale);
     let without_through =
         NetInputs { transparent: inputs.transparent.iter().map(|b| b.clone().narrow(1, 0, TRANSPARENT_CHANNELS)).collect(), ..inputs.clone() };
     let config = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap();
@@ -709,18 +715,10 @@ fn the_front_through_buffer_is_the_nearest_covering_objects() {
 /// there changes its image, and the objects' order does not.
 #[test]
 fn the_front_through_ablation_reads_the_front_objects_through_buffer() {
-    use glassbake_core::layout::{THROUGH_CHANNELS, TRANSPARENT_CHANNELS};
     let device = Device::flex();
     let frames = vec![common::frame(93, 16, 3, 1)];
     let inputs = common::batch(&frames).inputs(&device);
-    let scaled = |scale: f32| NetInputs {
-        transparent: inputs
-            .transparent
-            .iter()
-            .map(|b| Tensor::cat(vec![b.clone().narrow(1, 0, TRANSPARENT_CHANNELS), b.clone().narrow(1, TRANSPARENT_CHANNELS, THROUGH_CHANNELS) * scale], 1))
-            .collect(),
-        ..inputs.clone()
-    };
+    let scaled = |scale: f32| through_scaled(&inputs, scale);
     let config = NetConfig { through: true, ..NetConfig::preset("tiny", ModelKind::Naive, 1, 3).unwrap() };
     let net = random_net(&config, 7, &device);
     let image = bits(net.forward(&scaled(1.0)));

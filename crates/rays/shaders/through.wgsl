@@ -2,7 +2,7 @@
 // surfaces, same lobe points), one invocation per pixel of transparent object k. The BVHs of
 // the opaque scene (with its lights) and of every transparent object alone share `nodes`
 // and `triangles`, each from its root. `through_gpu.rs` prepends the constants shared with
-// Rust and `bvh.wgsl`, and writes the buffers.
+// Rust, `bvh.wgsl`, `optics.wgsl` and `common.wgsl`, and writes the buffers.
 
 struct Params {
     view_projection: mat4x4f,
@@ -49,55 +49,6 @@ struct Params {
 // input tensor for the object, its transparency buffer followed by its through buffer).
 @group(0) @binding(8) var<storage, read_write> object_planes: array<f32>;
 
-// ---- light at a dielectric interface (optics.rs) ----
-
-fn fresnel_dielectric(cos_in: f32, eta_in: f32) -> f32 {
-    var cos_i = cos_in;
-    var eta = eta_in;
-    if cos_i < 0.0 {
-        cos_i = -cos_i;
-        eta = 1.0 / eta;
-    }
-    let sin2_t = max(1.0 - cos_i * cos_i, 0.0) / (eta * eta);
-    if sin2_t >= 1.0 {
-        return 1.0;
-    }
-    let cos_t = sqrt(1.0 - sin2_t);
-    let r_parallel = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    let r_perpendicular = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    return 0.5 * (r_parallel * r_parallel + r_perpendicular * r_perpendicular);
-}
-
-fn thin_slab_reflectance(cos_i: f32, eta: f32) -> f32 {
-    let r = fresnel_dielectric(abs(cos_i), eta);
-    if r >= 1.0 {
-        return 1.0;
-    }
-    return 2.0 * r / (1.0 + r);
-}
-
-fn reflect_about(w: vec3f, m: vec3f) -> vec3f {
-    return 2.0 * dot(w, m) * m - w;
-}
-
-// The refracted direction (xyz) and 1 in w, or w = 0 at total internal reflection.
-fn refract_through(w: vec3f, n_in: vec3f, eta_in: f32) -> vec4f {
-    var cos_i = dot(n_in, w);
-    var n = n_in;
-    var eta = eta_in;
-    if cos_i < 0.0 {
-        eta = 1.0 / eta;
-        cos_i = -cos_i;
-        n = -n;
-    }
-    let sin2_t = max(1.0 - cos_i * cos_i, 0.0) / (eta * eta);
-    if sin2_t >= 1.0 {
-        return vec4f(0.0);
-    }
-    let cos_t = sqrt(1.0 - sin2_t);
-    return vec4f(-w / eta + (cos_i / eta - cos_t) * n, 1.0);
-}
-
 // ---- triangles (triangle.rs) ----
 
 fn face_normal(triangle: u32) -> vec3f {
@@ -119,28 +70,6 @@ fn shading_normal(hit: Hit) -> vec3f {
         return n / len;
     }
     return face;
-}
-
-fn texel(texture: vec4u, x: i32, y: i32) -> vec4f {
-    let w = i32(texture.y);
-    let h = i32(texture.z);
-    let xi = ((x % w) + w) % w;
-    let yi = ((y % h) + h) % h;
-    return texels[texture.x + u32(yi * w + xi)];
-}
-
-// Bilinear with repeat wrapping, v = 0 the top row (scene::Texture::sample).
-fn sample_texture(index: u32, uv: vec2f) -> vec4f {
-    let texture = bitcast<vec4u>(materials[params.texture_table + index]);
-    let x = uv.x * f32(texture.y) - 0.5;
-    let y = uv.y * f32(texture.z) - 0.5;
-    let x0 = floor(x);
-    let y0 = floor(y);
-    let ix = i32(x0);
-    let iy = i32(y0);
-    let top = mix(texel(texture, ix, iy), texel(texture, ix + 1, iy), x - x0);
-    let bottom = mix(texel(texture, ix, iy + 1), texel(texture, ix + 1, iy + 1), x - x0);
-    return mix(top, bottom, y - y0);
 }
 
 // ---- the path through object k (through.rs: trace_path) ----
@@ -169,16 +98,16 @@ fn surface_end(hit: Hit, origin: vec3f, direction: vec3f, transmittance: f32, le
     end.transmittance = transmittance;
     end.length = length;
     let base = hit.triangle * ATTRIBUTE_VEC4S;
-    let owner = bitcast<u32>(attributes[base].w);
+    let material_or_light = bitcast<u32>(attributes[base].w);
     if (bitcast<u32>(attributes[base + 1u].w) & ATTR_RECT_LIGHT) != 0u {
-        let normal = lights[owner * LIGHT_VEC4S];
+        let normal = lights[material_or_light * LIGHT_VEC4S];
         let front = dot(normal.xyz, direction) < 0.0;
         end.albedo = vec3f(0.0);
-        end.emitted = select(vec3f(0.0), lights[owner * LIGHT_VEC4S + 1u].xyz, front || normal.w != 0.0);
+        end.emitted = select(vec3f(0.0), lights[material_or_light * LIGHT_VEC4S + 1u].xyz, front || normal.w != 0.0);
         end.is_light = true;
         return end;
     }
-    let material = materials[owner * MATERIAL_VEC4S];
+    let material = materials[material_or_light * MATERIAL_VEC4S];
     var albedo = material.xyz;
     let texture = bitcast<u32>(material.w);
     if texture != NONE {
@@ -188,24 +117,9 @@ fn surface_end(hit: Hit, origin: vec3f, direction: vec3f, transmittance: f32, le
         albedo *= sample_texture(texture, uv).xyz;
     }
     end.albedo = albedo;
-    end.emitted = materials[owner * MATERIAL_VEC4S + 1u].xyz;
+    end.emitted = materials[material_or_light * MATERIAL_VEC4S + 1u].xyz;
     end.is_light = false;
     return end;
-}
-
-// pcg4d (Jarzynski & Olano 2020, "Hash Functions for GPU Rendering", JCGT 9(3)).
-fn pcg4d(input: vec4u) -> vec4u {
-    var v = input * 1664525u + 1013904223u;
-    v.x += v.y * v.w;
-    v.y += v.z * v.x;
-    v.z += v.x * v.y;
-    v.w += v.y * v.z;
-    v ^= v >> vec4u(16u);
-    v.x += v.y * v.w;
-    v.y += v.z * v.x;
-    v.z += v.x * v.y;
-    v.w += v.y * v.z;
-    return v;
 }
 
 // through.rs: lobe_point.
@@ -274,9 +188,9 @@ fn trace_path(origin_in: vec3f, direction_in: vec3f, pixel: vec2u, sample: u32) 
             // The normal on the outside: towards the ray's origin while it is outside.
             let outward = select(-m, m, (dot(n, wo) > 0.0) != inside);
             let refracted = refract_through(wo, outward, params.ior);
-            if refracted.w != 0.0 {
+            if refracted.valid {
                 transmittance *= 1.0 - fresnel_dielectric(dot(outward, wo), params.ior);
-                direction = normalize(refracted.xyz);
+                direction = normalize(refracted.wi);
                 inside = !inside;
             } else {
                 direction = normalize(reflect_about(wo, outward));

@@ -1,7 +1,8 @@
 //! BVHs as the flat arrays of vec4s that WGSL compute shaders traverse (`shaders/bvh.wgsl`),
 //! shared by the GPU path tracer and the GPU through pass. Several BVHs may share one pair of
 //! arrays, each traversed from its own root: the through pass keeps the opaque scene and every
-//! transparent object apart that way.
+//! transparent object apart that way. The other WGSL both kernels share lives here too:
+//! `shaders/optics.wgsl` and `shaders/common.wgsl`.
 
 use std::time::Duration;
 
@@ -45,9 +46,9 @@ fn bits(x: u32) -> f32 {
 
 impl GpuBvhs {
     /// Build a BVH over `triangles` after those already held and return its root node, or
-    /// [`EMPTY_ROOT`] for no triangles. Fails, naming `owner`, when the BVH is deeper than the
+    /// [`EMPTY_ROOT`] for no triangles. Fails, naming `name` (the scene or object), when the BVH is deeper than the
     /// shader's traversal stack.
-    pub fn push(&mut self, triangles: &[GpuTriangle], owner: &str) -> Result<u32> {
+    pub fn push(&mut self, triangles: &[GpuTriangle], name: &str) -> Result<u32> {
         if triangles.is_empty() {
             return Ok(EMPTY_ROOT);
         }
@@ -57,7 +58,7 @@ impl GpuBvhs {
         let bvh = build_bvh2_from_tris(&bvh_triangles, BvhBuildParams::medium_build(), &mut Duration::default());
         let depth = depth(&bvh.nodes);
         if depth >= MAX_BVH_DEPTH {
-            return Err(Error::bad_input(owner, "geometry", format!("its BVH is {depth} levels deep; the GPU traversal stack holds {MAX_BVH_DEPTH}")));
+            return Err(Error::bad_input(name, "geometry", format!("its BVH is {depth} levels deep; the GPU traversal stack holds {MAX_BVH_DEPTH}")));
         }
         self.depth = self.depth.max(depth);
         let node_base = (self.nodes.len() / NODE_VEC4S) as u32;
@@ -83,7 +84,8 @@ impl GpuBvhs {
     }
 
     /// The WGSL constants `shaders/bvh.wgsl` reads, then its source. The including shader
-    /// declares the storage arrays `nodes` and `triangles` it traverses.
+    /// declares the storage arrays `nodes` and `triangles` it traverses. (The other WGSL the
+    /// GPU kernels share: [`OPTICS_WGSL`], [`COMMON_WGSL`].)
     pub fn wgsl() -> String {
         let constants = [
             ("BVH_NODE_VEC4S", NODE_VEC4S as u64),
@@ -96,6 +98,14 @@ impl GpuBvhs {
         source
     }
 }
+
+/// Light at a smooth dielectric interface (`optics.rs` in WGSL): Fresnel, thin slab, mirror
+/// reflection, Snell's refraction.
+pub const OPTICS_WGSL: &str = include_str!("../shaders/optics.wgsl");
+
+/// pcg4d and texture sampling; the including shader declares `materials`, `texels` and
+/// `params.texture_table`.
+pub const COMMON_WGSL: &str = include_str!("../shaders/common.wgsl");
 
 /// Depth of the deepest leaf below node 0.
 fn depth(nodes: &[obvhs::bvh2::node::Bvh2Node]) -> usize {

@@ -17,7 +17,7 @@ use glassbake_scene::Scene;
 use wgpu::util::DeviceExt;
 
 use crate::geometry::scene_triangles;
-use crate::gpu_bvh::{GpuBvhs, GpuTriangle};
+use crate::gpu_bvh::{GpuBvhs, GpuTriangle, COMMON_WGSL, OPTICS_WGSL};
 use crate::through::{LOBE_SAMPLES, MAX_INTERFACES, SELF_HIT, VIEW_SLACK};
 use crate::triangle::{Owner, TriangleAttributes};
 
@@ -81,8 +81,10 @@ fn shader_source() -> String {
         through::SCREEN_OFFSET,
         through::ON_SCREEN
     ));
-    source.push_str(&GpuBvhs::wgsl());
-    source.push_str(include_str!("../shaders/through.wgsl"));
+    for part in [GpuBvhs::wgsl().as_str(), OPTICS_WGSL, COMMON_WGSL, include_str!("../shaders/through.wgsl")] {
+        source.push_str(part);
+        source.push('\n');
+    }
     source
 }
 
@@ -145,12 +147,12 @@ impl GpuThroughPass {
     pub fn upload(&self, scene: &Scene) -> Result<GpuThroughScene> {
         let mut bvhs = GpuBvhs::default();
         let mut attributes: Vec<[f32; 4]> = Vec::new();
-        let mut add = |triangles: Vec<TriangleAttributes>, owner: &str| -> Result<u32> {
+        let mut add = |triangles: Vec<TriangleAttributes>, name: &str| -> Result<u32> {
             let first = (attributes.len() / ATTRIBUTE_VEC4S) as u32;
             let bvh_triangles: Vec<GpuTriangle> =
                 triangles.iter().enumerate().map(|(i, t)| GpuTriangle { positions: t.positions, attribute: first + i as u32, flags: 0 }).collect();
             for t in &triangles {
-                let (owner_index, mut flags) = match t.owner {
+                let (material_or_light, mut flags) = match t.owner {
                     Owner::Object { material, .. } => (material, 0),
                     Owner::RectLight { light } => (light, ATTR_RECT_LIGHT),
                 };
@@ -158,12 +160,12 @@ impl GpuThroughPass {
                     flags |= ATTR_HAS_NORMALS;
                 }
                 let [p0, p1, p2] = t.positions;
-                attributes.extend([v4(p0, bits(owner_index)), v4(p1, bits(flags)), v4(p2, 0.0)]);
+                attributes.extend([v4(p0, bits(material_or_light)), v4(p1, bits(flags)), v4(p2, 0.0)]);
                 attributes.extend(t.normals.unwrap_or([Vec3::ZERO; 3]).map(|n| v4(n, 0.0)));
                 let [t0, t1, t2] = t.uvs;
                 attributes.extend([[t0.x, t0.y, t1.x, t1.y], [t2.x, t2.y, 0.0, 0.0]]);
             }
-            bvhs.push(&bvh_triangles, owner)
+            bvhs.push(&bvh_triangles, name)
         };
         let opaque_root = add(scene_triangles(scene, &|o| !scene.objects[o].transparent, true, &|_, _| None), &scene.name)?;
         let mut objects = Vec::new();

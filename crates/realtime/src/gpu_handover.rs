@@ -40,24 +40,14 @@ pub fn open_shared(options: RasterizerOptions) -> Result<SharedDevice> {
 /// produces on the GPU.
 pub fn input_tensor(device: &Device, channels: usize, height: usize, width: usize, write: impl FnOnce(&wgpu::Buffer, u64) -> Result<()>) -> Result<Tensor<4>> {
     let tensor = Tensor::<4>::empty([1, channels, height, width], device);
-    let primitive = tensor.try_into_primitive::<Cube>().map_err(|e| Error::Internal(format!("the network's device is not burn's wgpu runtime: {e:?}")))?;
-    if !primitive.is_contiguous() || primitive.dtype != glassbake_net::burn::tensor::DType::F32 {
-        return Err(Error::Internal(format!("a fresh input tensor is not contiguous f32 ({:?})", primitive.dtype)));
-    }
-    let resource = primitive
-        .client
-        .get_resource::<WgpuServer<AutoCompiler>>(primitive.handle.clone())
-        .map_err(|e| Error::Internal(format!("the wgpu buffer behind a tensor: {e:?}")))?;
-    device.flush().map_err(|e| Error::Internal(format!("flushing burn's queued work: {e:?}")))?;
-    let buffer = resource.resource();
-    write(&buffer.buffer, buffer.offset)?;
-    drop(resource);
-    Ok(Tensor::<4>::from_primitive::<Cube>(primitive))
+    with_buffer(&tensor, write)?;
+    Ok(tensor)
 }
 
-/// Calls `read(buffer, offset)` with the wgpu buffer behind `tensor` (contiguous f32 on burn's
-/// wgpu runtime) and the byte offset of its first element, after submitting burn's queued work.
-pub fn with_buffer<R>(tensor: &Tensor<4>, read: impl FnOnce(&wgpu::Buffer, u64) -> Result<R>) -> Result<R> {
+/// Calls `access(buffer, offset)` with the wgpu buffer behind `tensor` (contiguous f32 on
+/// burn's wgpu runtime) and the byte offset of its first element, after submitting burn's
+/// queued work, so that what `access` submits runs after it.
+pub fn with_buffer<R>(tensor: &Tensor<4>, access: impl FnOnce(&wgpu::Buffer, u64) -> Result<R>) -> Result<R> {
     let device = tensor.device();
     let primitive =
         tensor.clone().try_into_primitive::<Cube>().map_err(|e| Error::Internal(format!("the network's device is not burn's wgpu runtime: {e:?}")))?;
@@ -70,5 +60,5 @@ pub fn with_buffer<R>(tensor: &Tensor<4>, read: impl FnOnce(&wgpu::Buffer, u64) 
         .map_err(|e| Error::Internal(format!("the wgpu buffer behind a tensor: {e:?}")))?;
     device.flush().map_err(|e| Error::Internal(format!("flushing burn's queued work: {e:?}")))?;
     let buffer = resource.resource();
-    read(&buffer.buffer, buffer.offset)
+    access(&buffer.buffer, buffer.offset)
 }

@@ -55,20 +55,7 @@ struct Params {
 var<private> rng_key: vec4u;
 var<private> rng_counter: u32;
 
-// pcg4d (Jarzynski & Olano 2020, "Hash Functions for GPU Rendering", JCGT 9(3)).
-fn pcg4d(input: vec4u) -> vec4u {
-    var v = input * 1664525u + 1013904223u;
-    v.x += v.y * v.w;
-    v.y += v.z * v.x;
-    v.z += v.x * v.y;
-    v.w += v.y * v.z;
-    v ^= v >> vec4u(16u);
-    v.x += v.y * v.w;
-    v.y += v.z * v.x;
-    v.z += v.x * v.y;
-    v.w += v.y * v.z;
-    return v;
-}
+// pcg4d is the rays crate's shaders/common.wgsl.
 
 fn rng_start(pixel: u32, sample: u32) {
     rng_key = pcg4d(vec4u(pixel, sample, params.seed_lo, params.seed_hi));
@@ -153,29 +140,7 @@ fn surface_hit(hit: Hit) -> SurfaceHit {
 
 // ---- materials and textures ----
 
-fn texel(texture: vec4u, x: i32, y: i32) -> vec4f {
-    let w = i32(texture.y);
-    let h = i32(texture.z);
-    let xi = ((x % w) + w) % w;
-    let yi = ((y % h) + h) % h;
-    return texels[texture.x + u32(yi * w + xi)];
-}
-
-// Bilinear with repeat wrapping, v = 0 the top row (scene::Texture::sample).
-fn sample_texture(index: u32, uv: vec2f) -> vec4f {
-    let texture = bitcast<vec4u>(materials[params.texture_table + index]);
-    let x = uv.x * f32(texture.y) - 0.5;
-    let y = uv.y * f32(texture.z) - 0.5;
-    let x0 = floor(x);
-    let y0 = floor(y);
-    let fx = x - x0;
-    let fy = y - y0;
-    let ix = i32(x0);
-    let iy = i32(y0);
-    let top = mix(texel(texture, ix, iy), texel(texture, ix + 1, iy), fx);
-    let bottom = mix(texel(texture, ix, iy + 1), texel(texture, ix + 1, iy + 1), fx);
-    return mix(top, bottom, fy);
-}
+// texel and sample_texture are the rays crate's shaders/common.wgsl.
 
 fn surface_material(material: u32, uv: vec2f) -> SurfaceMaterial {
     let base = material * MATERIAL_VEC4S;

@@ -12,7 +12,7 @@ use glassbake_scene::Scene;
 use glassbake_trace::{unlit_warning, Estimator, MaterialModel, Progress, TraceOutput, TraceSettings};
 use wgpu::util::DeviceExt;
 
-use glassbake_rays::gpu_bvh::GpuBvhs;
+use glassbake_rays::gpu_bvh::{GpuBvhs, COMMON_WGSL, OPTICS_WGSL};
 
 use crate::upload::SceneBuffers;
 
@@ -85,10 +85,12 @@ pub(crate) fn shared_constants() -> String {
     constants.iter().map(|(name, value)| format!("const {name}: u32 = {value}u;\n")).collect()
 }
 
-/// The WGSL source of the trace kernel: the constants it shares with Rust, the BSDF, the BVH
-/// traversal (the rays crate's), then the integrator.
+/// The WGSL source of the trace kernel: the constants it shares with Rust, the optics and the
+/// BSDF, the BVH traversal, the hash and texture sampling (the rays crate's but the BSDF), then
+/// the integrator.
 pub(crate) fn trace_source() -> String {
-    [shared_constants().as_str(), include_str!("../shaders/bsdf.wgsl"), &GpuBvhs::wgsl(), include_str!("../shaders/trace.wgsl")].join("\n")
+    [shared_constants().as_str(), OPTICS_WGSL, include_str!("../shaders/bsdf.wgsl"), &GpuBvhs::wgsl(), COMMON_WGSL, include_str!("../shaders/trace.wgsl")]
+        .join("\n")
 }
 
 /// Compile `source` into a compute pipeline with the layout its bindings imply.

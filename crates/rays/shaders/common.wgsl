@@ -1,0 +1,42 @@
+// Shared by the GPU kernels that include it (the path tracer's trace.wgsl, the through pass):
+// a hash for random numbers, and texture sampling. The including shader declares the storage
+// arrays `materials` (with the texture table from `params.texture_table`) and `texels`.
+
+// pcg4d (Jarzynski & Olano 2020, "Hash Functions for GPU Rendering", JCGT 9(3)).
+fn pcg4d(input: vec4u) -> vec4u {
+    var v = input * 1664525u + 1013904223u;
+    v.x += v.y * v.w;
+    v.y += v.z * v.x;
+    v.z += v.x * v.y;
+    v.w += v.y * v.z;
+    v ^= v >> vec4u(16u);
+    v.x += v.y * v.w;
+    v.y += v.z * v.x;
+    v.z += v.x * v.y;
+    v.w += v.y * v.z;
+    return v;
+}
+
+fn texel(texture: vec4u, x: i32, y: i32) -> vec4f {
+    let w = i32(texture.y);
+    let h = i32(texture.z);
+    let xi = ((x % w) + w) % w;
+    let yi = ((y % h) + h) % h;
+    return texels[texture.x + u32(yi * w + xi)];
+}
+
+// Bilinear with repeat wrapping, v = 0 the top row (scene::Texture::sample).
+fn sample_texture(index: u32, uv: vec2f) -> vec4f {
+    let texture = bitcast<vec4u>(materials[params.texture_table + index]);
+    let x = uv.x * f32(texture.y) - 0.5;
+    let y = uv.y * f32(texture.z) - 0.5;
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let fx = x - x0;
+    let fy = y - y0;
+    let ix = i32(x0);
+    let iy = i32(y0);
+    let top = mix(texel(texture, ix, iy), texel(texture, ix + 1, iy), fx);
+    let bottom = mix(texel(texture, ix, iy + 1), texel(texture, ix + 1, iy + 1), fx);
+    return mix(top, bottom, fy);
+}
