@@ -61,6 +61,7 @@ fn private_runtime_dir(dir: &std::path::Path) -> Option<std::path::PathBuf> {
 }
 
 fn main() {
+    glassbake_net::keep_freed_memory();
     // Mesa's software Vulkan driver probes for a Wayland display and prints an error when
     // XDG_RUNTIME_DIR is unset (headless machines, CI); a private directory silences it.
     // Set before any thread exists.

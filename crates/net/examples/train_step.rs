@@ -54,6 +54,8 @@ fn inputs(n: usize, side: usize, objects: usize, device: &Device) -> NetInputs {
 }
 
 fn main() {
+    // As the glassbake binary does.
+    glassbake_net::keep_freed_memory();
     let args: Vec<usize> = std::env::args().skip(1).map(|a| a.parse().expect("arguments are numbers: batch crop objects")).collect();
     let (n, side, objects) = (args.first().copied().unwrap_or(4), args.get(1).copied().unwrap_or(32), args.get(2).copied().unwrap_or(4));
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -71,27 +73,38 @@ fn main() {
         let target = Tensor::<4>::random([n, 3, side, side], Distribution::Uniform(0.0, 1.0), &device);
         let mut optimizer = AdamWConfig::new().with_weight_decay(1e-4).init();
 
-        let whole = median_ms(runs, || {
+        // Each part timed inside whole steps, as training runs them: a forward pass without its
+        // backward pass leaves the autodiff graph alive and is not what training costs.
+        let mut parts: Vec<[f64; 4]> = Vec::new();
+        for step in 0..runs + 2 {
+            let start = Instant::now();
             let loss = training_loss(model.forward(&batch), target.clone(), 1.0);
             let _ = loss.clone().into_scalar::<f32>();
+            let forward = start.elapsed().as_secs_f64() * 1e3;
             let gradients = GradientsParams::from_grads(loss.backward(), &model);
+            let backward = start.elapsed().as_secs_f64() * 1e3 - forward;
             model = optimizer.step(1e-4, model.clone(), gradients);
-        });
-        let forward = median_ms(runs, || {
-            let loss = training_loss(model.forward(&batch), target.clone(), 1.0);
-            let _ = loss.into_scalar::<f32>();
-        });
-        let forward_backward = median_ms(runs, || {
-            let loss = training_loss(model.forward(&batch), target.clone(), 1.0);
-            let _ = GradientsParams::from_grads(loss.backward(), &model);
-        });
+            let whole = start.elapsed().as_secs_f64() * 1e3;
+            if step >= 2 {
+                parts.push([whole, forward, backward, whole - forward - backward]);
+            }
+        }
+        let median = |i: usize| {
+            let mut v: Vec<f64> = parts.iter().map(|p| p[i]).collect();
+            v.sort_by(|a, b| a.total_cmp(b));
+            v[v.len() / 2]
+        };
+        let (whole, forward, backward, update) = (median(0), median(1), median(2), median(3));
         let pixels_per_s = (n * side * side) as f64 / (whole / 1e3);
         println!(
-            "{:<8} {params:>7} params: step {whole:7.1} ms ({pixels_per_s:>6.0} px/s) = forward+loss {forward:6.1} + backward {:6.1} + AdamW/rest {:6.1}",
+            "{:<8} {params:>7} params: step {whole:7.1} ms ({pixels_per_s:>6.0} px/s); medians of its parts: forward+loss {forward:6.1}, backward {backward:6.1}, AdamW {update:6.1}",
             kind.name(),
-            forward_backward - forward,
-            whole - forward_backward
         );
+        let prediction = Tensor::<4>::random([n, 3, side, side], Distribution::Uniform(0.0, 1.0), &device).require_grad();
+        let loss_ms = median_ms(runs, || {
+            let _ = training_loss(prediction.clone(), target.clone(), 1.0).backward();
+        });
+        println!("         of it, the loss (L1 + SSIM) forward and backward {loss_ms:.1} ms");
 
         // Forward passes of the parts, without autodiff.
         let valid = model.valid();

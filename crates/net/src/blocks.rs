@@ -5,9 +5,10 @@ use burn::nn::conv::{Conv2d, Conv2dConfig, ConvTranspose2d, ConvTranspose2dConfi
 use burn::nn::PaddingConfig2d;
 use burn::prelude::*;
 use burn::tensor::activation::leaky_relu;
-use burn::tensor::ops::PadMode;
+use burn::tensor::{DType, TensorData};
 
 use crate::config::{CnnConfig, PixelGeneratorConfig, RendererConfig, UNetConfig};
+use crate::shift_stack::shift_stack;
 
 /// Leaky slope of every hidden activation: small nets lose too many units to plain ReLU.
 const LEAK: f64 = 0.1;
@@ -36,14 +37,7 @@ pub fn apply_conv(conv: &Conv2d, x: Tensor<4>) -> Tensor<4> {
     }
     let [n, c, h, w] = x.dims();
     let out = conv.weight.dims()[0];
-    let columns = if k == 1 {
-        x
-    } else {
-        let p = k / 2;
-        let padded = x.pad((p, p, p, p), PadMode::Constant(0.0));
-        let shifted = (0..k).flat_map(|dy| (0..k).map(move |dx| (dy, dx))).map(|(dy, dx)| padded.clone().narrow(2, dy, h).narrow(3, dx, w)).collect();
-        Tensor::cat(shifted, 1)
-    };
+    let columns = if k == 1 { x } else { shift_stack(x, k) };
     // [out, c, k, k] -> [out, k, k, c]: the column order of `columns` (shift-major).
     let weight = conv.weight.val().permute([0, 2, 3, 1]).reshape([1, out, k * k * c]).expand([n, out, k * k * c]);
     let mut y = weight.matmul(columns.reshape([n, k * k * c, h * w]));
@@ -244,9 +238,20 @@ impl PixelGenerator {
 /// NeRF positional encoding (Mildenhall et al. 2020, eq. 4), per channel:
 /// x -> (x, sin(2^0 pi x), cos(2^0 pi x), ..., sin(2^(L-1) pi x), cos(2^(L-1) pi x)),
 /// laid out as [x | sin/cos of frequency 0 for every channel | ... ].
+///
+/// The encoded buffers are data, never trained, so on the CPU backend the encoding is one
+/// pass over host memory ([`positional_encoding_on_host`]): as tensor operations it was a
+/// sine and a cosine per frequency plus a copy per part, a fifth of a GlassNet training step.
 pub fn positional_encoding(x: Tensor<4>, frequencies: usize) -> Tensor<4> {
     if frequencies == 0 {
         return x;
+    }
+    if !x.is_require_grad() && x.dtype() == DType::F32 && x.device().inner() == Device::flex() {
+        let device = x.device();
+        let [n, c, h, w] = x.dims();
+        let values = x.into_data().convert::<f32>().try_into_vec::<f32>().expect("converted to f32");
+        let encoded = positional_encoding_on_host(&values, [n, c, h * w], frequencies);
+        return Tensor::from_data(TensorData::new(encoded, [n, c * (1 + 2 * frequencies), h, w]), &device);
     }
     let mut parts = Vec::with_capacity(1 + 2 * frequencies);
     parts.push(x.clone());
@@ -256,6 +261,38 @@ pub fn positional_encoding(x: Tensor<4>, frequencies: usize) -> Tensor<4> {
         parts.push(scaled.cos());
     }
     Tensor::cat(parts, 1)
+}
+
+/// [`positional_encoding`] of `values` laid out [batch, channels, pixels], in the same layout.
+/// Only frequency 0 calls sine and cosine; each higher one follows by the double-angle
+/// identities sin 2a = 2 sin a cos a, cos 2a = 1 - 2 sin^2 a, whose rounding error doubles
+/// with each frequency as the error of the rounded argument 2^k pi x does.
+pub fn positional_encoding_on_host(values: &[f32], [n, c, pixels]: [usize; 3], frequencies: usize) -> Vec<f32> {
+    use rayon::prelude::*;
+    assert_eq!(values.len(), n * c * pixels, "values are [batch, channels, pixels]");
+    let parts = 1 + 2 * frequencies;
+    let mut out = vec![0.0f32; n * c * parts * pixels];
+    if pixels == 0 {
+        return out;
+    }
+    // One image of the batch per task: its output parts are one contiguous block.
+    out.par_chunks_mut(c * parts * pixels).zip(values.par_chunks(c * pixels)).for_each(|(out, image)| {
+        for (channel, plane) in image.chunks(pixels).enumerate() {
+            let at = |part: usize| (part * c + channel) * pixels;
+            out[at(0)..at(0) + pixels].copy_from_slice(plane);
+            for (i, &x) in plane.iter().enumerate() {
+                let (mut sin, mut cos) = (x * std::f32::consts::PI).sin_cos();
+                for k in 0..frequencies {
+                    if k > 0 {
+                        (sin, cos) = (2.0 * sin * cos, 1.0 - 2.0 * sin * sin);
+                    }
+                    out[at(1 + 2 * k) + i] = sin;
+                    out[at(2 + 2 * k) + i] = cos;
+                }
+            }
+        }
+    });
+    out
 }
 
 #[cfg(test)]
@@ -294,6 +331,42 @@ mod tests {
             let bias = conv.bias.as_ref().unwrap();
             let (b_ours, b_ref) = (bias.grad(&grads_ours).unwrap(), bias.grad(&grads_reference).unwrap());
             close(b_ours.into_data().try_to_vec::<f32>().unwrap(), b_ref.into_data().try_to_vec::<f32>().unwrap(), "bias gradient");
+        }
+    }
+
+    /// The host encoding against sin and cos in f64 of the same f32 inputs, and against the
+    /// tensor encoding (taken when the input needs gradients) for the layout: every part in
+    /// its place. Each frequency may err by the rounding of its argument 2^k pi x (a few ulp
+    /// of it), as the tensor encoding does.
+    #[test]
+    fn positional_encoding_on_the_host_matches_sine_and_cosine() {
+        let device = Device::flex();
+        device.seed(7);
+        let frequencies = 6;
+        let x = Tensor::<4>::random([2, 3, 5, 4], Distribution::Uniform(-10.0, 10.0), &device);
+        let inputs = values(x.clone());
+        let host = values(positional_encoding(x.clone(), frequencies));
+        let trained = Device::flex().autodiff();
+        let tensor_path = positional_encoding(Tensor::<4>::from_data(x.into_data(), &trained).require_grad(), frequencies);
+        let tensor_path = values(tensor_path.inner());
+        assert_eq!(host.len(), inputs.len() * (1 + 2 * frequencies));
+        let (c, pixels) = (3, 20);
+        for (b, image) in inputs.chunks(c * pixels).enumerate() {
+            for (channel, plane) in image.chunks(pixels).enumerate() {
+                for (i, &v) in plane.iter().enumerate() {
+                    let at = |part: usize| b * c * (1 + 2 * frequencies) * pixels + (part * c + channel) * pixels + i;
+                    assert_eq!(host[at(0)], v);
+                    for k in 0..frequencies {
+                        let argument = std::f64::consts::PI * (1u64 << k) as f64 * v as f64;
+                        let bound = 1e-6 + 8.0 * f32::EPSILON as f64 * argument.abs();
+                        for (part, exact) in [(1 + 2 * k, argument.sin()), (2 + 2 * k, argument.cos())] {
+                            let (ours, theirs) = (host[at(part)] as f64, tensor_path[at(part)] as f64);
+                            assert!((ours - exact).abs() <= bound, "x {v}, frequency {k}, part {part}: {ours} vs {exact}");
+                            assert!((theirs - exact).abs() <= bound, "tensor path: x {v}, frequency {k}, part {part}: {theirs} vs {exact}");
+                        }
+                    }
+                }
+            }
         }
     }
 

@@ -5,6 +5,7 @@
 //! model directory format, and inference. It reads frames as `glassbake_core` images and knows
 //! nothing of how they were made (the CLI connects the dataset loader to it).
 
+pub mod allocator;
 pub mod batch;
 pub mod blocks;
 pub mod config;
@@ -15,10 +16,12 @@ pub mod init;
 pub mod loss;
 pub mod model;
 pub mod model_dir;
+pub mod shift_stack;
 pub mod sum;
 pub mod super_sampler;
 pub mod train;
 
+pub use allocator::keep_freed_memory;
 pub use batch::{FrameRef, HostBatch};
 pub use config::{ModelKind, NetConfig, TrainConfig};
 pub use device::{select_device, DeviceChoice};
