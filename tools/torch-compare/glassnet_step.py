@@ -9,6 +9,9 @@ up-sampling, NeRF positional encoding with 4 frequencies, loss L1 + (1 - SSIM) (
 sigma 1.5), AdamW. Like glassbake's training loop, each step reads its loss back to the host.
 
     python3 tools/torch-compare/glassnet_step.py [--batch 4] [--crop 32] [--objects 4] [--model glassnet|naive] [--device cpu|cuda]
+
+It also prints the median no-grad forward pass. tools/torch-compare/compare.sh runs glassbake's
+example and this script back to back and prints the ratios.
 """
 import argparse
 import math
@@ -169,10 +172,20 @@ def main():
         step()
     synchronize()
     per_step = (time.perf_counter() - t0) / a.steps
+    # The forward pass alone, without gradients (what a rendered frame costs the network).
+    with torch.no_grad():
+        times = []
+        for i in range(a.steps + 2):
+            t0 = time.perf_counter()
+            net(gbuffer, transparent, values)
+            synchronize()
+            if i >= 2:
+                times.append(time.perf_counter() - t0)
+    forward = sorted(times)[len(times) // 2]
     params = sum(p.numel() for p in net.parameters())
     where = a.device if device.type != "cpu" else f"{a.threads} threads"
     print(f"pytorch {torch.__version__} {a.model}: {params} parameters, batch {n} x {s} px, {a.objects} objects, "
-          f"{where}: {per_step * 1000:.1f} ms/step ({n * s * s / per_step:.0f} px/s)")
+          f"{where}: {per_step * 1000:.1f} ms/step ({n * s * s / per_step:.0f} px/s), no-grad forward {forward * 1000:.1f} ms")
 
 
 if __name__ == "__main__":

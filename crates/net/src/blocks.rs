@@ -4,11 +4,10 @@
 use burn::nn::conv::{Conv2d, Conv2dConfig, ConvTranspose2d, ConvTranspose2dConfig};
 use burn::nn::PaddingConfig2d;
 use burn::prelude::*;
-use burn::tensor::activation::leaky_relu;
 use burn::tensor::{DType, TensorData};
 
 use crate::config::{CnnConfig, PixelGeneratorConfig, RendererConfig, UNetConfig};
-use crate::shift_stack::shift_stack;
+use crate::flex_ops::{leaky_relu, shift_stack};
 
 /// Leaky slope of every hidden activation: small nets lose too many units to plain ReLU.
 const LEAK: f64 = 0.1;
