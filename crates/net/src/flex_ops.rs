@@ -124,7 +124,7 @@ impl FlexOps for Flex {
     }
 }
 
-/// Elements at least this many go to the thread pool in chunks of it.
+/// Elements per task when an element-wise pass is split over the thread pool.
 const PARALLEL_CHUNK: usize = 1 << 14;
 
 /// The leaky ReLU's backward pass from its output `y` (negative exactly where its input was).
