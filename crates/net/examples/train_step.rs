@@ -26,15 +26,20 @@ const VARIABLES: usize = 4;
 fn median_ms(runs: usize, mut f: impl FnMut()) -> f64 {
     f();
     f();
-    let mut times: Vec<f64> = (0..runs)
-        .map(|_| {
-            let start = Instant::now();
-            f();
-            start.elapsed().as_secs_f64() * 1e3
-        })
-        .collect();
-    times.sort_by(|a, b| a.total_cmp(b));
-    times[runs / 2]
+    median(
+        (0..runs)
+            .map(|_| {
+                let start = Instant::now();
+                f();
+                start.elapsed().as_secs_f64() * 1e3
+            })
+            .collect(),
+    )
+}
+
+fn median(mut values: Vec<f64>) -> f64 {
+    values.sort_by(|a, b| a.total_cmp(b));
+    values[values.len() / 2]
 }
 
 /// Forces a tensor's computation (the backend may defer work until data is read).
@@ -89,12 +94,8 @@ fn main() {
                 parts.push([whole, forward, backward, whole - forward - backward]);
             }
         }
-        let median = |i: usize| {
-            let mut v: Vec<f64> = parts.iter().map(|p| p[i]).collect();
-            v.sort_by(|a, b| a.total_cmp(b));
-            v[v.len() / 2]
-        };
-        let (whole, forward, backward, update) = (median(0), median(1), median(2), median(3));
+        let part = |i: usize| median(parts.iter().map(|p| p[i]).collect());
+        let (whole, forward, backward, update) = (part(0), part(1), part(2), part(3));
         let pixels_per_s = (n * side * side) as f64 / (whole / 1e3);
         println!(
             "{:<8} {params:>7} params: step {whole:7.1} ms ({pixels_per_s:>6.0} px/s); medians of its parts: forward+loss {forward:6.1}, backward {backward:6.1}, AdamW {update:6.1}",
