@@ -266,6 +266,24 @@ impl Bsdf {
         Some((self.glass_weight * tint * transmitted, p * transmitted))
     }
 
+    /// The mirror reflection of a smooth dielectric lobe (solid glass or a thin pane) at
+    /// `wo`: its direction and the fraction of the light arriving along it that the surface
+    /// sends to `wo` (the lobe's weight times its Fresnel reflectance), which is what
+    /// [`Bsdf::sample`]'s delta reflection returns on average. `None` without such a lobe.
+    pub fn delta_reflection(&self, wo: Vec3) -> Option<(Vec3, f32)> {
+        let wo_local = self.frame.to_local(wo);
+        if wo_local.z == 0.0 || self.lambertian || self.lobe_probabilities(wo_local)[3] <= 0.0 {
+            return None;
+        }
+        let reflectance = match self.dielectric {
+            Dielectric::Smooth { eta, .. } => fresnel_dielectric(wo_local.z, eta),
+            Dielectric::ThinSmooth { eta, .. } => thin_slab_reflectance(wo_local.z, eta),
+            _ => return None,
+        };
+        let wi = Vec3::new(-wo_local.x, -wo_local.y, wo_local.z);
+        Some((self.frame.to_world(wi).normalize(), self.glass_weight * reflectance))
+    }
+
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u_event: f32, u: Vec2) -> Option<BsdfSample> {
         let wo_local = self.frame.to_local(wo);
         if wo_local.z == 0.0 {

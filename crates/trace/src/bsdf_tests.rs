@@ -387,3 +387,48 @@ fn specular_layer_matches_fresnel_mix() {
         assert!((f - expected).abs().max_element() <= 1e-4 * expected.max_element(), "{f} vs {expected}");
     }
 }
+
+/// `delta_reflection` is what `sample` returns through its delta reflection on average:
+/// over a fine grid of (u_lobe, u_event), the mean of the sampled weight where the sample is
+/// the mirror direction equals the fraction, and the direction is the mirror of wo.
+#[test]
+fn delta_reflection_is_the_sampled_reflections_mean() {
+    let n = test_normal();
+    let cases = [
+        ("smooth glass", glass(0.0, false, 1.0)),
+        ("smooth thin pane", glass(0.0, true, 1.0)),
+        ("half-transmissive smooth glass", glass(0.0, false, 0.5)),
+        ("half-transmissive thin pane", glass(0.0, true, 0.4)),
+    ];
+    for (name, material) in cases {
+        let bsdf = Bsdf::new(&material, n, MaterialModel::Gltf);
+        for cos_theta in [0.95f32, 0.5, 0.1, -0.3, -0.9] {
+            let wo = outgoing(&bsdf, cos_theta);
+            let (mirror, fraction) = bsdf.delta_reflection(wo).unwrap_or_else(|| panic!("{name}: no delta reflection"));
+            assert!((mirror - (2.0 * wo.dot(n) * n - wo)).length() < 1e-5, "{name}, cos {cos_theta}: {mirror} is not wo's mirror");
+            let grid = 1000;
+            let (mut sum, mut largest) = (0.0f64, 0.0f64);
+            for i in 0..grid {
+                for j in 0..grid {
+                    let (u_lobe, u_event) = ((i as f32 + 0.5) / grid as f32, (j as f32 + 0.5) / grid as f32);
+                    let Some(sample) = bsdf.sample(wo, u_lobe, u_event, glam::Vec2::splat(0.5)) else { continue };
+                    if sample.delta && !sample.transmitted {
+                        assert!((sample.wi - mirror).length() < 1e-5, "{name}: a delta reflection off the mirror direction");
+                        sum += sample.weight.y as f64;
+                        largest = largest.max(sample.weight.y as f64);
+                    }
+                }
+            }
+            let mean = sum / (grid * grid) as f64;
+            assert!(fraction > 0.0, "{name}, cos {cos_theta}: fraction {fraction}");
+            // The grid puts each of the two thresholds (the glass lobe's, the Fresnel
+            // reflectance's) within one cell of the exact one.
+            let tolerance = 2.0 * largest / grid as f64;
+            assert!((mean - fraction as f64).abs() <= tolerance, "{name}, cos {cos_theta}: sampled {mean} vs {fraction} (tolerance {tolerance})");
+        }
+    }
+    for (name, material) in [("rough glass", glass(0.3, false, 1.0)), ("opaque", opaque(Vec3::splat(0.5), 0.0, 0.0))] {
+        let bsdf = Bsdf::new(&material, n, MaterialModel::Gltf);
+        assert!(bsdf.delta_reflection(outgoing(&bsdf, 0.7)).is_none(), "{name} has no delta reflection");
+    }
+}

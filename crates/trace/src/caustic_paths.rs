@@ -40,4 +40,8 @@ impl PathHooks for CausticPaths<'_> {
     fn continues(&mut self, vertex: &Vertex, sample: &BsdfSample) -> bool {
         self.merging.as_mut().is_none_or(|merging| merging.continues(vertex, sample))
     }
+
+    fn takes_reflected_emission(&self) -> bool {
+        true
+    }
 }

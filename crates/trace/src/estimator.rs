@@ -24,7 +24,8 @@ pub enum Transport {
     Plain,
     /// The path tracer without the paths a light tracer carries (light that reached an opaque
     /// surface through bending glass, `light_tracing.rs`), plus that light tracer; rectangle
-    /// lights sampled by solid angle near them, emitters picked by their contribution.
+    /// lights sampled by solid angle near them, emitters picked by their contribution, and
+    /// emitters reflected in smooth glass the camera sees taken at every sample.
     Caustic {
         /// Estimate what the camera sees through bending glass from photons' density
         /// (`photon_merging.rs`) instead of path tracing it: biased (a blur of about a pixel,

@@ -8,7 +8,9 @@
 //! estimate the direct light, sample the BSDF for the next direction, play Russian roulette.
 //! An estimator changes the path tracer only through [`PathHooks`]: [`PlainPaths`] keeps
 //! every default; the caustic estimator's hooks (`caustic_paths.rs`, with photon merging's in
-//! `photon_merging.rs`) leave out the paths its light tracer or its photons carry.
+//! `photon_merging.rs`) leave out the paths its light tracer or its photons carry, and take
+//! the emitters that smooth glass seen by the camera reflects at every sample instead of at
+//! the few samples that pick the reflection.
 
 use glam::Vec3;
 use glassbake_core::Ray;
@@ -76,6 +78,13 @@ pub(crate) trait PathHooks: Copy {
     fn continues(&mut self, _vertex: &Vertex, _sample: &BsdfSample) -> bool {
         true
     }
+
+    /// Whether the vertices of the path's delta prefix (the camera's view in and through
+    /// smooth glass) take the light of emitters reflected in smooth glass at every sample
+    /// (`PreparedScene::reflected_emission`).
+    fn takes_reflected_emission(&self) -> bool {
+        false
+    }
 }
 
 /// The plain path tracer: every hook at its default.
@@ -117,6 +126,11 @@ struct PathState {
     mis_origin: Vec3,
     mis_pdf: f32,
     class: PathClass,
+    /// Every vertex so far was a delta event.
+    delta_prefix: bool,
+    /// The segment being traced is a delta reflection whose emitter's light the previous
+    /// vertex already took (`PreparedScene::reflected_emission`): not counted again.
+    emission_taken: bool,
 }
 
 impl PathState {
@@ -132,6 +146,8 @@ impl PathState {
             mis_origin: ray.origin,
             mis_pdf: 0.0,
             class: PathClass::default(),
+            delta_prefix: true,
+            emission_taken: false,
         }
     }
 
@@ -201,7 +217,7 @@ impl PreparedScene<'_> {
             };
             let wo = -path.direction;
             if let Some(emitter) = hit.emitter {
-                if hooks.counts_emitter_hit(&path.class) {
+                if !path.emission_taken && hooks.counts_emitter_hit(&path.class) {
                     light.add(self.emitted_along_path(&path, &hit, emitter, wo), path.class.view_bent(None));
                 }
             }
@@ -224,10 +240,19 @@ impl PreparedScene<'_> {
                 light.add(direct, path.class.view_bent(Some(glass)));
             }
 
+            let split = path.delta_prefix && hooks.takes_reflected_emission();
+            if split {
+                if let Some((reflected, view_bent)) = self.reflected_emission(&here, hooks) {
+                    light.add(reflected, view_bent);
+                }
+            }
+
             let u_lobe = rng.next_f32();
             let u_event = rng.next_f32();
             let u = draw_2d(stratified, rng, qmc::bsdf_dimension(vertex));
             let Some(sample) = bsdf.sample(wo, u_lobe, u_event, u) else { break };
+            path.delta_prefix &= sample.delta;
+            path.emission_taken = split && sample.delta && !sample.transmitted;
             let ng = hit.geometric_normal;
             let reflection = sample.wi.dot(ng) * wo.dot(ng) > 0.0;
             if reflection == sample.transmitted && !sample.delta {
@@ -247,6 +272,29 @@ impl PreparedScene<'_> {
             }
         }
         PathRadiance { all: light.all, counted: light.counted }
+    }
+
+    /// The light that `vertex`'s smooth dielectric lobe reflects straight from an emitter
+    /// that its mirror direction meets first, and whether that path's view bent. Taken at
+    /// every sample instead of only when [`Bsdf::sample`] picks the reflection (with the
+    /// Fresnel reflectance's probability, a few percent), which makes a light seen in glass
+    /// a firefly; the sampled reflection then leaves that emitter's light out
+    /// (`PathState::emission_taken`). Unbiased: the sampled reflection's weight divided by
+    /// its probability is this fraction. A ray is cast only where the mirror direction may
+    /// meet an emitter at all.
+    fn reflected_emission<H: PathHooks>(&self, vertex: &Vertex, hooks: H) -> Option<(Vec3, bool)> {
+        let (wi, fraction) = vertex.bsdf.delta_reflection(vertex.wo)?;
+        let origin = offset_origin(vertex.hit.position, vertex.hit.geometric_normal, wi);
+        if !self.lights.ray_may_hit_emitter(origin, wi) {
+            return None;
+        }
+        let mut class = vertex.class;
+        class.leave_vertex(vertex.glass, false);
+        let emitter = self.intersect_from(origin, wi, 0.0, f32::INFINITY)?.emitter?;
+        if !hooks.counts_emitter_hit(&class) {
+            return None;
+        }
+        Some((vertex.throughput * fraction * self.lights.emitters[emitter as usize].emitted(-wi), class.view_bent(None)))
     }
 
     /// What emitter `emitter`, hit at `hit`, sends back along the path, MIS-weighted against

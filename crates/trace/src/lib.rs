@@ -38,8 +38,10 @@ mod bsdf_tests;
 /// camera, settings and seed give another image (other sample values, another estimator
 /// behind the same name), and by nothing else. Datasets record it, so that one is continued
 /// or merged only by the revision that traced its frames: its promise is the bytes a fresh run
-/// makes. Revision 1: 2026-11-25 (before it, datasets recorded none).
-pub const TRACER_REVISION: u32 = 1;
+/// makes. Revision 1: 2026-11-25 (before it, datasets recorded none). Revision 2: 2026-11-27,
+/// the `caustic` transport takes the light of emitters reflected in smooth glass that the
+/// camera sees at every sample (`integrator.rs`, `PreparedScene::reflected_emission`).
+pub const TRACER_REVISION: u32 = 2;
 
 pub use bsdf::{Bsdf, MaterialModel, SurfaceMaterial};
 pub use estimator::{Estimator, Transport};

@@ -69,6 +69,36 @@ impl Emitter {
         }
     }
 
+    /// Whether the line from `origin` along `direction` may cross the emitter ahead of
+    /// `origin`: false only where it certainly does not (the shape tested with a margin of
+    /// 0.1% of its edges, and a line nearly in its plane always may), so a caller that
+    /// casts a ray only when this holds misses no emitter the ray would hit.
+    pub fn may_be_crossed_by(&self, origin: Vec3, direction: Vec3) -> bool {
+        let (corner, a, b, triangle) = match self.shape {
+            Shape::Parallelogram { corner, edge_u, edge_v } => (corner, edge_u, edge_v, false),
+            Shape::Triangle { v0, edge1, edge2 } => (v0, edge1, edge2, true),
+        };
+        let normal = a.cross(b);
+        let facing = direction.dot(normal);
+        if facing.abs() <= 1e-6 * normal.length() {
+            return true;
+        }
+        let t = (corner - origin).dot(normal) / facing;
+        if t < 0.0 {
+            return false;
+        }
+        // The crossing point's coordinates along the two edges (the edges' Gram system).
+        let q = origin + t * direction - corner;
+        let (aa, ab, bb) = (a.dot(a), a.dot(b), b.dot(b));
+        let (qa, qb) = (q.dot(a), q.dot(b));
+        let determinant = aa * bb - ab * ab;
+        let u = (qa * bb - qb * ab) / determinant;
+        let v = (qb * aa - qa * ab) / determinant;
+        const MARGIN: f32 = 1e-3;
+        let inside = if triangle { u + v <= 1.0 + MARGIN } else { u <= 1.0 + MARGIN && v <= 1.0 + MARGIN };
+        u >= -MARGIN && v >= -MARGIN && inside
+    }
+
     fn power(&self) -> f64 {
         let sides = if self.two_sided { 2.0 } else { 1.0 };
         let p = luminance(self.radiance).max(0.0) as f64 * self.area as f64 * PI as f64 * sides;
@@ -113,6 +143,9 @@ pub struct LightSampler {
 /// shading point (see `LightSampler::contributions`); with more, by power alone (a scene's
 /// emissive meshes have an emitter per triangle, too many to weigh at every vertex).
 const MAX_EMITTERS_BY_CONTRIBUTION: usize = 8;
+
+/// Up to this many emitters, [`LightSampler::ray_may_hit_emitter`] tests each one.
+const MAX_EMITTERS_TESTED_FOR_RAYS: usize = 16;
 
 impl LightSampler {
     /// `solid_angle_rectangles`: sample rectangles by solid angle near them;
@@ -180,6 +213,13 @@ impl LightSampler {
         }
         let by_contribution = pick_by_contribution && (2..=MAX_EMITTERS_BY_CONTRIBUTION).contains(&emitters.len());
         LightSampler { emitters, pmf, cdf, rect_light_emitter, object_first_emitter, solid_angle_rectangles, by_contribution }
+    }
+
+    /// Whether a ray from `origin` along `direction` may hit an emitter first
+    /// ([`Emitter::may_be_crossed_by`]); with more than [`MAX_EMITTERS_TESTED_FOR_RAYS`]
+    /// emitters, always (testing them would cost more than the ray).
+    pub fn ray_may_hit_emitter(&self, origin: Vec3, direction: Vec3) -> bool {
+        self.emitters.len() > MAX_EMITTERS_TESTED_FOR_RAYS || self.emitters.iter().any(|e| e.may_be_crossed_by(origin, direction))
     }
 
     /// Whether next-event estimation has anything to sample.
@@ -439,5 +479,79 @@ mod tests {
         let above = Vec3::new(0.0, 3.0, 0.0);
         assert_eq!(sampler.selection_probability(0, above) + sampler.selection_probability(1, above), 0.0);
         assert!(sampler.sample(above, 0.3, Vec2::splat(0.5)).is_none());
+    }
+
+    /// Möller-Trumbore against one triangle: the distance along the ray, if it hits.
+    fn triangle_hit(origin: Vec3, direction: Vec3, v0: Vec3, e1: Vec3, e2: Vec3) -> Option<f32> {
+        let p = direction.cross(e2);
+        let det = e1.dot(p);
+        if det.abs() < 1e-12 {
+            return None;
+        }
+        let s = origin - v0;
+        let u = s.dot(p) / det;
+        let q = s.cross(e1);
+        let v = direction.dot(q) / det;
+        let t = e2.dot(q) / det;
+        (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0).then_some(t)
+    }
+
+    /// The pre-test before a ray towards emitters never says no where the ray hits one (an
+    /// independent ray/triangle test), and says no to most rays that pass clearly beside.
+    #[test]
+    fn emitters_are_never_missed_by_the_ray_pre_test() {
+        let parallelogram = Emitter {
+            shape: Shape::Parallelogram { corner: Vec3::new(-0.4, 2.0, -0.3), edge_u: Vec3::new(0.8, 0.1, 0.0), edge_v: Vec3::new(0.2, 0.0, 0.6) },
+            normal: Vec3::NEG_Y,
+            area: 0.5,
+            radiance: Vec3::ONE,
+            two_sided: false,
+        };
+        let triangle = Emitter {
+            shape: Shape::Triangle { v0: Vec3::new(0.5, 1.0, 0.2), edge1: Vec3::new(-0.3, 0.4, 0.1), edge2: Vec3::new(0.2, 0.1, -0.5) },
+            normal: Vec3::Y,
+            area: 0.1,
+            radiance: Vec3::ONE,
+            two_sided: false,
+        };
+        let mut rng = crate::rng::Pcg32::for_pixel(3, 7);
+        for emitter in [parallelogram, triangle] {
+            let (corner, a, b) = match emitter.shape {
+                Shape::Parallelogram { corner, edge_u, edge_v } => (corner, edge_u, edge_v),
+                Shape::Triangle { v0, edge1, edge2 } => (v0, edge1, edge2),
+            };
+            let hits = |origin: Vec3, direction: Vec3| match emitter.shape {
+                Shape::Parallelogram { .. } => {
+                    triangle_hit(origin, direction, corner, a, b).or_else(|| triangle_hit(origin, direction, corner + a + b, -a, -b))
+                }
+                Shape::Triangle { .. } => triangle_hit(origin, direction, corner, a, b),
+            };
+            let (mut hit, mut clear_misses, mut refused) = (0, 0, 0);
+            for _ in 0..20_000 {
+                let origin = (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 6.0;
+                // Aim at a point of the shape's plane spread well past its edges: the ray
+                // crosses the plane there, at edge coordinates (s, t).
+                let (s, t) = (rng.next_f32() * 1.6 - 0.3, rng.next_f32() * 1.6 - 0.3);
+                let target = corner + a * s + b * t;
+                let direction = (target - origin).normalize();
+                let may = emitter.may_be_crossed_by(origin, direction);
+                if hits(origin, direction).is_some() {
+                    hit += 1;
+                    assert!(may, "a ray from {origin} along {direction} hits the emitter but the pre-test said no");
+                }
+                let outside = match emitter.shape {
+                    Shape::Parallelogram { .. } => s.min(t) < -0.01 || s.max(t) > 1.01,
+                    Shape::Triangle { .. } => s.min(t) < -0.01 || s + t > 1.01,
+                };
+                if outside {
+                    clear_misses += 1;
+                    refused += usize::from(!may);
+                }
+                // A ray pointing away from the shape cannot reach it.
+                assert!(!emitter.may_be_crossed_by(target + (target - origin), target - origin) || (target - origin).length() < 1e-3);
+            }
+            assert!(hit > 2_000 && clear_misses > 2_000, "{hit} hits, {clear_misses} clear misses");
+            assert_eq!(refused, clear_misses, "every ray that passes clearly beside is refused");
+        }
     }
 }
