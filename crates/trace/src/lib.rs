@@ -40,7 +40,8 @@ mod bsdf_tests;
 /// or merged only by the revision that traced its frames: its promise is the bytes a fresh run
 /// makes. Revision 1: 2026-11-25 (before it, datasets recorded none). Revision 2: 2026-11-27,
 /// the `caustic` transport takes the light of emitters reflected in smooth glass that the
-/// camera sees at every sample (`integrator.rs`, `PreparedScene::reflected_emission`).
+/// camera sees at every sample (`integrator.rs`, `PreparedScene::reflected_emission`), and
+/// stratified sampling stratifies the lobe and smooth glass's Fresnel choices.
 pub const TRACER_REVISION: u32 = 2;
 
 pub use bsdf::{Bsdf, MaterialModel, SurfaceMaterial};
