@@ -266,22 +266,6 @@ impl Bsdf {
         Some((self.glass_weight * tint * transmitted, p * transmitted))
     }
 
-    /// One uniform value `u.x` made to serve both [`Bsdf::sample`]'s lobe choice and its
-    /// direction: returns `u.x` as the lobe value and `u` with `x` stretched back to [0, 1)
-    /// within the chosen lobe's interval, so a stratified `u` stratifies the choice too.
-    pub fn lobe_choice_from(&self, wo: Vec3, u: Vec2) -> (f32, Vec2) {
-        let p = self.lobe_probabilities(self.frame.to_local(wo));
-        let bounds = [0.0, p[0], p[0] + p[1] + p[2], 1.0];
-        for lobe in 0..3 {
-            let (start, end) = (bounds[lobe], bounds[lobe + 1]);
-            if u.x < end || lobe == 2 {
-                let x = if end > start { ((u.x - start) / (end - start)).clamp(0.0, 1.0 - f32::EPSILON / 2.0) } else { u.x };
-                return (u.x, Vec2::new(x, u.y));
-            }
-        }
-        unreachable!()
-    }
-
     /// The mirror reflection of a smooth dielectric lobe (solid glass or a thin pane) at
     /// `wo`: its direction and the fraction of the light arriving along it that the surface
     /// sends to `wo` (the lobe's weight times its Fresnel reflectance), which is what

@@ -247,19 +247,13 @@ impl PreparedScene<'_> {
                 }
             }
 
-            let mut u_lobe = rng.next_f32();
+            let u_lobe = rng.next_f32();
             let mut u_event = rng.next_f32();
-            let mut u = draw_2d(stratified, rng, qmc::bsdf_dimension(vertex));
-            if stratified.is_some() {
-                // Stratify the discrete choices too: smooth glass needs no 2D value for its
-                // direction, so its choice between reflection and transmission takes the
-                // first one; other surfaces pick their lobe by it, stretched back within the
-                // lobe for the direction.
-                if bsdf.has_non_delta() {
-                    (u_lobe, u) = bsdf.lobe_choice_from(wo, u);
-                } else {
-                    u_event = u.x;
-                }
+            let u = draw_2d(stratified, rng, qmc::bsdf_dimension(vertex));
+            if stratified.is_some() && !bsdf.has_non_delta() {
+                // Smooth glass needs no 2D value for its direction: its choice between
+                // reflection and transmission takes the stratified first one instead.
+                u_event = u.x;
             }
             let Some(sample) = bsdf.sample(wo, u_lobe, u_event, u) else { break };
             path.delta_prefix &= sample.delta;

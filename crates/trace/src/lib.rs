@@ -41,7 +41,7 @@ mod bsdf_tests;
 /// makes. Revision 1: 2026-11-25 (before it, datasets recorded none). Revision 2: 2026-11-27,
 /// the `caustic` transport takes the light of emitters reflected in smooth glass that the
 /// camera sees at every sample (`integrator.rs`, `PreparedScene::reflected_emission`), and
-/// stratified sampling stratifies the lobe and smooth glass's Fresnel choices.
+/// stratified sampling stratifies smooth glass's Fresnel choice.
 pub const TRACER_REVISION: u32 = 2;
 
 pub use bsdf::{Bsdf, MaterialModel, SurfaceMaterial};

@@ -1,8 +1,8 @@
 //! Stratified sample values for the first dimensions of a path: randomized quasi-Monte Carlo.
 //!
 //! A pixel's samples take their sub-pixel position, and at each of the first vertices their
-//! light and BSDF samples (the BSDF's lobe choice, or smooth glass's choice between
-//! reflection and transmission, included: `integrator.rs`), from 2D points of the Sobol
+//! light and BSDF samples (smooth glass's choice between reflection and transmission
+//! included: `integrator.rs`), from 2D points of the Sobol
 //! (0,2)-sequence instead of independent random numbers. Any 2^k consecutive points of that sequence form a (0,k,2)-net: one point in
 //! every elementary box of area 2^-k, so a pixel's samples cover the pixel, the light and the
 //! BSDF lobe evenly, and the error of smooth integrands (soft shadows, glossy and blurred
