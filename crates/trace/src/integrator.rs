@@ -240,7 +240,7 @@ impl PreparedScene<'_> {
                 light.add(direct, path.class.view_bent(Some(glass)));
             }
 
-            let split = path.delta_prefix && hooks.takes_reflected_emission();
+            let split = glass && path.delta_prefix && hooks.takes_reflected_emission();
             if split {
                 if let Some((reflected, view_bent)) = self.reflected_emission(&here, hooks) {
                     light.add(reflected, view_bent);
