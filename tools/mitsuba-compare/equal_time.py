@@ -8,18 +8,21 @@ choice) vs Mitsuba 3's path tracer on the same exported scene instance.
     export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1
     python3 tools/mitsuba-compare/equal_time.py --glassbake target/release/glassbake \
         [--scenes cornellbox,desk] [--sample 0] [--res 128] [--spp 256] [--ref-factor 16] \
-        [--estimator caustic+adaptive+stratified] [--variant llvm_ad_rgb]
+        [--repeats 3] [--estimator caustic+adaptive+stratified] [--variant llvm_ad_rgb]
 
-Per scene: glassbake traces the instance at --spp (process wall time t, BVH build and EXR
-write included); Mitsuba renders it with as many spp as fit in t (calibrated on a first
-render, kernel compilation excluded, then timed again). Each renderer's error is measured
-against its own reference, --ref-factor times the spp, traced with independent random
-numbers: the two renderers interpret a few materials differently by design (docs/trace.md:
+Per scene: glassbake traces the instance at --spp, --repeats times with different image
+seeds (process wall time, BVH build and EXR write included; t is their mean); Mitsuba renders
+it --repeats times with as many spp as fit in t (calibrated on a first render, kernel
+compilation excluded, each render timed). Each renderer's error, the mean over its repeats,
+is measured against its own reference, traced with independent random numbers at --ref-factor
+times the spp of that renderer's test renders, so that the reference's noise adds the same
+fraction, 1/ref-factor, to both renderers' error and cancels in the ratio (a reference at a
+fixed spp would add more to the renderer that fits more samples in t). Own references: the two renderers interpret a few materials differently by design (docs/trace.md:
 the default opaque blend is 1-3% brighter in Mitsuba), so a shared reference would measure
 that difference, not convergence. With an estimator that merges photons (`+merging`)
 glassbake's test render is biased while its reference, the same estimator without
-`+merging`, stays unbiased, so the error counts the bias. The reference's own noise is 1/ref-factor of a test
-render's variance; the printed MSE is not corrected for it. Prints a Markdown table:
+`+merging`, stays unbiased, so the error counts the bias. The printed MSE is not corrected
+for the reference's noise. Prints a Markdown table:
 seconds, spp, MSE over all pixels and over the pixels away from emitters (no reference value
 above 1 in a pixel's 3x3 neighbourhood: the light's edge pixels, whose box-filtered noise is
 the same for any estimator, dominate the all-pixel figure) and over all pixels clamped to
@@ -42,6 +45,7 @@ def main():
     p.add_argument("--res", type=int, default=128)
     p.add_argument("--spp", type=int, default=256)
     p.add_argument("--ref-factor", type=int, default=16)
+    p.add_argument("--repeats", type=int, default=3, help="test renders per renderer, with different seeds; errors and times averaged")
     p.add_argument("--estimator", default="caustic+adaptive+stratified", help="glassbake trace --estimator (its reference: the same without +merging)")
     p.add_argument("--variant", default="llvm_ad_rgb")
     p.add_argument("--max-depth", type=int, default=64)
@@ -54,8 +58,9 @@ def main():
     work = tempfile.mkdtemp(prefix="gb-mitsuba-equal-time-")
     reference_estimator = "+".join(part for part in a.estimator.split("+") if part != "merging")
     print(f"{a.res}x{a.res}, sample {a.sample}, glassbake --estimator {a.estimator} at {a.spp} spp, "
-          f"Mitsuba {a.variant} `path` at equal wall time;")
-    print(f"references: each renderer at {a.ref_factor}x the spp, independent seeds; MSE over all pixels and RGB")
+          f"Mitsuba {a.variant} `path` at equal wall time; mean of {a.repeats} renders each;")
+    print(f"references: each renderer at {a.ref_factor}x the spp of its own test renders, independent seeds; "
+          "MSE over all pixels and RGB")
     print()
     print("| scene | glassbake s | glassbake spp | Mitsuba s | Mitsuba spp | glassbake MSE | Mitsuba MSE | ratio "
           "| glassbake MSE away from emitters | Mitsuba | ratio | glassbake MSE clamped | Mitsuba | ratio |")
@@ -73,7 +78,9 @@ def main():
     for name in a.scenes.split(","):
         xml = os.path.join(work, f"{name}.xml")
         subprocess.run([a.glassbake, "scene", "mitsuba", name, "--sample", str(a.sample), "--out", xml], check=True, stdout=subprocess.DEVNULL)
-        gb_time, gb = trace(name, a.spp, os.path.join(work, f"{name}_gb.exr"), a.estimator)
+        gb_runs = [trace(name, a.spp, os.path.join(work, f"{name}_gb_{i}.exr"), a.estimator, image_seed=1000 + i)
+                   for i in range(a.repeats)]
+        gb_time = sum(t for t, _ in gb_runs) / a.repeats
         _, gb_ref = trace(name, a.spp * a.ref_factor, os.path.join(work, f"{name}_gb_ref.exr"), reference_estimator, image_seed=1)
 
         scene = mi.load_file(xml, res=a.res, spp=a.spp, max_depth=a.max_depth)
@@ -94,12 +101,15 @@ def main():
         render(a.spp, 3)
         per_spp = (time.time() - t0) / a.spp
         mi_spp = max(1, int(gb_time / per_spp))
-        t0 = time.time()
-        mi_img = render(mi_spp, 0)
-        mi_time = time.time() - t0
-        mi_ref = render(a.spp * a.ref_factor, 1)
+        mi_runs = []
+        for i in range(a.repeats):
+            t0 = time.time()
+            image = render(mi_spp, 10 + i)
+            mi_runs.append((time.time() - t0, image))
+        mi_time = sum(t for t, _ in mi_runs) / a.repeats
+        mi_ref = render(mi_spp * a.ref_factor, 1)
 
-        for label, image in (("mitsuba", mi_img), ("mitsuba_ref", mi_ref)):
+        for label, image in [(f"mitsuba_{i}", im) for i, (_, im) in enumerate(mi_runs)] + [("mitsuba_ref", mi_ref)]:
             mi.Bitmap(image.astype(np.float32)).write(os.path.join(work, f"{name}_{label}.exr"))
         bright = np.maximum(gb_ref.max(axis=2), mi_ref.max(axis=2)) > 1.0
         padded = np.pad(bright, 1)
@@ -116,9 +126,12 @@ def main():
         def clamped(image):
             return np.clip(image, 0.0, 1.0)
 
-        gb_all, mi_all = mse(gb, gb_ref), mse(mi_img, mi_ref)
-        gb_away, mi_away = mse(gb, gb_ref, away), mse(mi_img, mi_ref, away)
-        gb_clamped, mi_clamped = mse(clamped(gb), clamped(gb_ref)), mse(clamped(mi_img), clamped(mi_ref))
+        def mean_mse(runs, reference, mask=None, transform=lambda x: x):
+            return sum(mse(transform(image), transform(reference), mask) for _, image in runs) / len(runs)
+
+        gb_all, mi_all = mean_mse(gb_runs, gb_ref), mean_mse(mi_runs, mi_ref)
+        gb_away, mi_away = mean_mse(gb_runs, gb_ref, away), mean_mse(mi_runs, mi_ref, away)
+        gb_clamped, mi_clamped = mean_mse(gb_runs, gb_ref, transform=clamped), mean_mse(mi_runs, mi_ref, transform=clamped)
         print(f"| {name} | {gb_time:.1f} | {a.spp} | {mi_time:.1f} | {mi_spp} | {gb_all:.3e} | {mi_all:.3e} | {mi_all / gb_all:.2f}x "
               f"| {gb_away:.3e} | {mi_away:.3e} | {mi_away / gb_away:.2f}x | {gb_clamped:.3e} | {mi_clamped:.3e} | {mi_clamped / gb_clamped:.2f}x |")
         sys.stdout.flush()
