@@ -41,6 +41,15 @@ impl PathHooks for CausticPaths<'_> {
         self.merging.as_mut().is_none_or(|merging| merging.continues(vertex, sample))
     }
 
+    fn shadow_rays_follow_glass(&self, vertex: &Vertex) -> bool {
+        // The light tracer carries what reaches a surface the camera saw straight through
+        // bending glass; so only a surface it cannot connect to gains, and without photons.
+        let mut class = vertex.class;
+        class.leave_vertex(vertex.glass, false);
+        class.leave_vertex(true, false);
+        self.merging.is_none() && self.counts_emitter_hit(&class)
+    }
+
     fn takes_reflected_emission(&self) -> bool {
         true
     }

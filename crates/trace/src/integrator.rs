@@ -15,7 +15,7 @@
 use glam::Vec3;
 use glassbake_core::Ray;
 
-use crate::bsdf::{Bsdf, BsdfSample};
+use crate::bsdf::{Bsdf, BsdfSample, DeltaTransmission};
 use crate::path_class::{PathClass, PathFilter};
 use crate::prepared::{offset_origin, ray_epsilon, PathSettings, PreparedScene, SurfaceHit, MAX_VERTICES};
 use crate::qmc::{self, StratifiedSample};
@@ -79,6 +79,13 @@ pub(crate) trait PathHooks: Copy {
         true
     }
 
+    /// Whether next-event estimation at the vertex follows its shadow ray through smooth
+    /// glass, refracted, when it does not reach the light straight
+    /// (`PreparedScene::light_through_glass`).
+    fn shadow_rays_follow_glass(&self, _vertex: &Vertex) -> bool {
+        false
+    }
+
     /// Whether the vertices of the path's delta prefix (the camera's view in and through
     /// smooth glass) take the light of emitters reflected in smooth glass at every sample
     /// (`PreparedScene::reflected_emission`).
@@ -131,7 +138,43 @@ struct PathState {
     /// The segment being traced is a delta reflection whose emitter's light the previous
     /// vertex already took (`PreparedScene::reflected_emission`): not counted again.
     emission_taken: bool,
+    /// Since the last non-delta vertex, whose shadow ray followed smooth glass, the path has
+    /// only been transmitted by smooth glass: a path that shadow ray could have made too.
+    glass_chain: Option<GlassChain>,
 }
+
+/// A path's run of smooth-glass transmissions since a non-delta vertex, as next-event
+/// estimation through glass (`PreparedScene::light_through_glass`) weighs it.
+#[derive(Clone, Copy, Debug)]
+struct GlassChain {
+    /// The non-delta vertex and the direction the path left it in.
+    origin: Vec3,
+    direction: Vec3,
+    /// The density of BSDF-sampling that direction there times the probabilities of the
+    /// transmissions picked since.
+    probability: f32,
+    interfaces: u32,
+    /// One of them refracted (solid glass): not a path the straight shadow ray makes.
+    bends: bool,
+}
+
+impl GlassChain {
+    /// Extended by the delta `sample` taken at a surface with `bsdf`, if it is a
+    /// transmission of smooth glass alone.
+    fn through(mut self, bsdf: &Bsdf, sample: &BsdfSample) -> Option<Self> {
+        if !sample.transmitted || bsdf.has_non_delta() || !bsdf.is_glass() {
+            return None;
+        }
+        self.probability *= sample.pdf;
+        self.interfaces += 1;
+        self.bends |= !sample.pass_through;
+        Some(self)
+    }
+}
+
+/// Interfaces a shadow ray follows through smooth glass at most: a solid object's two, a
+/// few objects deep.
+const MAX_GLASS_INTERFACES: u32 = 8;
 
 impl PathState {
     fn new(ray: &Ray) -> Self {
@@ -148,6 +191,7 @@ impl PathState {
             class: PathClass::default(),
             delta_prefix: true,
             emission_taken: false,
+            glass_chain: None,
         }
     }
 
@@ -220,6 +264,8 @@ impl PreparedScene<'_> {
                 if !path.emission_taken && hooks.counts_emitter_hit(&path.class) {
                     light.add(self.emitted_along_path(&path, &hit, emitter, wo), path.class.view_bent(None));
                 }
+                // Shadow rays through glass stop at the first emitter; so does the chain.
+                path.glass_chain = None;
             }
             let Owner::Object { material, .. } = hit.owner else { break };
             let bsdf = Bsdf::new(&self.surface_material(material, hit.uv), hit.shading_normal, settings.material_model);
@@ -235,8 +281,11 @@ impl PreparedScene<'_> {
             if elsewhere != Vec3::ZERO {
                 light.add(elsewhere, class_on_arrival.view_bent(None));
             }
-            if bsdf.has_non_delta() && hooks.traces_shadow_ray(&here) {
-                let direct = self.direct_light(&here, settings, rng, |rng| draw_2d(stratified, rng, qmc::light_dimension(vertex)), scratch);
+            let nee = bsdf.has_non_delta() && hooks.traces_shadow_ray(&here);
+            let follow_glass = nee && hooks.shadow_rays_follow_glass(&here);
+            if nee {
+                let draw_light = |rng: &mut Pcg32| draw_2d(stratified, rng, qmc::light_dimension(vertex));
+                let direct = self.direct_light(&here, settings, rng, draw_light, follow_glass, scratch);
                 light.add(direct, path.class.view_bent(Some(glass)));
             }
 
@@ -257,6 +306,12 @@ impl PreparedScene<'_> {
             }
             let Some(sample) = bsdf.sample(wo, u_lobe, u_event, u) else { break };
             path.delta_prefix &= sample.delta;
+            path.glass_chain = match sample.delta {
+                false => {
+                    follow_glass.then_some(GlassChain { origin: hit.position, direction: sample.wi, probability: sample.pdf, interfaces: 0, bends: false })
+                }
+                true => path.glass_chain.and_then(|chain| chain.through(&bsdf, &sample)),
+            };
             path.emission_taken = split && sample.delta && !sample.transmitted;
             let ng = hit.geometric_normal;
             let reflection = sample.wi.dot(ng) * wo.dot(ng) > 0.0;
@@ -310,19 +365,28 @@ impl PreparedScene<'_> {
         if emitted == Vec3::ZERO {
             return Vec3::ZERO;
         }
-        let weight = if path.specular { 1.0 } else { power_heuristic(path.mis_pdf, self.lights.pdf(emitter, path.mis_origin, hit.position)) };
+        let weight = match path.glass_chain {
+            Some(chain) if chain.bends && chain.interfaces <= MAX_GLASS_INTERFACES => {
+                power_heuristic(chain.probability, self.lights.direction_pdf(chain.origin, chain.direction).unwrap_or(0.0))
+            }
+            _ if path.specular => 1.0,
+            _ => power_heuristic(path.mis_pdf, self.lights.pdf(emitter, path.mis_origin, hit.position)),
+        };
         path.throughput * emitted * weight
     }
 
     /// Next-event estimation at `vertex`: one light sample (the emitter picked by a value of
     /// `rng`, the point by `draw_light`'s 2D value, drawn in that order), its shadow ray
-    /// through smooth thin panes, MIS-weighted against BSDF sampling.
+    /// through smooth thin panes, MIS-weighted against BSDF sampling. With `follow_glass`,
+    /// a shadow ray that does not reach the light straight follows smooth glass instead
+    /// ([`PreparedScene::light_through_glass`]).
     fn direct_light(
         &self,
         vertex: &Vertex,
         settings: &PathSettings,
         rng: &mut Pcg32,
         draw_light: impl FnOnce(&mut Pcg32) -> glam::Vec2,
+        follow_glass: bool,
         scratch: &mut PathScratch,
     ) -> Vec3 {
         let Vertex { hit, wo, bsdf, throughput, depth, .. } = *vertex;
@@ -347,13 +411,62 @@ impl PreparedScene<'_> {
         // Segments the shadow ray may still cross panes with: a path of `depth + 1 +
         // crossings` segments must fit, as the BSDF-sampled one must.
         let crossings_allowed = settings.max_depth - depth - 1;
+        let cos = wi.dot(ns).abs();
         let Some((transmittance, crossing_probability)) =
             self.transmittance(shadow_origin, to_light / shadow_distance, t_max, crossings_allowed, settings, &mut scratch.hits)
         else {
-            return Vec3::ZERO;
+            if !follow_glass {
+                return Vec3::ZERO;
+            }
+            let interfaces = crossings_allowed.min(MAX_GLASS_INTERFACES);
+            return throughput * f * cos * self.light_through_glass(hit, wi, pdf, interfaces, settings);
         };
         let weight = power_heuristic(light.pdf, pdf * crossing_probability);
-        let cos = wi.dot(ns).abs();
         throughput * f * cos * transmittance * light.radiance * (weight / light.pdf)
+    }
+
+    /// Next-event estimation through smooth glass: the light sampled in direction `wi` from
+    /// `hit` did not arrive straight, so the shadow ray follows smooth glass, refracted by
+    /// Snell's law and attenuated by Fresnel transmittance and tint at each of at most
+    /// `interfaces` interfaces (total internal reflection ends it), to whatever emitter it
+    /// reaches. Returned: that emitter's radiance times the transmittance, divided by the
+    /// density of sampling `wi` ([`LightSampler::direction_pdf`]) and MIS-weighted against
+    /// BSDF sampling (`bsdf_pdf` at `hit` times the probabilities of picking each
+    /// transmission: `GlassChain`). Under solid glass lit from above, what only BSDF
+    /// sampling found before (specular-diffuse-specular paths, one in tens of samples) this
+    /// finds at every sample where the glass shifts the light without bending it away: a
+    /// slab, a glass's flat bottom under its flat top. Only paths with at least one
+    /// refraction count: the rest is the straight shadow ray's.
+    ///
+    /// [`LightSampler::direction_pdf`]: crate::lights::LightSampler::direction_pdf
+    fn light_through_glass(&self, hit: &SurfaceHit, wi: Vec3, bsdf_pdf: f32, interfaces: u32, settings: &PathSettings) -> Vec3 {
+        let Some(direction_pdf) = self.lights.direction_pdf(hit.position, wi).filter(|&p| p > 0.0) else { return Vec3::ZERO };
+        let mut origin = offset_origin(hit.position, hit.geometric_normal, wi);
+        let mut direction = wi;
+        let (mut transmittance, mut probability, mut bends) = (Vec3::ONE, bsdf_pdf, false);
+        for crossed in 0..=interfaces {
+            let Some(next) = self.intersect_from(origin, direction, 0.0, f32::INFINITY) else { return Vec3::ZERO };
+            if let Some(emitter) = next.emitter {
+                if !bends {
+                    return Vec3::ZERO;
+                }
+                let radiance = self.lights.emitters[emitter as usize].emitted(-direction);
+                return transmittance * radiance * (power_heuristic(direction_pdf, probability) / direction_pdf);
+            }
+            if crossed == interfaces {
+                break;
+            }
+            let Owner::Object { material, .. } = next.owner else { return Vec3::ZERO };
+            let bsdf = Bsdf::new(&self.surface_material(material, next.uv), next.shading_normal, settings.material_model);
+            let Some(DeltaTransmission { wi: onward, fraction, probability: picked, bends: refracted }) = bsdf.delta_transmission(-direction) else {
+                return Vec3::ZERO;
+            };
+            transmittance *= fraction;
+            probability *= picked;
+            bends |= refracted;
+            origin = offset_origin(next.position, next.geometric_normal, onward);
+            direction = onward;
+        }
+        Vec3::ZERO
     }
 }

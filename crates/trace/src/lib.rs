@@ -41,8 +41,10 @@ mod bsdf_tests;
 /// makes. Revision 1: 2026-11-25 (before it, datasets recorded none). Revision 2: 2026-11-27,
 /// the `caustic` transport takes the light of emitters reflected in smooth glass that the
 /// camera sees at every sample (`integrator.rs`, `PreparedScene::reflected_emission`), and
-/// stratified sampling stratifies smooth glass's Fresnel choice.
-pub const TRACER_REVISION: u32 = 2;
+/// stratified sampling stratifies smooth glass's Fresnel choice. Revision 3: 2026-11-27, the
+/// `caustic` transport's shadow rays follow smooth glass from surfaces the camera sees in or
+/// through bending glass (`PreparedScene::light_through_glass`).
+pub const TRACER_REVISION: u32 = 3;
 
 pub use bsdf::{Bsdf, MaterialModel, SurfaceMaterial};
 pub use estimator::{Estimator, Transport};

@@ -74,29 +74,52 @@ impl Emitter {
     /// 0.1% of its edges, and a line nearly in its plane always may), so a caller that
     /// casts a ray only when this holds misses no emitter the ray would hit.
     pub fn may_be_crossed_by(&self, origin: Vec3, direction: Vec3) -> bool {
-        let (corner, a, b, triangle) = match self.shape {
-            Shape::Parallelogram { corner, edge_u, edge_v } => (corner, edge_u, edge_v, false),
-            Shape::Triangle { v0, edge1, edge2 } => (v0, edge1, edge2, true),
+        match self.crossing(origin, direction) {
+            Crossing::InPlane => true,
+            Crossing::Behind => false,
+            Crossing::Ahead { u, v, .. } => self.holds(u, v, 1e-3),
+        }
+    }
+
+    /// The point where the line from `origin` along `direction` crosses the emitter ahead of
+    /// `origin`, if it does (no margin; a line in its plane never does).
+    pub fn crossed_at(&self, origin: Vec3, direction: Vec3) -> Option<Vec3> {
+        match self.crossing(origin, direction) {
+            Crossing::Ahead { t, u, v } if self.holds(u, v, 0.0) => Some(origin + t * direction),
+            _ => None,
+        }
+    }
+
+    /// Where the line from `origin` along `direction` meets the emitter's plane, in the
+    /// coordinates of its two edges (their Gram system).
+    fn crossing(&self, origin: Vec3, direction: Vec3) -> Crossing {
+        let (corner, a, b) = match self.shape {
+            Shape::Parallelogram { corner, edge_u, edge_v } => (corner, edge_u, edge_v),
+            Shape::Triangle { v0, edge1, edge2 } => (v0, edge1, edge2),
         };
         let normal = a.cross(b);
         let facing = direction.dot(normal);
         if facing.abs() <= 1e-6 * normal.length() {
-            return true;
+            return Crossing::InPlane;
         }
         let t = (corner - origin).dot(normal) / facing;
         if t < 0.0 {
-            return false;
+            return Crossing::Behind;
         }
-        // The crossing point's coordinates along the two edges (the edges' Gram system).
         let q = origin + t * direction - corner;
         let (aa, ab, bb) = (a.dot(a), a.dot(b), b.dot(b));
         let (qa, qb) = (q.dot(a), q.dot(b));
         let determinant = aa * bb - ab * ab;
-        let u = (qa * bb - qb * ab) / determinant;
-        let v = (qb * aa - qa * ab) / determinant;
-        const MARGIN: f32 = 1e-3;
-        let inside = if triangle { u + v <= 1.0 + MARGIN } else { u <= 1.0 + MARGIN && v <= 1.0 + MARGIN };
-        u >= -MARGIN && v >= -MARGIN && inside
+        Crossing::Ahead { t, u: (qa * bb - qb * ab) / determinant, v: (qb * aa - qa * ab) / determinant }
+    }
+
+    /// Whether edge coordinates (u, v) lie on the shape, grown by `margin` of its edges.
+    fn holds(&self, u: f32, v: f32, margin: f32) -> bool {
+        let inside = match self.shape {
+            Shape::Triangle { .. } => u + v <= 1.0 + margin,
+            Shape::Parallelogram { .. } => u <= 1.0 + margin && v <= 1.0 + margin,
+        };
+        u >= -margin && v >= -margin && inside
     }
 
     fn power(&self) -> f64 {
@@ -108,6 +131,18 @@ impl Emitter {
             0.0
         }
     }
+}
+
+/// Where a line meets an emitter's plane.
+enum Crossing {
+    InPlane,
+    Behind,
+    /// At origin + t x direction, edge coordinates (u, v).
+    Ahead {
+        t: f32,
+        u: f32,
+        v: f32,
+    },
 }
 
 /// A point on an emitter, chosen for a shading point.
@@ -220,6 +255,28 @@ impl LightSampler {
     /// emitters, always (testing them would cost more than the ray).
     pub fn ray_may_hit_emitter(&self, origin: Vec3, direction: Vec3) -> bool {
         self.emitters.len() > MAX_EMITTERS_TESTED_FOR_RAYS || self.emitters.iter().any(|e| e.may_be_crossed_by(origin, direction))
+    }
+
+    /// The solid-angle density with which [`Self::sample`] from `from` picks the direction
+    /// `w`, whatever lies between: the sum over the emitters that the line crosses ahead of
+    /// `from` and that send light back along it. What next-event estimation through smooth
+    /// glass (whose sampled direction is refracted, so the light it reaches need not be the
+    /// one sampled) weighs its paths by. `None` with more than
+    /// [`MAX_EMITTERS_TESTED_FOR_RAYS`] emitters (too many to test).
+    pub fn direction_pdf(&self, from: Vec3, w: Vec3) -> Option<f32> {
+        if self.emitters.len() > MAX_EMITTERS_TESTED_FOR_RAYS {
+            return None;
+        }
+        let mut pdf = 0.0;
+        for (index, e) in self.emitters.iter().enumerate() {
+            if e.emitted(-w) == Vec3::ZERO {
+                continue;
+            }
+            if let Some(point) = e.crossed_at(from, w) {
+                pdf += self.pdf(index as u32, from, point);
+            }
+        }
+        Some(pdf)
     }
 
     /// Whether next-event estimation has anything to sample.
@@ -427,6 +484,44 @@ mod tests {
         scene.rect_lights.push(light("high", Vec3::new(-0.5, 2.0, -0.5), 1.0, 2.0));
         scene.rect_lights.push(light("low", Vec3::new(1.0, 0.4, 0.0), 0.2, 20.0));
         scene
+    }
+
+    /// `direction_pdf` is a density over directions: it integrates to one when every light
+    /// sample succeeds, also where a small near light hides a far one exactly (both picked,
+    /// both counted), and is 0 beside the lights and behind them.
+    #[test]
+    fn the_direction_density_integrates_to_one() {
+        let mut scene = Scene::empty("stacked lights");
+        let light = |name: &str, height: f32, half: f32| RectLight {
+            name: name.into(),
+            corner: Vec3::new(-half, height, -half),
+            edge_u: Vec3::X * 2.0 * half,
+            edge_v: Vec3::Z * 2.0 * half,
+            radiance: Vec3::ONE,
+            two_sided: false,
+        };
+        // Seen from the origin both span slopes of -0.25 to 0.25.
+        scene.rect_lights.push(light("far", 2.0, 0.5));
+        scene.rect_lights.push(light("near", 0.4, 0.1));
+        for (solid_angle, by_contribution) in [(false, false), (true, true)] {
+            let sampler = LightSampler::new(&scene, solid_angle, by_contribution);
+            // Directions through the plane y = 1: d omega = dx dz / (x^2 + 1 + z^2)^(3/2).
+            let (grid, half) = (1000, 0.4f32);
+            let cell = 2.0 * half / grid as f32;
+            let mut integral = 0.0f64;
+            for i in 0..grid {
+                for j in 0..grid {
+                    let (x, z) = (-half + (i as f32 + 0.5) * cell, -half + (j as f32 + 0.5) * cell);
+                    let r2 = x * x + 1.0 + z * z;
+                    let pdf = sampler.direction_pdf(Vec3::ZERO, Vec3::new(x, 1.0, z) / r2.sqrt()).unwrap();
+                    integral += (pdf * cell * cell / (r2 * r2.sqrt())) as f64;
+                }
+            }
+            assert!((integral - 1.0).abs() < 0.01, "solid angle {solid_angle}, by contribution {by_contribution}: integral {integral}");
+            assert_eq!(sampler.direction_pdf(Vec3::ZERO, Vec3::new(0.3, 1.0, 0.0).normalize()), Some(0.0), "beside the lights");
+            assert_eq!(sampler.direction_pdf(Vec3::ZERO, Vec3::NEG_Y), Some(0.0), "below");
+            assert_eq!(sampler.direction_pdf(Vec3::Y * 3.0, Vec3::NEG_Y), Some(0.0), "behind the lights, one-sided");
+        }
     }
 
     /// Which of `two_lights`' emitters a sampled point lies on (their heights differ).

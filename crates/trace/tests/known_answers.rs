@@ -1253,3 +1253,65 @@ fn a_light_seen_in_a_pane_is_exact_with_the_default_estimator() {
     let plain_error = plain_total / exact_total - 1.0;
     assert!(plain_error.abs() < 0.03, "plain's total is {plain_error} off the exact one");
 }
+
+/// A floor seen through a solid glass slab lying just above it, lit from above: every
+/// light path to the camera is specular-diffuse-specular, which the light tracer cannot
+/// take (no connection reaches the camera through the slab). The default estimator follows
+/// its shadow rays through the slab instead: it must agree with the plain path tracer there
+/// and be far less noisy.
+#[test]
+fn a_floor_under_a_glass_slab_is_lit_through_it_without_bias() {
+    let mut scene = empty_scene("slab");
+    add_object(&mut scene, "floor", rect(Vec3::ZERO, Vec3::X * 8.0, Vec3::NEG_Z * 8.0, Vec2::ONE), Material::diffuse("floor", Vec3::splat(0.5)));
+    let mut slab = glassbake_scene::shapes::cuboid(Vec3::new(1.0, 0.1, 1.0));
+    for p in &mut slab.positions {
+        *p += Vec3::Y * 0.12;
+    }
+    add_object(&mut scene, "slab", slab, Material::glass("slab", Vec3::ONE, 0.0, 1.5, false));
+    // On the camera's side of the slab (+z), so that the slab's top does not mirror it into
+    // the camera: only light through the slab reaches the floor it sees.
+    scene.rect_lights.push(RectLight {
+        name: "light".into(),
+        corner: Vec3::new(-1.5, 3.0, 0.5),
+        edge_u: Vec3::X * 3.0,
+        edge_v: Vec3::Z * 3.0,
+        radiance: Vec3::splat(5.0),
+        two_sided: false,
+    });
+    let camera = Camera::look_at(Vec3::new(0.0, 2.0, 0.5), Vec3::ZERO, 30.0);
+    const SIZE: u32 = 16;
+    const RENDERS: u64 = 4;
+    // Per estimator: the mean over the renders of the image mean, its variance, and the
+    // mean over pixels of a pixel's variance across renders.
+    let statistics = |estimator: Estimator, spp: u32, seed_base: u64| {
+        let images: Vec<Vec<f64>> = (seed_base..seed_base + RENDERS)
+            .map(|seed| {
+                let settings = TraceSettings { estimator, ..plain_settings(SIZE, SIZE, spp, seed) };
+                let image = render(&scene, &camera, &settings, None).unwrap().image;
+                (0..SIZE * SIZE).map(|i| image.get(1, i % SIZE, i / SIZE) as f64).collect()
+            })
+            .collect();
+        let n = RENDERS as f64;
+        let pixels = (SIZE * SIZE) as usize;
+        let image_means: Vec<f64> = images.iter().map(|image| image.iter().sum::<f64>() / pixels as f64).collect();
+        let mean = image_means.iter().sum::<f64>() / n;
+        let mean_variance = image_means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (n - 1.0) / n;
+        let pixel_variance = (0..pixels)
+            .map(|i| {
+                let m = images.iter().map(|image| image[i]).sum::<f64>() / n;
+                images.iter().map(|image| (image[i] - m).powi(2)).sum::<f64>() / (n - 1.0)
+            })
+            .sum::<f64>()
+            / pixels as f64;
+        (mean, mean_variance, pixel_variance)
+    };
+    let (plain, plain_var, plain_noise) = statistics(Estimator::PLAIN, 1024, 10);
+    let (default, default_var, default_noise) = statistics(Estimator::default(), 256, 20);
+    // At equal samples: plain's at 1024 spp, scaled.
+    let plain_noise = plain_noise * 4.0;
+    let t = (default - plain).abs() / (plain_var + default_var).sqrt();
+    eprintln!("floor under a slab: plain {plain:.5} (pixel variance {plain_noise:.3e}), default {default:.5} ({default_noise:.3e}), t {t:.2}");
+    assert!(plain > 0.05, "the floor under the slab is dark ({plain}): the scene no longer tests light through glass");
+    assert!(t < 5.0, "the default estimator's mean {default} differs from plain's {plain} by {t:.1} standard errors");
+    assert!(default_noise < 0.1 * plain_noise, "the default estimator's pixel variance {default_noise:.3e} is not a tenth of plain's {plain_noise:.3e}");
+}
