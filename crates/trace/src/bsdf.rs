@@ -106,17 +106,20 @@ pub struct Bsdf {
     dielectric: Dielectric,
 }
 
-/// Smooth glass's transmission at a given `wo` ([`Bsdf::delta_transmission`]).
+/// Where light passing smooth glass at a given `wo` comes from ([`Bsdf::delta_continuation`]).
 #[derive(Clone, Copy, Debug)]
-pub struct DeltaTransmission {
+pub struct DeltaContinuation {
     /// World space, unit length.
     pub wi: Vec3,
     /// Fraction of the radiance arriving along `wi` that leaves along `wo`.
     pub fraction: Vec3,
     /// Probability that [`Bsdf::sample`] picks this event.
     pub probability: f32,
-    /// Refracted at solid glass (a thin pane's transmission goes straight on).
+    /// Turned by solid glass: refracted, or totally reflected inside it (a thin pane's
+    /// transmission goes straight on).
     pub bends: bool,
+    /// Total internal reflection (otherwise a transmission).
+    pub reflected: bool,
 }
 
 /// A sampled incident direction.
@@ -297,32 +300,44 @@ impl Bsdf {
         Some((self.frame.to_world(wi).normalize(), self.glass_weight * reflectance))
     }
 
-    /// The transmission of a surface that is smooth glass alone (solid or a thin pane, no
-    /// non-delta lobe) at `wo`: the direction [`Bsdf::sample`] transmits to, the fraction of
-    /// the light arriving along it that reaches `wo` (what the sampled transmission returns on
-    /// average: the lobe's weight x tint x (1 - Fresnel reflectance), radiance scaled by the
-    /// IOR ratio), and the probability with which `sample` picks it. `None` for any other
-    /// surface and under total internal reflection.
-    pub fn delta_transmission(&self, wo: Vec3) -> Option<DeltaTransmission> {
+    /// How light passes a surface that is smooth glass alone (solid or a thin pane, no
+    /// non-delta lobe) to leave along `wo`: by transmission, or by total internal reflection
+    /// where nothing is transmitted. The direction [`Bsdf::sample`] takes for that event, the
+    /// fraction of the light arriving along it that reaches `wo` (what the sampled event
+    /// returns on average: the lobe's weight x tint x (1 - Fresnel reflectance), radiance
+    /// scaled by the IOR ratio; the lobe's weight under total internal reflection), and the
+    /// probability with which `sample` picks it. `None` for any other surface.
+    pub fn delta_continuation(&self, wo: Vec3) -> Option<DeltaContinuation> {
         let wo_local = self.frame.to_local(wo);
         if wo_local.z == 0.0 || self.has_non_delta() || !self.is_glass() {
             return None;
         }
         let p = self.lobe_probabilities(wo_local)[3];
-        let (wi_local, reflectance, tint, bends) = match self.dielectric {
-            Dielectric::Smooth { eta, tint } => {
-                let (wi, etap) = refract(wo_local, Vec3::Z, eta)?;
-                (wi, fresnel_dielectric(wo_local.z, eta), tint / (etap * etap), true)
-            }
-            Dielectric::ThinSmooth { eta, tint } => (-wo_local, thin_slab_reflectance(wo_local.z, eta), tint, false),
-            _ => return None,
-        };
-        (p > 0.0 && reflectance < 1.0).then(|| DeltaTransmission {
+        if p <= 0.0 {
+            return None;
+        }
+        let event = |wi_local: Vec3, fraction: Vec3, probability: f32, bends: bool, reflected: bool| DeltaContinuation {
             wi: self.frame.to_world(wi_local).normalize(),
-            fraction: self.glass_weight * (1.0 - reflectance) * tint,
-            probability: p * (1.0 - reflectance),
+            fraction: self.glass_weight * fraction,
+            probability: p * probability,
             bends,
-        })
+            reflected,
+        };
+        match self.dielectric {
+            Dielectric::Smooth { eta, tint } => {
+                let reflectance = fresnel_dielectric(wo_local.z, eta);
+                if reflectance >= 1.0 {
+                    return Some(event(Vec3::new(-wo_local.x, -wo_local.y, wo_local.z), Vec3::ONE, 1.0, true, true));
+                }
+                let (wi, etap) = refract(wo_local, Vec3::Z, eta)?;
+                Some(event(wi, tint * ((1.0 - reflectance) / (etap * etap)), 1.0 - reflectance, true, false))
+            }
+            Dielectric::ThinSmooth { eta, tint } => {
+                let reflectance = thin_slab_reflectance(wo_local.z, eta);
+                (reflectance < 1.0).then(|| event(-wo_local, tint * (1.0 - reflectance), 1.0 - reflectance, false, false))
+            }
+            _ => None,
+        }
     }
 
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u_event: f32, u: Vec2) -> Option<BsdfSample> {

@@ -433,28 +433,36 @@ fn delta_reflection_is_the_sampled_reflections_mean() {
     }
 }
 
-/// Smooth glass alone transmits along one direction per wo: `delta_transmission` gives it,
-/// the mean of the sampled transmission's weight there (its fraction of the light) and the
-/// probability `sample` picks it, checked over a fine grid of u_event against `sample`, from
-/// both sides (refraction into and out of solid glass) and with a tint. Surfaces with a
-/// non-delta lobe have none: next-event estimation cannot follow their sampled events.
+/// Light passes smooth glass alone one way per wo: `delta_continuation` gives it (the
+/// transmission, or the total internal reflection where nothing is transmitted), the mean
+/// of the sampled event's weight there (its fraction of the light) and the probability
+/// `sample` picks it, checked over a fine grid of u_event against `sample`, from both sides
+/// and with a tint. Surfaces with a non-delta lobe have none: next-event estimation cannot
+/// follow their sampled events.
 #[test]
-fn delta_transmission_is_the_sampled_transmissions_mean() {
+fn delta_continuation_is_the_sampled_events_mean() {
     let n = test_normal();
     let tinted = |thin| SurfaceMaterial { base_color: Vec3::new(0.9, 0.6, 0.3), ..glass(0.0, thin, 1.0) };
-    for (name, material, bends) in [("smooth glass", tinted(false), true), ("smooth thin pane", tinted(true), false)] {
+    // cos -0.5 and -0.3 lie past the critical angle inside solid glass (cos 0.745 at 1.5).
+    let cases = [
+        ("smooth glass", tinted(false), true, vec![0.95f32, 0.5, 0.1, -0.8, -0.95, -0.5, -0.3]),
+        ("smooth thin pane", tinted(true), false, vec![0.95, 0.5, 0.1, -0.3, -0.9]),
+    ];
+    for (name, material, solid, cosines) in cases {
         let bsdf = Bsdf::new(&material, n, MaterialModel::Gltf);
-        for cos_theta in [0.95f32, 0.5, 0.1, -0.8, -0.95] {
+        for cos_theta in cosines {
             let wo = outgoing(&bsdf, cos_theta);
-            let event = bsdf.delta_transmission(wo).unwrap_or_else(|| panic!("{name}, cos {cos_theta}: no transmission"));
-            assert_eq!(event.bends, bends, "{name}");
+            let event = bsdf.delta_continuation(wo).unwrap_or_else(|| panic!("{name}, cos {cos_theta}: no continuation"));
+            let total_internal_reflection = solid && cos_theta > -0.745 && cos_theta < 0.0;
+            assert_eq!(event.reflected, total_internal_reflection, "{name}, cos {cos_theta}");
+            assert_eq!(event.bends, solid, "{name}, cos {cos_theta}");
             let grid = 100_000;
             let (mut sum, mut picked, mut largest) = (Vec3::ZERO.as_dvec3(), 0usize, 0.0f64);
             for j in 0..grid {
                 let u_event = (j as f32 + 0.5) / grid as f32;
                 let Some(sample) = bsdf.sample(wo, 0.5, u_event, glam::Vec2::splat(0.5)) else { continue };
-                if sample.delta && sample.transmitted {
-                    assert!((sample.wi - event.wi).length() < 1e-5, "{name}: a transmission off {}: {}", event.wi, sample.wi);
+                if sample.delta && sample.transmitted != event.reflected {
+                    assert!((sample.wi - event.wi).length() < 1e-5, "{name}: an event off {}: {}", event.wi, sample.wi);
                     sum += sample.weight.as_dvec3();
                     picked += 1;
                     largest = largest.max(sample.weight.max_element() as f64);
@@ -473,13 +481,10 @@ fn delta_transmission_is_the_sampled_transmissions_mean() {
             );
         }
     }
-    // Beyond the critical angle inside solid glass, nothing is transmitted.
-    let bsdf = Bsdf::new(&glass(0.0, false, 1.0), n, MaterialModel::Gltf);
-    assert!(bsdf.delta_transmission(outgoing(&bsdf, -0.5)).is_none(), "total internal reflection transmits nothing");
     for (name, material) in
         [("rough glass", glass(0.3, false, 1.0)), ("half-transmissive smooth glass", glass(0.0, false, 0.5)), ("opaque", opaque(Vec3::splat(0.5), 0.0, 0.0))]
     {
         let bsdf = Bsdf::new(&material, n, MaterialModel::Gltf);
-        assert!(bsdf.delta_transmission(outgoing(&bsdf, 0.7)).is_none(), "{name} has no transmission next-event estimation can follow");
+        assert!(bsdf.delta_continuation(outgoing(&bsdf, 0.7)).is_none(), "{name} has no continuation next-event estimation can follow");
     }
 }

@@ -15,7 +15,7 @@
 use glam::Vec3;
 use glassbake_core::Ray;
 
-use crate::bsdf::{Bsdf, BsdfSample, DeltaTransmission};
+use crate::bsdf::{Bsdf, BsdfSample, DeltaContinuation};
 use crate::path_class::{PathClass, PathFilter};
 use crate::prepared::{offset_origin, ray_epsilon, PathSettings, PreparedScene, SurfaceHit, MAX_VERTICES};
 use crate::qmc::{self, StratifiedSample};
@@ -139,35 +139,38 @@ struct PathState {
     /// vertex already took (`PreparedScene::reflected_emission`): not counted again.
     emission_taken: bool,
     /// Since the last non-delta vertex, whose shadow ray followed smooth glass, the path has
-    /// only been transmitted by smooth glass: a path that shadow ray could have made too.
+    /// only passed smooth glass (transmitted, or totally reflected inside it): a path that
+    /// shadow ray could have made too.
     glass_chain: Option<GlassChain>,
 }
 
-/// A path's run of smooth-glass transmissions since a non-delta vertex, as next-event
-/// estimation through glass (`PreparedScene::light_through_glass`) weighs it.
+/// A path's run of smooth-glass events since a non-delta vertex (each the one way light
+/// passes the glass there: [`Bsdf::delta_continuation`]), as next-event estimation through
+/// glass (`PreparedScene::light_through_glass`) weighs it.
 #[derive(Clone, Copy, Debug)]
 struct GlassChain {
     /// The non-delta vertex and the direction the path left it in.
     origin: Vec3,
     direction: Vec3,
     /// The density of BSDF-sampling that direction there times the probabilities of the
-    /// transmissions picked since.
+    /// events picked since.
     probability: f32,
     interfaces: u32,
-    /// One of them refracted (solid glass): not a path the straight shadow ray makes.
+    /// One of them turned the path (solid glass): not a path the straight shadow ray makes.
     bends: bool,
 }
 
 impl GlassChain {
-    /// Extended by the delta `sample` taken at a surface with `bsdf`, if it is a
-    /// transmission of smooth glass alone.
-    fn through(mut self, bsdf: &Bsdf, sample: &BsdfSample) -> Option<Self> {
-        if !sample.transmitted || bsdf.has_non_delta() || !bsdf.is_glass() {
+    /// Extended by the delta `sample` taken towards `wo` at a surface with `bsdf`, if it is
+    /// the way light passes smooth glass there (what the shadow ray follows).
+    fn through(mut self, bsdf: &Bsdf, wo: Vec3, sample: &BsdfSample) -> Option<Self> {
+        let continuation = bsdf.delta_continuation(wo)?;
+        if sample.transmitted == continuation.reflected {
             return None;
         }
         self.probability *= sample.pdf;
         self.interfaces += 1;
-        self.bends |= !sample.pass_through;
+        self.bends |= continuation.bends;
         Some(self)
     }
 }
@@ -310,7 +313,7 @@ impl PreparedScene<'_> {
                 false => {
                     follow_glass.then_some(GlassChain { origin: hit.position, direction: sample.wi, probability: sample.pdf, interfaces: 0, bends: false })
                 }
-                true => path.glass_chain.and_then(|chain| chain.through(&bsdf, &sample)),
+                true => path.glass_chain.and_then(|chain| chain.through(&bsdf, wo, &sample)),
             };
             path.emission_taken = split && sample.delta && !sample.transmitted;
             let ng = hit.geometric_normal;
@@ -428,15 +431,15 @@ impl PreparedScene<'_> {
     /// Next-event estimation through smooth glass: the light sampled in direction `wi` from
     /// `hit` did not arrive straight, so the shadow ray follows smooth glass, refracted by
     /// Snell's law and attenuated by Fresnel transmittance and tint at each of at most
-    /// `interfaces` interfaces (total internal reflection ends it), to whatever emitter it
-    /// reaches. Returned: that emitter's radiance times the transmittance, divided by the
+    /// `interfaces` interfaces, or totally reflected inside solid glass where nothing is
+    /// transmitted, to whatever emitter it reaches. Returned: that emitter's radiance times the transmittance, divided by the
     /// density of sampling `wi` ([`LightSampler::direction_pdf`]) and MIS-weighted against
     /// BSDF sampling (`bsdf_pdf` at `hit` times the probabilities of picking each
     /// transmission: `GlassChain`). Under solid glass lit from above, what only BSDF
     /// sampling found before (specular-diffuse-specular paths, one in tens of samples) this
     /// finds at every sample where the glass shifts the light without bending it away: a
-    /// slab, a glass's flat bottom under its flat top. Only paths with at least one
-    /// refraction count: the rest is the straight shadow ray's.
+    /// slab, a glass's flat bottom under its flat top, its walls reflecting what reaches them
+    /// inside. Only paths turned at least once count: the rest is the straight shadow ray's.
     ///
     /// [`LightSampler::direction_pdf`]: crate::lights::LightSampler::direction_pdf
     fn light_through_glass(&self, hit: &SurfaceHit, wi: Vec3, bsdf_pdf: f32, interfaces: u32, settings: &PathSettings) -> Vec3 {
@@ -458,12 +461,12 @@ impl PreparedScene<'_> {
             }
             let Owner::Object { material, .. } = next.owner else { return Vec3::ZERO };
             let bsdf = Bsdf::new(&self.surface_material(material, next.uv), next.shading_normal, settings.material_model);
-            let Some(DeltaTransmission { wi: onward, fraction, probability: picked, bends: refracted }) = bsdf.delta_transmission(-direction) else {
+            let Some(DeltaContinuation { wi: onward, fraction, probability: picked, bends: turned, .. }) = bsdf.delta_continuation(-direction) else {
                 return Vec3::ZERO;
             };
             transmittance *= fraction;
             probability *= picked;
-            bends |= refracted;
+            bends |= turned;
             origin = offset_origin(next.position, next.geometric_normal, onward);
             direction = onward;
         }
