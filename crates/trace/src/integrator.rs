@@ -1,7 +1,8 @@
 //! The camera's path integrator: unidirectional path tracing with next-event estimation and
 //! multiple importance sampling (Veach 1997, power heuristic), Russian roulette and a maximum
 //! path length; shadow rays pass straight through smooth thin panes (exact for a pane, which
-//! does not bend light), with MIS that counts the pane crossings on both strategies.
+//! does not bend light), with MIS that counts the pane crossings on both strategies, and
+//! where the estimator asks, follow smooth glass that turns them.
 //!
 //! [`PreparedScene::trace_path`] reads top-down, one loop iteration per surface vertex:
 //! find the next surface, add what an emitter there sends, let the estimator's hooks act,
@@ -10,7 +11,8 @@
 //! every default; the caustic estimator's hooks (`caustic_paths.rs`, with photon merging's in
 //! `photon_merging.rs`) leave out the paths its light tracer or its photons carry, and take
 //! the emitters that smooth glass seen by the camera reflects at every sample instead of at
-//! the few samples that pick the reflection.
+//! the few samples that pick the reflection, and from surfaces the camera sees through
+//! bending glass send shadow rays on through smooth glass.
 
 use glam::Vec3;
 use glassbake_core::Ray;
@@ -432,14 +434,15 @@ impl PreparedScene<'_> {
     /// `hit` did not arrive straight, so the shadow ray follows smooth glass, refracted by
     /// Snell's law and attenuated by Fresnel transmittance and tint at each of at most
     /// `interfaces` interfaces, or totally reflected inside solid glass where nothing is
-    /// transmitted, to whatever emitter it reaches. Returned: that emitter's radiance times the transmittance, divided by the
-    /// density of sampling `wi` ([`LightSampler::direction_pdf`]) and MIS-weighted against
-    /// BSDF sampling (`bsdf_pdf` at `hit` times the probabilities of picking each
-    /// transmission: `GlassChain`). Under solid glass lit from above, what only BSDF
-    /// sampling found before (specular-diffuse-specular paths, one in tens of samples) this
-    /// finds at every sample where the glass shifts the light without bending it away: a
-    /// slab, a glass's flat bottom under its flat top, its walls reflecting what reaches them
-    /// inside. Only paths turned at least once count: the rest is the straight shadow ray's.
+    /// transmitted, to whatever emitter it reaches. Returned: that emitter's radiance times
+    /// the transmittance, divided by the density of sampling `wi`
+    /// ([`LightSampler::direction_pdf`]) and MIS-weighted against BSDF sampling (`bsdf_pdf`
+    /// at `hit` times the probabilities of picking each event: `GlassChain`). Under solid
+    /// glass lit from above, what only BSDF sampling found before (specular-diffuse-specular
+    /// paths, one in tens of samples) this finds at every sample where the glass shifts the
+    /// light without turning it away: a slab, a glass's flat bottom under its flat top, its
+    /// walls reflecting what reaches them inside. Only paths turned at least once count: the
+    /// rest is the straight shadow ray's.
     ///
     /// [`LightSampler::direction_pdf`]: crate::lights::LightSampler::direction_pdf
     fn light_through_glass(&self, hit: &SurfaceHit, wi: Vec3, bsdf_pdf: f32, interfaces: u32, settings: &PathSettings) -> Vec3 {
