@@ -74,12 +74,14 @@ impl Camera {
     /// The primary ray through image point (px, py) in pixel units; the centre of pixel
     /// (x, y) is (x + 0.5, y + 0.5).
     pub fn ray(&self, px: f32, py: f32, width: u32, height: u32) -> Ray {
-        let f = self.frame();
-        let (tx, ty) = self.tan_half_fov(width, height);
-        let ndc_x = 2.0 * px / width as f32 - 1.0;
-        let ndc_y = 1.0 - 2.0 * py / height as f32;
-        let direction = (f.forward + f.right * (ndc_x * tx) + f.up * (ndc_y * ty)).normalize();
-        Ray { origin: self.position, direction }
+        self.primary_rays(width, height).ray(px, py)
+    }
+
+    /// The primary rays of a `width` x `height` image, for casting many: the frame and the
+    /// field of view are worked out once (a path tracer casts hundreds of rays per pixel).
+    pub fn primary_rays(&self, width: u32, height: u32) -> PrimaryRays {
+        let (tan_x, tan_y) = self.tan_half_fov(width, height);
+        PrimaryRays { origin: self.position, frame: self.frame(), tan_x, tan_y, width: width as f32, height: height as f32 }
     }
 
     pub fn pixel_center_ray(&self, x: u32, y: u32, width: u32, height: u32) -> Ray {
@@ -110,6 +112,30 @@ impl Camera {
         }
         let ndc = clip.truncate() / clip.w;
         Some(((ndc.x + 1.0) * 0.5 * width as f32, (1.0 - ndc.y) * 0.5 * height as f32))
+    }
+}
+
+/// [`Camera::ray`] for one image size, with what every ray shares computed once.
+#[derive(Clone, Copy, Debug)]
+pub struct PrimaryRays {
+    origin: Vec3,
+    frame: CameraFrame,
+    tan_x: f32,
+    tan_y: f32,
+    width: f32,
+    height: f32,
+}
+
+impl PrimaryRays {
+    /// The ray through image point (px, py) in pixel units; the centre of pixel (x, y) is
+    /// (x + 0.5, y + 0.5).
+    #[inline]
+    pub fn ray(&self, px: f32, py: f32) -> Ray {
+        let ndc_x = 2.0 * px / self.width - 1.0;
+        let ndc_y = 1.0 - 2.0 * py / self.height;
+        let f = &self.frame;
+        let direction = (f.forward + f.right * (ndc_x * self.tan_x) + f.up * (ndc_y * self.tan_y)).normalize();
+        Ray { origin: self.origin, direction }
     }
 }
 

@@ -11,6 +11,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
+use glassbake_core::camera::PrimaryRays;
 use glassbake_core::layout::GROUND_TRUTH_CHANNELS;
 use glassbake_core::{Camera, Error, PlanarImage, Result};
 use glassbake_scene::Scene;
@@ -436,7 +437,8 @@ impl CameraPasses<'_> {
     }
 
     fn pass_with<H: PathHooks + Sync>(&self, spp_of: &(dyn Fn(u32, u32) -> u32 + Sync), seed: u64, hooks: H) -> Vec<Vec<PixelSums>> {
-        let pass = PixelPass { width: self.settings.width, height: self.settings.height, seed, stratified: self.settings.estimator.stratified };
+        let (width, height) = (self.settings.width, self.settings.height);
+        let pass = PixelPass { rays: self.camera.primary_rays(width, height), width, seed, stratified: self.settings.estimator.stratified };
         self.tiles
             .par_iter()
             .map(|tile| {
@@ -447,7 +449,7 @@ impl CameraPasses<'_> {
                     .map(|(x, y)| {
                         let spp = spp_of(x, y);
                         tile_samples += spp as u64;
-                        render_pixel(self.prepared, self.camera, &pass, &self.path_settings, (x, y, spp), hooks, &mut scratch)
+                        render_pixel(self.prepared, &pass, &self.path_settings, (x, y, spp), hooks, &mut scratch)
                     })
                     .collect();
                 let finished = self.done_before + self.done.fetch_add(tile_samples, Ordering::Relaxed) + tile_samples;
@@ -621,13 +623,14 @@ const GLASS_PROBES: u32 = 3;
 /// coverage of the transparency buffers marks the same pixels (up to the sub-pixel grid),
 /// and it is what the evaluation's transparent-pixel metrics read.
 pub fn glass_pixels(prepared: &PreparedScene, camera: &Camera, width: u32, height: u32) -> Vec<bool> {
+    let rays = camera.primary_rays(width, height);
     (0..width * height)
         .into_par_iter()
         .map(|index| {
             let (x, y) = (index % width, index / width);
             (0..GLASS_PROBES * GLASS_PROBES).any(|probe| {
                 let offset = |i: u32| (i as f32 + 0.5) / GLASS_PROBES as f32;
-                let ray = camera.ray(x as f32 + offset(probe % GLASS_PROBES), y as f32 + offset(probe / GLASS_PROBES), width, height);
+                let ray = rays.ray(x as f32 + offset(probe % GLASS_PROBES), y as f32 + offset(probe / GLASS_PROBES));
                 first_transparent_object(prepared, &ray).is_some()
             })
         })
@@ -637,10 +640,11 @@ pub fn glass_pixels(prepared: &PreparedScene, camera: &Camera, width: u32, heigh
 /// The transparent object (one that gets a transparency buffer) that a ray through each
 /// pixel's centre meets first, if any; row-major.
 pub fn transparent_object_per_pixel(prepared: &PreparedScene, camera: &Camera, width: u32, height: u32) -> Vec<Option<u32>> {
+    let rays = camera.primary_rays(width, height);
     (0..width * height)
         .into_par_iter()
         .map(|index| {
-            let ray = camera.ray((index % width) as f32 + 0.5, (index / width) as f32 + 0.5, width, height);
+            let ray = rays.ray((index % width) as f32 + 0.5, (index / width) as f32 + 0.5);
             first_transparent_object(prepared, &ray)
         })
         .collect()
@@ -689,11 +693,11 @@ impl PixelSums {
     }
 }
 
-/// What every pixel of a pass shares: the image size, the pass's seed, and whether sample
-/// values are stratified.
+/// What every pixel of a pass shares: the camera's rays, the image width (pixels are numbered
+/// row by row), the pass's seed, and whether sample values are stratified.
 struct PixelPass {
+    rays: PrimaryRays,
     width: u32,
-    height: u32,
     seed: u64,
     stratified: bool,
 }
@@ -702,14 +706,13 @@ struct PixelPass {
 /// box filter over the pixel.
 fn render_pixel<H: PathHooks>(
     prepared: &PreparedScene,
-    camera: &Camera,
     pass: &PixelPass,
     path_settings: &PathSettings,
     (x, y, spp): (u32, u32, u32),
     hooks: H,
     scratch: &mut PathScratch,
 ) -> PixelSums {
-    let PixelPass { width, height, seed, stratified } = *pass;
+    let PixelPass { rays, width, seed, stratified } = *pass;
     let pixel_index = y as u64 * width as u64 + x as u64;
     let mut rng = Pcg32::for_pixel(seed, pixel_index);
     let mut sums = PixelSums::default();
@@ -721,7 +724,7 @@ fn render_pixel<H: PathHooks>(
             Some(sample) => sample.get_2d(qmc::PIXEL_DIMENSION),
             None => rng.next_vec2(),
         };
-        let ray = camera.ray(x as f32 + jitter.x, y as f32 + jitter.y, width, height);
+        let ray = rays.ray(x as f32 + jitter.x, y as f32 + jitter.y);
         let path = prepared.trace_path(&ray, &mut rng, stratified_sample.as_ref(), path_settings, hooks, scratch);
         if path.all.is_finite() {
             for (c, (counted, all)) in path.counted.to_array().into_iter().zip(path.all.to_array()).enumerate() {
