@@ -124,11 +124,26 @@ impl Texture {
         let y = uv.y * self.height as f32 - 0.5;
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let top = self.texel(x0, y0).lerp(self.texel(x0 + 1, y0), fx);
-        let bottom = self.texel(x0, y0 + 1).lerp(self.texel(x0 + 1, y0 + 1), fx);
-        top.lerp(bottom, fy)
+        let [x0, x1] = wrapped_pair(x0 as i64, self.width);
+        let [y0, y1] = wrapped_pair(y0 as i64, self.height);
+        let row = |y: usize| &self.texels[y * self.width as usize..][..self.width as usize];
+        let (top, bottom) = (row(y0), row(y1));
+        top[x0].lerp(top[x1], fx).lerp(bottom[x0].lerp(bottom[x1], fx), fy)
     }
+}
+
+/// `i` and `i + 1` wrapped into `0..n` (repeat), as [`Texture::texel`] wraps them. Without a
+/// division where both already lie inside, as they do for all but a texture's last row and
+/// column: path tracers sample textures at every hit, and 64-bit divisions made up most of
+/// the lookup's time.
+#[inline]
+fn wrapped_pair(i: i64, n: u32) -> [usize; 2] {
+    let n = n as i64;
+    if i >= 0 && i + 1 < n {
+        return [i as usize, i as usize + 1];
+    }
+    let first = i.rem_euclid(n);
+    [first as usize, if first + 1 == n { 0 } else { first as usize + 1 }]
 }
 
 /// How light passes through a transmissive material. The tint is the material's base colour
@@ -424,5 +439,15 @@ mod tests {
         let seam = (texture.texels[0] + texture.texels[3]) * 0.5;
         assert_eq!(texture.sample(Vec2::new(0.0, 0.5 / 2.0)), seam);
         assert_eq!(texture.sample(Vec2::new(-3.0, 1.0 + 0.5 / 2.0)), seam);
+    }
+
+    #[test]
+    fn neighbouring_texels_wrap_as_single_texels_do() {
+        for n in 1..6u32 {
+            for i in -13..13i64 {
+                let expected = [i.rem_euclid(n as i64) as usize, (i + 1).rem_euclid(n as i64) as usize];
+                assert_eq!(wrapped_pair(i, n), expected, "i {i}, n {n}");
+            }
+        }
     }
 }
