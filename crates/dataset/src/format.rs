@@ -127,6 +127,12 @@ pub struct DatasetSpec {
     pub resolution: u32,
     /// Samples per pixel of the train and validation ground truth.
     pub spp: u32,
+    /// Samples per pixel of the train and validation ground truth on the pixels that show
+    /// glass (`glassbake_trace::glass_pixels`), when more than `spp`: what the models learn
+    /// behind glass is then less noisy where the transparent-pixel metrics look. Absent in
+    /// older manifests (every training pixel at `spp`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub glass_spp: Option<u32>,
     /// Samples per pixel of the test split's ground truth, when it is traced higher than
     /// `spp`: models are then judged against a reference less noisy than what they learned
     /// from, and each test frame is also traced at `spp` (`gt-train-spp/`) so that the
@@ -168,9 +174,11 @@ impl DatasetSpec {
 
     /// Samples per pixel of the ground truth of a frame of `split` on its glass pixels.
     pub fn glass_spp_of(&self, split: Split) -> u32 {
-        match (split, self.test_glass_spp) {
-            (Split::Test, Some(glass_spp)) => glass_spp,
-            _ => self.spp_of(split),
+        match (split, self.test_glass_spp, self.glass_spp) {
+            (Split::Test, Some(glass_spp), _) => glass_spp,
+            (Split::Test, None, _) if self.test_spp.is_some() => self.spp_of(split),
+            (_, _, Some(glass_spp)) => glass_spp,
+            (_, _, None) => self.spp,
         }
     }
 
@@ -197,6 +205,15 @@ impl DatasetSpec {
         }
         if self.spp == 0 {
             return Err(Error::bad_input("dataset", "--spp", "must be at least 1"));
+        }
+        if let Some(glass_spp) = self.glass_spp {
+            if glass_spp < self.spp {
+                return Err(Error::bad_input(
+                    "dataset",
+                    "--glass-spp",
+                    format!("{glass_spp} is below --spp {}: glass pixels get at least as many samples as the others", self.spp),
+                ));
+            }
         }
         if self.test_spp == Some(0) {
             return Err(Error::bad_input("dataset", "--test-spp", "must be at least 1"));
@@ -379,9 +396,10 @@ impl DatasetManifest {
                 ));
             }
         }
-        let fields: [(&str, String, String); 10] = [
+        let fields: [(&str, String, String); 11] = [
             ("--res", a.resolution.to_string(), b.resolution.to_string()),
             ("--spp", a.spp.to_string(), b.spp.to_string()),
+            ("--glass-spp", a.glass_spp_of(Split::Train).to_string(), b.glass_spp_of(Split::Train).to_string()),
             ("--test-spp", a.spp_of(Split::Test).to_string(), b.spp_of(Split::Test).to_string()),
             ("--test-glass-spp", a.glass_spp_of(Split::Test).to_string(), b.glass_spp_of(Split::Test).to_string()),
             ("--seed", a.seed.to_string(), b.seed.to_string()),
@@ -419,6 +437,7 @@ mod tests {
             scene: "cornellbox".into(),
             resolution: 8,
             spp: 2,
+            glass_spp: None,
             test_spp: None,
             test_glass_spp: None,
             seed: 0,
@@ -462,6 +481,7 @@ mod tests {
             scene: "cornellbox".into(),
             resolution: 8,
             spp: 2,
+            glass_spp: None,
             test_spp: None,
             test_glass_spp: None,
             seed: 0,

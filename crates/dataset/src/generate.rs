@@ -14,7 +14,7 @@ use glassbake_scene::Scene;
 use glassbake_trace::{sample_trace_seed, TraceSettings};
 use glassbake_trace_gpu::GpuTracer;
 
-use crate::format::{DatasetManifest, DatasetSpec, SampleRecord, TraceDevice};
+use crate::format::{DatasetManifest, DatasetSpec, SampleRecord, Split, TraceDevice};
 use crate::store::{write_frame, DatasetStore, FrameStatus};
 
 /// Which frames this machine makes: those whose index mod `count` is `index`.
@@ -93,9 +93,9 @@ pub type Progress<'a> = &'a dyn Fn(GenerateProgress);
 /// that counts a quarter of the pixels as glass (which ones is known only once the frame is
 /// traced: a fifth on cornellbox, three quarters on bathroom).
 fn frame_work(spec: &DatasetSpec, sample: &SampleRecord) -> u64 {
-    let copy = if spec.has_train_spp_copy(sample.split) { spec.spp } else { 0 };
-    let glass_extra = (spec.glass_spp_of(sample.split) - spec.spp_of(sample.split)) / 4;
-    u64::from(spec.spp_of(sample.split)) + u64::from(glass_extra) + u64::from(copy)
+    let with_glass = |spp: u32, glass_spp: u32| u64::from(spp) + u64::from(glass_spp.saturating_sub(spp) / 4);
+    let copy = if spec.has_train_spp_copy(sample.split) { with_glass(spec.spp, spec.glass_spp_of(Split::Train)) } else { 0 };
+    with_glass(spec.spp_of(sample.split), spec.glass_spp_of(sample.split)) + copy
 }
 
 /// Rasterizes frame `sample` of `instance` and stores its buffers as f16 EXR.
@@ -137,9 +137,9 @@ fn make_frame(
     };
     let mut discarded = 0;
     if spec.has_train_spp_copy(sample.split) {
-        // An independent trace at the training spp: its error against the high-spp ground
-        // truth is the noise floor of what the models learned from.
-        let copy = trace(spec.spp, spec.spp, purpose_seed(sample.seed, "training-spp copy of a test frame"))?;
+        // An independent trace at the training spp (glass pixels at theirs): its error against
+        // the high-spp ground truth is the noise floor of what the models learned from.
+        let copy = trace(spec.spp, spec.glass_spp_of(Split::Train), purpose_seed(sample.seed, "training-spp copy of a test frame"))?;
         refuse_non_finite(&copy.image, &scene.name, sample.index)?;
         write_frame(&store.train_spp_gt_path(sample.index), &copy.image, ExrPrecision::F32)?;
         discarded += copy.discarded_samples;

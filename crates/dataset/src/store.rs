@@ -53,6 +53,8 @@ pub struct DatasetInfo {
     pub scene_hash: String,
     pub resolution: u32,
     pub spp: u32,
+    /// Samples per pixel of the train and validation ground truth on the pixels that show glass.
+    pub glass_spp: u32,
     /// Samples per pixel of the test split's ground truth.
     pub test_spp: u32,
     /// ... on the pixels that show glass.
@@ -384,6 +386,7 @@ impl DatasetStore {
             scene_hash: m.scene.hash.clone(),
             resolution: m.spec.resolution,
             spp: m.spec.spp,
+            glass_spp: m.spec.glass_spp_of(Split::Train),
             test_spp: m.spec.spp_of(Split::Test),
             test_glass_spp: m.spec.glass_spp_of(Split::Test),
             device: m.spec.device,

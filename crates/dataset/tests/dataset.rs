@@ -14,14 +14,16 @@ use glassbake_dataset::{
 use glassbake_scene::builtin::builtin;
 use glassbake_trace::Estimator;
 
-/// A small dataset whose test frames are traced at 4x the training spp, 6x on glass pixels
-/// (so resume and merge cover the test frames' training-spp copies too), with enough samples
-/// on the test frames (256) for adaptive sampling to run.
+/// A small dataset whose training frames are traced at 1.5x their spp on glass pixels, its
+/// test frames at 4x the training spp, 6x on glass pixels (so resume and merge cover the test
+/// frames' training-spp copies too), with enough samples on the test frames (256) for
+/// adaptive sampling to run.
 fn spec(seed: u64) -> DatasetSpec {
     DatasetSpec {
         scene: "cornell-glass".into(),
         resolution: 8,
         spp: 64,
+        glass_spp: Some(96),
         seed,
         train: 4,
         val: 2,
@@ -192,14 +194,15 @@ fn test_frames_are_traced_at_the_test_spp_and_glass_spp_with_an_independent_trai
     let store = DatasetStore::open(&d).unwrap();
     let info = store.info();
     assert_eq!((info.spp, info.test_spp, info.test_glass_spp), (64, 256, 384));
-    let trace_with_glass = |index: u64, spp: u32, glass_spp: u32, seed: u64| {
-        let sample = &store.manifest.samples[index as usize];
+    let render = |sample: &glassbake_dataset::SampleRecord, spp: u32, glass_spp: u32, seed: u64| {
         let settings =
             glassbake_trace::TraceSettings { glass_spp: Some(glass_spp), estimator: s.estimator, ..glassbake_trace::TraceSettings::new(8, 8, spp, seed) };
         glassbake_trace::render(&scene.instantiate(&sample.values).unwrap(), &sample.camera, &settings, None).unwrap().image
     };
+    let trace_with_glass = |index: u64, spp: u32, glass_spp: u32, seed: u64| render(&store.manifest.samples[index as usize], spp, glass_spp, seed);
     let trace = |index: u64, spp: u32, seed: u64| trace_with_glass(index, spp, spp, seed);
     let mut glass_shown = false;
+    let mut glass_shown_in_training = false;
     let read = |path: &Path| glassbake_core::PlanarImage::read_exr(path).unwrap();
     for sample in &store.manifest.samples {
         let gt = read(&store.gt_path(sample.index));
@@ -210,26 +213,36 @@ fn test_frames_are_traced_at_the_test_spp_and_glass_spp_with_an_independent_trai
             glass_shown |= gt.plane_by_name("R") != trace(sample.index, 256, seed).plane_by_name("R");
             let copy = read(&copy_path);
             let seed = glassbake_core::seed::purpose_seed(sample.seed, "training-spp copy of a test frame");
-            assert_eq!(copy.plane_by_name("R"), trace(sample.index, 64, seed).plane_by_name("R"));
+            assert_eq!(copy.plane_by_name("R"), trace_with_glass(sample.index, 64, 96, seed).plane_by_name("R"), "the copy is traced as training frames are");
             assert_ne!(copy.plane_by_name("R"), gt.plane_by_name("R"), "the copy is an independent trace");
         } else {
-            assert_eq!(gt.plane_by_name("R"), trace(sample.index, 64, glassbake_trace::sample_trace_seed(sample.seed)).plane_by_name("R"));
+            let seed = glassbake_trace::sample_trace_seed(sample.seed);
+            assert_eq!(gt.plane_by_name("R"), trace_with_glass(sample.index, 64, 96, seed).plane_by_name("R"), "frame {}", sample.index);
+            glass_shown_in_training |= gt.plane_by_name("R") != trace(sample.index, 64, seed).plane_by_name("R");
             assert!(!copy_path.exists(), "frame {} is not a test frame", sample.index);
         }
     }
     assert!(glass_shown, "no test frame shows the pane: the glass spp went unchecked");
+    assert!(glass_shown_in_training, "no training frame shows the pane: its glass spp went unchecked");
     // A test frame without its copy is incomplete and is made again.
     let test_frame = store.manifest.indices_of(Split::Test)[0];
     std::fs::remove_file(store.train_spp_gt_path(test_frame)).unwrap();
     drop(store);
     let again = generate(&scene, &s, &d, &GenerateOptions::default(), &no_progress).unwrap();
     assert_eq!((again.generated, again.skipped), (1, 7));
-    // Without --test-spp nothing changes for old datasets: no copies, test at --spp.
+    // Without --test-spp and --glass-spp nothing changes for old datasets: no copies, test
+    // and glass pixels at --spp.
     let plain = dir.path().join("plain");
-    generate(&scene, &DatasetSpec { test_spp: None, test_glass_spp: None, ..s.clone() }, &plain, &GenerateOptions::default(), &no_progress).unwrap();
+    let old_style = DatasetSpec { glass_spp: None, test_spp: None, test_glass_spp: None, ..s.clone() };
+    generate(&scene, &old_style, &plain, &GenerateOptions::default(), &no_progress).unwrap();
     assert_eq!(std::fs::read_dir(plain.join("gt-train-spp")).unwrap().count(), 0);
     let manifest = std::fs::read_to_string(plain.join("manifest.json")).unwrap();
-    assert!(!manifest.contains("test_spp"), "an old-style manifest stays as it was");
+    assert!(!manifest.contains("test_spp") && !manifest.contains("glass_spp"), "an old-style manifest stays as it was");
+    let old_store = DatasetStore::open(&plain).unwrap();
+    for sample in &old_store.manifest.samples {
+        let gt = read(&old_store.gt_path(sample.index));
+        assert_eq!(gt.plane_by_name("R"), render(sample, 64, 64, glassbake_trace::sample_trace_seed(sample.seed)).plane_by_name("R"));
+    }
 }
 
 #[test]
@@ -240,10 +253,11 @@ fn progress_counts_traced_samples() {
     let record = |p: GenerateProgress| seen.lock().unwrap().push(p);
     generate(&scene, &spec(8), &dir.path().join("set"), &GenerateOptions::default(), &record).unwrap();
     let seen = seen.into_inner().unwrap();
-    // 6 train/val frames at 64 spp, 2 test frames at 256 spp (a quarter of the 128 more on
-    // glass pixels, as estimated) plus a 64-spp copy each.
+    // 6 train/val frames at 64 spp (a quarter of the 32 more on glass pixels, as estimated), 2
+    // test frames at 256 spp (a quarter of the 128 more) plus a copy traced as training
+    // frames are.
     let last = *seen.last().unwrap();
-    assert_eq!((last.frames_done, last.frames_total, last.work_done, last.work_total), (8, 8, 6 * 64 + 2 * (256 + 32 + 64), 1088));
+    assert_eq!((last.frames_done, last.frames_total, last.work_done, last.work_total), (8, 8, 6 * (64 + 8) + 2 * (256 + 32 + 64 + 8), 1152));
     assert_eq!(seen.len(), 9);
     assert!(seen.windows(2).all(|w| w[1].work_done > w[0].work_done));
 }
@@ -302,7 +316,8 @@ fn a_different_command_on_an_existing_dataset_is_refused() {
     let refusals = [
         (scene.clone(), DatasetSpec { seed: 4, ..tiny.clone() }, "--seed"),
         (scene.clone(), DatasetSpec { resolution: 16, ..tiny.clone() }, "--res"),
-        (scene.clone(), DatasetSpec { spp: 4, ..tiny.clone() }, "--spp"),
+        (scene.clone(), DatasetSpec { spp: 4, glass_spp: None, ..tiny.clone() }, "--spp"),
+        (scene.clone(), DatasetSpec { glass_spp: Some(128), ..tiny.clone() }, "--glass-spp"),
         (scene.clone(), DatasetSpec { test_spp: Some(512), test_glass_spp: Some(512), ..tiny.clone() }, "--test-spp"),
         (scene.clone(), DatasetSpec { test_glass_spp: Some(512), ..tiny.clone() }, "--test-glass-spp"),
         (scene.clone(), DatasetSpec { estimator: Estimator::parse("caustic").unwrap(), ..tiny.clone() }, "--estimator"),
@@ -362,6 +377,9 @@ fn a_different_command_on_an_existing_dataset_is_refused() {
     let result = generate(&scene, &DatasetSpec { test_glass_spp: Some(128), ..spec(3) }, &below, &GenerateOptions::default(), &no_progress);
     assert!(matches!(&result, Err(Error::BadInput { field, .. }) if field == "--test-glass-spp"), "{:?}", result.map(|s| s.generated));
     assert!(!below.exists());
+    let result = generate(&scene, &DatasetSpec { glass_spp: Some(32), ..spec(3) }, &below, &GenerateOptions::default(), &no_progress);
+    assert!(matches!(&result, Err(Error::BadInput { field, .. }) if field == "--glass-spp"), "{:?}", result.map(|s| s.generated));
+    assert!(!below.exists());
     // The GPU tracer has no light tracer.
     let gpu = dir.path().join("gpu");
     let result = generate(&scene, &DatasetSpec { device: TraceDevice::Wgpu, ..spec(3) }, &gpu, &GenerateOptions::default(), &no_progress);
@@ -382,6 +400,7 @@ fn splits_are_disjoint_and_cover_the_set() {
         scene: "cornellbox".into(),
         resolution: 8,
         spp: 1,
+        glass_spp: None,
         seed: 0,
         train: 7,
         val: 3,

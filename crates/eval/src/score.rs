@@ -125,9 +125,12 @@ fn half_resolution(options: &ScoreOptions, models: &[TrainedModel], scene_hash: 
 }
 
 /// The metrics row of the noise floor, where `split` of the dataset has one: its ground truth
-/// traced at the training spp, scored against the (higher-spp) ground truth of the same frames.
+/// traced as training frames are, scored against the (higher-spp) ground truth of the same
+/// frames: `gt-96spp`, or `gt-96spp-384glass` where training frames' glass pixels get more.
 pub fn noise_floor_row(spec: &DatasetSpec, split: Split) -> Option<String> {
-    spec.has_train_spp_copy(split).then(|| format!("gt-{}spp", spec.spp))
+    let glass_spp = spec.glass_spp_of(Split::Train);
+    let glass = if glass_spp != spec.spp { format!("-{glass_spp}glass") } else { String::new() };
+    spec.has_train_spp_copy(split).then(|| format!("gt-{}spp{glass}", spec.spp))
 }
 
 /// Planes `first..first + 3` of `image` (an RGB or XYZ attribute).

@@ -64,6 +64,11 @@ pub struct MakeArgs {
     /// Path-tracing samples per pixel of the train and validation ground truth.
     #[arg(long, default_value_t = 256)]
     pub spp: u32,
+    /// Samples per pixel of the train and validation ground truth on the pixels that show a
+    /// transparent object (default: --spp): what the models learn behind glass, where the
+    /// path tracer is noisiest, is then less noisy.
+    #[arg(long)]
+    pub glass_spp: Option<u32>,
     /// Samples per pixel of the test split's ground truth (default: 8 x --spp), so that
     /// models are judged against a converged reference. Each test frame is also traced at
     /// --spp, for the noise floor the evaluation reports.
@@ -153,10 +158,11 @@ pub fn run(args: DatasetArgs) -> Result<()> {
             println!("dataset {}", dir.display());
             println!("  scene {} (hash {})", info.scene_name, info.scene_hash);
             println!(
-                "  {}x{} px, {} spp{} (traced on {}, {} estimator, {}), seed {}, {} transparent objects",
+                "  {}x{} px, {} spp{}{} (traced on {}, {} estimator, {}), seed {}, {} transparent objects",
                 info.resolution,
                 info.resolution,
                 info.spp,
+                if info.glass_spp != info.spp { format!(" ({} on glass pixels)", info.glass_spp) } else { String::new() },
                 match (info.test_spp != info.spp, info.test_glass_spp != info.test_spp) {
                     (_, true) => format!(", test split {} spp ({} on glass pixels)", info.test_spp, info.test_glass_spp),
                     (true, false) => format!(", test split {} spp", info.test_spp),
@@ -257,6 +263,7 @@ pub fn make_dataset(args: &MakeArgs, bar: &ProgressBar) -> Result<bool> {
         scene: args.scene.clone(),
         resolution: args.res,
         spp: args.spp,
+        glass_spp: args.glass_spp,
         test_spp: Some(test_spp),
         test_glass_spp: Some(args.test_glass_spp.unwrap_or_else(|| default_test_glass_spp(test_spp))),
         seed: args.seed,
