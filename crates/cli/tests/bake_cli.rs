@@ -237,6 +237,21 @@ fn ablations_are_trained_with_their_settings_and_evaluated() {
         glassbake(&["train", path(&out.join("dataset")), "--ablation", "front-through", "--preset", "tiny", "--out", path(&dir.path().join("y"))]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("front-through") && err.contains("naive"), "{err}");
+
+    // GlassNet without the through buffers trains and reads none; the naive baseline has no
+    // such ablation.
+    let without = dir.path().join("glassnet-no-through");
+    let (code, _, err) = glassbake(&["train", path(&out.join("dataset")), "--ablation", "no-through", "--preset", "tiny", "--out", path(&without)]);
+    assert_eq!(code, 0, "{err}");
+    let without_config: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(without.join("config.json")).unwrap()).unwrap();
+    assert_eq!((&without_config["network"]["model"], &without_config["network"]["through"]), (&"glassnet".into(), &false.into()));
+    let glassnet_config: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("glassnet/config.json")).unwrap()).unwrap();
+    assert_eq!(glassnet_config["network"]["through"], true, "the ablation differs from GlassNet in its through buffers");
+    let naive_without = dir.path().join("z");
+    let (code, _, err) =
+        glassbake(&["train", path(&out.join("dataset")), "--model", "naive", "--ablation", "no-through", "--preset", "tiny", "--out", path(&naive_without)]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("no-through") && err.contains("GlassNet"), "{err}");
 }
 
 #[test]

@@ -63,9 +63,10 @@ pub struct TrainArgs {
     /// Weight of the (1 - SSIM) term (0 = the paper's "L1 only" ablation).
     #[arg(long)]
     pub ssim_weight: Option<f64>,
-    /// An ablation: the paper's (Table 2) no-encoding (no positional encoding) or l1-only, or
+    /// An ablation: the paper's (Table 2) no-encoding (no positional encoding) or l1-only;
     /// front-through (the naive baseline also reading the through buffer of the transparent
-    /// object in front: GlassNet's input without its architecture).
+    /// object in front: GlassNet's input without its architecture); or no-through (GlassNet
+    /// without the through buffers, as the paper's: what seeing through the glass adds).
     #[arg(long)]
     pub ablation: Option<String>,
     /// What the renderer R predicts: `rgb` (the image directly, as the paper; the default) or
@@ -88,10 +89,13 @@ pub enum Ablation {
     /// The naive baseline given what is seen through the front-most transparent object (its
     /// through buffer), which tells GlassNet's input from its architecture.
     FrontThrough,
+    /// GlassNet without the through buffers (the paper's inputs), which tells what the
+    /// refracted hits add.
+    NoThrough,
 }
 
 impl Ablation {
-    pub const ALL: [Ablation; 3] = [Ablation::NoEncoding, Ablation::L1Only, Ablation::FrontThrough];
+    pub const ALL: [Ablation; 4] = [Ablation::NoEncoding, Ablation::L1Only, Ablation::FrontThrough, Ablation::NoThrough];
     /// The paper's ablations of GlassNet (Table 2), which `bake --ablations` trains.
     pub const PAPER: [Ablation; 2] = [Ablation::NoEncoding, Ablation::L1Only];
 
@@ -100,6 +104,7 @@ impl Ablation {
             Ablation::NoEncoding => "no-encoding",
             Ablation::L1Only => "l1-only",
             Ablation::FrontThrough => "front-through",
+            Ablation::NoThrough => "no-through",
         }
     }
 
@@ -107,7 +112,7 @@ impl Ablation {
         Ablation::ALL
             .into_iter()
             .find(|a| a.name() == text)
-            .ok_or_else(|| Error::bad_input("--ablation", "ablation", format!("{text:?} is not no-encoding, l1-only or front-through")))
+            .ok_or_else(|| Error::bad_input("--ablation", "ablation", format!("{text:?} is not no-encoding, l1-only, front-through or no-through")))
     }
 }
 
@@ -354,6 +359,12 @@ pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<bool> {
             );
         }
         net_config.through = true;
+    }
+    if ablation == Some(Ablation::NoThrough) {
+        if kind != ModelKind::Glassnet {
+            return Err(Error::bad_input("--ablation", "ablation", format!("no-through is an ablation of GlassNet, not of {}", kind.name())).into());
+        }
+        net_config.through = false;
     }
     if let Some(f) = args.encoding_frequencies {
         net_config.encoding_frequencies = f;
