@@ -151,6 +151,13 @@ fn render_and_bench() {
     let for_report: glassbake_eval::report::BenchFile = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(for_report.rows.len(), 4);
     assert!(for_report.rows.iter().all(|r| r.peak_ram_mib.is_some_and(|m| m > 0.0)));
+
+    // A camera moving through a still scene, and the report says so.
+    let still = dir.path().join("still.json");
+    let (code, out, err) =
+        glassbake(&["bench", path(&model), "--camera-only", "--res", "32", "--objects", "1", "--frames", "2", "--warmup", "1", "--out", path(&still)]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("the camera moves, the variables stay") && out.contains("framerate (FPS)"), "{out}");
 }
 
 #[test]

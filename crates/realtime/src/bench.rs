@@ -20,6 +20,9 @@ pub struct BenchOptions {
     pub frames: usize,
     /// Seed of the cameras and values (the scene's sampling ranges; one per frame).
     pub seed: u64,
+    /// Hold the variables at the first frame's values and move only the camera, as a viewer
+    /// orbiting a still scene does (what is built per variable value is then built once).
+    pub camera_only: bool,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -84,7 +87,8 @@ pub fn run_bench(pipeline: &mut FramePipeline, device: &str, options: &BenchOpti
                     reset_peak_rss();
                 }
                 let sample = base.sample(options.seed, i as u64);
-                let (_, times) = pipeline.render(&sample.camera, &sample.values, resolution, resolution, &Output::GlassNet)?;
+                let values = if options.camera_only { base.sample(options.seed, 0).values } else { sample.values };
+                let (_, times) = pipeline.render(&sample.camera, &values, resolution, resolution, &Output::GlassNet)?;
                 if i >= options.warmup {
                     totals.push(times.total_ms);
                     raster.push(times.raster_ms);

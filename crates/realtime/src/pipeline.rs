@@ -96,6 +96,36 @@ pub struct FramePipeline {
     through_rays: ThroughRays,
     /// The GPU through pass, compiled when first used.
     gpu_through: Option<GpuThroughPass>,
+    /// The through rays' geometry (BVHs, on the CPU or uploaded) and the variable values it
+    /// was built for: a camera moving through a still scene rebuilds nothing, a variable that
+    /// moves an object rebuilds it.
+    through_geometry: BuiltForValues<ThroughCaster>,
+}
+
+/// What was built for one set of variable values, kept until the values change.
+struct BuiltForValues<T> {
+    built: Option<(Vec<u32>, T)>,
+}
+
+impl<T> BuiltForValues<T> {
+    fn new() -> BuiltForValues<T> {
+        BuiltForValues { built: None }
+    }
+
+    /// What was built for `values` if it `fits`, else what `build` makes now (kept for later
+    /// frames). Values compare bit for bit: any move of a variable rebuilds.
+    fn get_or_build(&mut self, values: &[f32], fits: impl Fn(&T) -> bool, build: impl FnOnce() -> Result<T>) -> Result<&T> {
+        let key: Vec<u32> = values.iter().map(|v| v.to_bits()).collect();
+        let current = matches!(&self.built, Some((built_for, value)) if *built_for == key && fits(value));
+        if !current {
+            self.built = Some((key, build()?));
+        }
+        Ok(&self.built.as_ref().expect("built above").1)
+    }
+
+    fn clear(&mut self) {
+        self.built = None;
+    }
 }
 
 fn ms(since: Instant) -> f64 {
@@ -150,6 +180,7 @@ impl FramePipeline {
             zero_copy,
             through_rays,
             gpu_through: None,
+            through_geometry: BuiltForValues::new(),
         })
     }
 
@@ -177,6 +208,7 @@ impl FramePipeline {
     /// Replaces the scene (the benchmark's object counts); the models stay.
     pub fn set_scene(&mut self, scene: Scene) {
         self.scene = scene;
+        self.through_geometry.clear();
         self.rasterizer.clear_cache();
         self.coverage_rasterizer.clear_cache();
     }
@@ -267,10 +299,20 @@ impl FramePipeline {
                 }
                 let build_start = Instant::now();
                 let gpu_through = self.gpu_through.as_ref();
-                let caster = match (through, gpu_through) {
-                    (false, _) => None,
-                    (true, Some(pass)) if self.through_rays == ThroughRays::Gpu => Some(ThroughCaster::Gpu(pass.upload(&instance)?)),
-                    (true, _) => Some(ThroughCaster::Cpu(ThroughScene::build(&instance))),
+                let caster = if through {
+                    let on_gpu = self.through_rays == ThroughRays::Gpu && gpu_through.is_some();
+                    Some(self.through_geometry.get_or_build(
+                        values,
+                        |caster| matches!(caster, ThroughCaster::Gpu(_)) == on_gpu,
+                        || {
+                            Ok(match gpu_through {
+                                Some(pass) if on_gpu => ThroughCaster::Gpu(pass.upload(&instance)?),
+                                _ => ThroughCaster::Cpu(ThroughScene::build(&instance)),
+                            })
+                        },
+                    )?)
+                } else {
+                    None
                 };
                 let build_ms = ms(build_start);
                 let mut cast_ms = 0.0;
@@ -414,5 +456,50 @@ impl FramePipeline {
             data.extend(image.plane(offset + component).iter().map(|&v| map(component, v)));
         }
         PlanarImage::from_planes(width, height, layout::GROUND_TRUTH_CHANNELS.iter().map(|s| s.to_string()).collect(), data)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::cell::Cell;
+
+    #[test]
+    fn geometry_is_rebuilt_only_when_a_value_or_the_caster_changes() {
+        let builds = Cell::new(0);
+        let mut built = BuiltForValues::new();
+        let mut get = |values: &[f32], kind: char| -> (char, usize) {
+            let got = *built
+                .get_or_build(
+                    values,
+                    |&k| k == kind,
+                    || {
+                        builds.set(builds.get() + 1);
+                        Ok(kind)
+                    },
+                )
+                .unwrap();
+            (got, builds.get())
+        };
+        assert_eq!(get(&[0.5, 1.0], 'c'), ('c', 1));
+        // The camera moved, the values did not: nothing is built.
+        assert_eq!(get(&[0.5, 1.0], 'c'), ('c', 1));
+        // One variable moved by the smallest step a float takes.
+        assert_eq!(get(&[0.5, f32::from_bits(1.0f32.to_bits() + 1)], 'c'), ('c', 2));
+        assert_eq!(get(&[0.5, 1.0], 'c'), ('c', 3));
+        // The same values, cast on the other side.
+        assert_eq!(get(&[0.5, 1.0], 'g'), ('g', 4));
+        assert_eq!(get(&[0.5, 1.0], 'g'), ('g', 4));
+    }
+
+    #[test]
+    fn a_failed_build_keeps_nothing_for_its_values() {
+        let mut built = BuiltForValues::new();
+        assert_eq!(*built.get_or_build(&[1.0], |_| true, || Ok(1)).unwrap(), 1);
+        assert!(built.get_or_build(&[2.0], |_| true, || Err(Error::Internal("no GPU".into()))).is_err());
+        // The next frame at those values builds again instead of using the old geometry.
+        assert_eq!(*built.get_or_build(&[2.0], |_| true, || Ok(2)).unwrap(), 2);
+        built.clear();
+        assert_eq!(*built.get_or_build(&[2.0], |_| true, || Ok(3)).unwrap(), 3);
     }
 }

@@ -171,6 +171,11 @@ pub struct BenchArgs {
     /// Untimed frames before each configuration.
     #[arg(long, default_value_t = 3)]
     pub warmup: usize,
+    /// Hold the scene's variables at the first frame's values and move only the camera, as a
+    /// viewer orbiting a still scene does: the through rays' BVHs are then built once, not per
+    /// frame.
+    #[arg(long)]
+    pub camera_only: bool,
     /// bench.json path (default: beside the model directory, where `glassbake bake` reports
     /// look for it); a plot goes next to it as bench.png.
     #[arg(long)]
@@ -185,8 +190,14 @@ pub fn bench(args: BenchArgs) -> Result<()> {
     }
     let out = args.out.clone().unwrap_or_else(|| args.pipeline.model.parent().unwrap_or(Path::new(".")).join("bench.json"));
     let mut opened = open(&args.pipeline)?;
-    let options =
-        BenchOptions { resolutions: args.res.clone(), objects: args.objects.clone(), warmup: args.warmup, frames: args.frames, seed: opened.dataset_seed };
+    let options = BenchOptions {
+        resolutions: args.res.clone(),
+        objects: args.objects.clone(),
+        warmup: args.warmup,
+        frames: args.frames,
+        seed: opened.dataset_seed,
+        camera_only: args.camera_only,
+    };
     let bar = ProgressBar::new(0);
     bar.set_style(
         ProgressStyle::with_template("{spinner} frames {pos}/{len} [{elapsed_precise}] {wide_bar} ETA {eta}").expect("static template").progress_chars("=> "),
@@ -197,11 +208,12 @@ pub fn bench(args: BenchArgs) -> Result<()> {
         bar.set_position(done as u64);
     };
     let device = format!(
-        "network on {} ({} cores), through rays on the {}{}",
+        "network on {} ({} cores), through rays on the {}{}{}",
         opened.device,
         std::thread::available_parallelism().map_or(1, |n| n.get()),
         opened.pipeline.through_rays().name(),
-        if opened.pipeline.zero_copy() && !opened.pipeline.glassnet_frames_zero_copy() { " (so GlassNet's buffers go through host memory)" } else { "" }
+        if opened.pipeline.zero_copy() && !opened.pipeline.glassnet_frames_zero_copy() { " (so GlassNet's buffers go through host memory)" } else { "" },
+        if args.camera_only { "; the camera moves, the variables stay" } else { "" }
     );
     let report = run_bench(&mut opened.pipeline, &device, &options, &progress);
     bar.finish_and_clear();
@@ -217,6 +229,11 @@ pub fn bench(args: BenchArgs) -> Result<()> {
         if report.super_sampler { ", with the x2 super-sampler" } else { "" }
     );
     print!("{}", table(&report));
+    if opened.pipeline.glassnet_frames_zero_copy() {
+        // Nothing is read back between the stages, so their clocks stop when the work is
+        // handed to the GPU; what still runs is waited for at the end, inside `network`.
+        println!("  (one device: raster and through rays time their CPU work and submission; the GPU's own time shows in network and the frame time)");
+    }
     let series: Vec<Series> = args
         .res
         .iter()
