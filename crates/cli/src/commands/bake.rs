@@ -23,7 +23,7 @@ use super::train::{train_model, Ablation, CommonTrainArgs, TrainArgs};
 pub struct BakeArgs {
     /// A built-in name or a path to a manifest, glTF or OBJ file.
     pub scene: String,
-    /// quick (a CPU bake: 96 px, under 30 minutes on 2 cores), paper (a GPU bake: 256 px, the paper's network) or
+    /// quick (a CPU bake: 96 px, about half an hour for cornellbox on 2 cores), paper (a GPU bake: 256 px, the paper's network) or
     /// tiny (a smoke test: seconds, meaningless numbers).
     #[arg(long, default_value = "quick")]
     pub preset: String,
@@ -72,7 +72,7 @@ struct BakePreset {
 fn bake_preset(name: &str) -> glassbake_core::Result<BakePreset> {
     Ok(match name {
         "tiny" => BakePreset { resolution: 32, spp: 4, glass_spp: 4, train: 8, val: 2, test: 2, training: "tiny" },
-        // Sized to finish in under 30 minutes on a 2-core CPU on cornellbox (docs/benchmarks.md).
+        // Sized to finish in about half an hour on a 2-core CPU on cornellbox (docs/benchmarks.md).
         // 96 px so that text behind the glass is resolvable; the test split at 8x spp. Glass
         // pixels of training frames at 4x spp: at 96 spp what the camera sees through thick
         // glass is mostly noise to learn from (cornellbox8: the training frames' T.PSNR
