@@ -398,7 +398,7 @@ impl TrainConfig {
         // quick: batch 4 of 32 px crops, ~0.27 s a GlassNet step on a slow 2-core box with 4 objects
         // (docs/benchmarks.md, `--example train_step`). 3,000 steps of GlassNet and naive: the
         // default cornellbox bake took 32.7 min on that box (about 29 with 2,000). At 2,000
-        // GlassNet on cornellbox8 was still improving, one seed 1.2 dB T.PSNR behind the other;
+        // GlassNet on cornellbox8 was still improving, one seed 1.0 dB T.PSNR behind the other;
         // at 3,000 the two gained 1.0 and 1.3 dB (docs/benchmarks.md, 2026-11-27). Learning rate 1e-3, not
         // 2e-3: at 2e-3 the naive baseline on the default cornellbox dataset stalled at
         // validation loss 0.18 with seed 0 (drawing glass as flat dark blocks) and reached
