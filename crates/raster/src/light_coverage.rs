@@ -9,14 +9,14 @@
 //! (docs/history/benchmarks-2026-11.md).
 //!
 //! [`light_coverage`] rasterizes the opaque and naive G-buffers at `factor` x `factor` the
-//! resolution and reduces each per pixel: `coverage` is the share of sub-samples whose L_d
+//! resolution and reduces each per pixel, on the GPU (shaders/light_coverage.wgsl): `coverage` is the share of sub-samples whose L_d
 //! alone reaches 1 in every channel (a light seen directly, or a surface lit so strongly that
 //! the clamp makes it white), and `light` the L_d of
 //! those sub-samples summed and divided by all `factor^2`. An image p of everything else then
 //! becomes [`composite`]: min(1, light + (1 - coverage) p), the box-filtered pixel the ground
 //! truth holds.
 
-use glassbake_core::layout::{self, opaque};
+use glassbake_core::layout;
 use glassbake_core::{Camera, Error, PlanarImage, Result};
 use glassbake_scene::Scene;
 
@@ -40,8 +40,8 @@ pub struct LightCoverage {
 /// light seen, from the opaque and naive G-buffers rasterized at `factor` times the resolution.
 pub fn light_coverage(rasterizer: &mut Rasterizer, scene: &Scene, camera: &Camera, width: u32, height: u32, factor: u32) -> Result<LightCoverage> {
     let mut frame = fine_frame(rasterizer, scene, camera, width, height, factor)?;
-    let opaque = reduce(&frame.opaque()?, width, height, factor, layout::opaque_light_coverage_channel_names())?;
-    let naive = reduce(&frame.naive()?, width, height, factor, layout::naive_light_coverage_channel_names())?;
+    let opaque = frame.light_coverage(false, factor, layout::opaque_light_coverage_channel_names())?;
+    let naive = frame.light_coverage(true, factor, layout::naive_light_coverage_channel_names())?;
     Ok(LightCoverage { opaque, naive })
 }
 
@@ -57,11 +57,8 @@ pub fn light_coverage_of(
     naive: bool,
 ) -> Result<PlanarImage> {
     let mut frame = fine_frame(rasterizer, scene, camera, width, height, factor)?;
-    if naive {
-        reduce(&frame.naive()?, width, height, factor, layout::naive_light_coverage_channel_names())
-    } else {
-        reduce(&frame.opaque()?, width, height, factor, layout::opaque_light_coverage_channel_names())
-    }
+    let names = if naive { layout::naive_light_coverage_channel_names() } else { layout::opaque_light_coverage_channel_names() };
+    frame.light_coverage(naive, factor, names)
 }
 
 /// The frame at `factor` x `factor` the resolution that the coverage is reduced from.
@@ -82,41 +79,120 @@ pub fn coverage_factor(rasterizer: &Rasterizer, width: u32, height: u32) -> u32 
     (1..=LIGHT_COVERAGE_FACTOR).rev().find(|&k| rasterizer.fits(width.saturating_mul(k), height.saturating_mul(k))).unwrap_or(1)
 }
 
-/// A G-buffer at `factor` x `factor` sub-samples per pixel reduced to the light coverage of
-/// the `width` x `height` frame.
-fn reduce(fine: &PlanarImage, width: u32, height: u32, factor: u32, names: Vec<String>) -> Result<PlanarImage> {
-    let ld = [0, 1, 2].map(|c| fine.plane(opaque::LD + c));
-    let (w, h, k) = (width as usize, height as usize, factor as usize);
-    let fine_width = fine.width() as usize;
-    let mut planes = vec![0.0f32; layout::LIGHT_COVERAGE_CHANNELS * w * h];
-    let share = 1.0 / (k * k) as f32;
-    for y in 0..h {
-        for x in 0..w {
-            let (mut covered, mut light) = (0.0f32, [0.0f32; 3]);
-            for sy in 0..k {
-                for sx in 0..k {
-                    let at = (y * k + sy) * fine_width + x * k + sx;
-                    let sample = ld.map(|plane| plane[at]);
-                    if sample.iter().all(|&v| v >= 1.0) {
-                        covered += share;
-                        for c in 0..3 {
-                            light[c] += sample[c] * share;
-                        }
-                    }
-                }
-            }
-            let pixel = y * w + x;
-            planes[layout::light_coverage::COVERAGE * w * h + pixel] = covered;
-            for c in 0..3 {
-                planes[(layout::light_coverage::LIGHT + c) * w * h + pixel] = light[c];
-            }
-        }
-    }
-    PlanarImage::from_planes(width, height, names, planes)
-}
-
 /// The pixel the ground truth holds, from a pixel's light coverage and light and the value
 /// `rest` of everything else in it (all linear RGB, the result clamped to [0, 1]).
 pub fn composite(coverage: f32, light: [f32; 3], rest: [f32; 3]) -> [f32; 3] {
     [0, 1, 2].map(|c| (light[c] + (1.0 - coverage) * rest[c]).clamp(0.0, 1.0))
+}
+
+/// The compute pass behind [`light_coverage`]: it reduces the fine G-buffer's L_d target on
+/// the GPU, so that 4 planes at the frame's resolution are read back instead of the 17
+/// planes of the G-buffer at `factor^2` times as many pixels (on a discrete GPU that
+/// readback and the host's reduction were most of a real-time frame).
+pub(crate) struct CoverageReducer {
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct ReduceParams {
+    width: u32,
+    height: u32,
+    factor: u32,
+    coverage_plane: u32,
+    light_plane: u32,
+    _pad: [u32; 3],
+}
+
+impl CoverageReducer {
+    pub fn new(device: &wgpu::Device) -> CoverageReducer {
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("light_coverage.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("../shaders/light_coverage.wgsl").into()),
+        });
+        let compute = wgpu::ShaderStages::COMPUTE;
+        let entries = [
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: compute,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 1,
+                visibility: compute,
+                ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only: false }, has_dynamic_offset: false, min_binding_size: None },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 2,
+                visibility: compute,
+                ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
+                count: None,
+            },
+        ];
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("light coverage"), entries: &entries });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("light coverage"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("light coverage"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("reduce"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        CoverageReducer { pipeline, layout }
+    }
+
+    /// Encodes the reduction of `direct_light` (the L_d target of a G-buffer drawn at
+    /// `factor` x `factor` the resolution) into `out`: `layout::LIGHT_COVERAGE_CHANNELS`
+    /// f32 planes of `width` x `height`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn encode(
+        &self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        direct_light: &wgpu::TextureView,
+        width: u32,
+        height: u32,
+        factor: u32,
+        out: &wgpu::Buffer,
+    ) {
+        use wgpu::util::DeviceExt;
+        let params = ReduceParams {
+            width,
+            height,
+            factor,
+            coverage_plane: layout::light_coverage::COVERAGE as u32,
+            light_plane: layout::light_coverage::LIGHT as u32,
+            _pad: [0; 3],
+        };
+        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("light coverage params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("light coverage"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(direct_light) },
+                wgpu::BindGroupEntry { binding: 1, resource: out.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: uniform.as_entire_binding() },
+            ],
+        });
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("light coverage"), timestamp_writes: None });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
+    }
 }

@@ -30,6 +30,9 @@ const SHADOW_HALF_FOV_DEG: f32 = 47.5;
 /// channel count, target, first component).
 type ChannelMap = [(usize, usize, u32, u32)];
 
+/// The G-buffer target whose first three components hold L_d (`OPAQUE_MAP`).
+const LD_TARGET: u32 = 4;
+
 const OPAQUE_MAP: [(usize, usize, u32, u32); 7] = [
     (opaque::NORMAL, 3, 0, 0),
     (opaque::ROUGHNESS, 1, 0, 3),
@@ -37,7 +40,7 @@ const OPAQUE_MAP: [(usize, usize, u32, u32); 7] = [
     (opaque::DEPTH, 1, 1, 3),
     (opaque::ALBEDO, 3, 2, 0),
     (opaque::WO, 3, 3, 0),
-    (opaque::LD, 3, 4, 0),
+    (opaque::LD, 3, LD_TARGET, 0),
 ];
 
 const TRANSPARENT_MAP: [(usize, usize, u32, u32); 10] = [
@@ -149,14 +152,7 @@ impl TargetSet {
             );
         }
         queue.submit([encoder.finish()]);
-        let (tx, rx) = std::sync::mpsc::channel();
-        self.readback.map_async(wgpu::MapMode::Read, .., move |r| {
-            let _ = tx.send(r);
-        });
-        device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| Error::Internal(format!("waiting for the GPU: {e}")))?;
-        rx.recv()
-            .map_err(|_| Error::Internal("readback callback dropped".into()))?
-            .map_err(|e| Error::Internal(format!("mapping the readback buffer: {e}")))?;
+        map_for_reading(device, &self.readback)?;
         {
             let view = match self.readback.get_mapped_range(..) {
                 Ok(view) => view,
@@ -185,6 +181,16 @@ impl TargetSet {
         self.readback.unmap();
         Ok(())
     }
+}
+
+/// Maps `buffer` (MAP_READ, its copies submitted) and waits until the host can read it.
+fn map_for_reading(device: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<()> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| Error::Internal(format!("waiting for the GPU: {e}")))?;
+    rx.recv().map_err(|_| Error::Internal("readback callback dropped".into()))?.map_err(|e| Error::Internal(format!("mapping the readback buffer: {e}")))
 }
 
 /// Bytes per readback row: 16 bytes per texel, padded to wgpu's 256-byte copy alignment.
@@ -273,6 +279,8 @@ pub struct Rasterizer {
     shadows: Option<ShadowMaps>,
     /// The compute pass writing buffers into caller-owned storage buffers (made on first use).
     unpacker: Option<crate::unpack::Unpacker>,
+    /// The compute pass reducing a fine G-buffer to its light coverage (made on first use).
+    coverage_reducer: Option<crate::light_coverage::CoverageReducer>,
 }
 
 /// All buffers of one frame.
@@ -545,6 +553,7 @@ impl Rasterizer {
             targets: None,
             shadows: None,
             unpacker: None,
+            coverage_reducer: None,
         })
     }
 
@@ -1021,13 +1030,7 @@ impl Frame<'_> {
     /// Render and read back the naive G-buffer (glass overwrites what is behind it; same 17
     /// channels, `layout::naive_channel_names()`).
     pub fn naive(&mut self) -> Result<PlanarImage> {
-        {
-            let r = &mut *self.rasterizer;
-            let targets = r.targets.as_mut().expect("targets");
-            if targets.naive.is_none() {
-                targets.naive = Some(TargetSet::new(&r.device, GBUFFER_TARGETS, self.width, self.height, "naive"));
-            }
-        }
+        self.ensure_naive_targets();
         let r = &*self.rasterizer;
         let mut encoder = r.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("naive") });
         self.encode_pass(&mut encoder, PassKind::Naive);
@@ -1042,6 +1045,61 @@ impl Frame<'_> {
             out.data_mut(),
         )?;
         Ok(out)
+    }
+
+    fn ensure_naive_targets(&mut self) {
+        let r = &mut *self.rasterizer;
+        let targets = r.targets.as_mut().expect("targets");
+        if targets.naive.is_none() {
+            targets.naive = Some(TargetSet::new(&r.device, GBUFFER_TARGETS, self.width, self.height, "naive"));
+        }
+    }
+
+    /// The light coverage (`layout::LIGHT_COVERAGE_CHANNELS` planes, channel names `names`)
+    /// of this frame's opaque G-buffer, or of its naive one (rendered here) if `naive`, for a
+    /// frame `factor` times smaller on each side than this one: reduced on the GPU, so that
+    /// only the coverage's planes are read back.
+    pub(crate) fn light_coverage(&mut self, naive: bool, factor: u32, names: Vec<String>) -> Result<PlanarImage> {
+        if factor == 0 || !self.width.is_multiple_of(factor) || !self.height.is_multiple_of(factor) {
+            return Err(Error::Internal(format!("light coverage of a {}x{} frame at factor {factor}", self.width, self.height)));
+        }
+        let (width, height) = (self.width / factor, self.height / factor);
+        if naive {
+            self.ensure_naive_targets();
+        }
+        let r = &mut *self.rasterizer;
+        if r.coverage_reducer.is_none() {
+            r.coverage_reducer = Some(crate::light_coverage::CoverageReducer::new(&r.device));
+        }
+        let r = &*self.rasterizer;
+        let bytes = (layout::LIGHT_COVERAGE_CHANNELS as u64) * (width as u64) * (height as u64) * 4;
+        let reduced = r.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("light coverage"),
+            size: bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = r.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("light coverage readback"),
+            size: bytes,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let mut encoder = r.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("light coverage") });
+        if naive {
+            self.encode_pass(&mut encoder, PassKind::Naive);
+        }
+        let targets = r.targets.as_ref().expect("targets");
+        let set = if naive { targets.naive.as_ref().expect("created above") } else { &targets.opaque };
+        let reducer = r.coverage_reducer.as_ref().expect("made above");
+        reducer.encode(&r.device, &mut encoder, &set.views[LD_TARGET as usize], width, height, factor, &reduced);
+        encoder.copy_buffer_to_buffer(&reduced, 0, &readback, 0, bytes);
+        r.queue.submit([encoder.finish()]);
+        map_for_reading(&r.device, &readback)?;
+        let planes = readback.get_mapped_range(..).map(|view| bytemuck::pod_collect_to_vec::<u8, f32>(&view));
+        readback.unmap();
+        let planes = planes.map_err(|e| Error::Internal(format!("reading the light coverage: {e}")))?;
+        PlanarImage::from_planes(width, height, names, planes)
     }
 
     /// Render transparency buffer `k` into the reused transparency targets, on the GPU only

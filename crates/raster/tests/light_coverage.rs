@@ -148,3 +148,69 @@ fn glass_in_front_of_a_light_hides_it_from_the_naive_coverage_only() {
     }
     assert!(hidden > 10 && open > 10, "{hidden} pixels of light behind glass, {open} in the open");
 }
+
+/// The coverage as the module defines it, reduced on the host from a G-buffer read back at
+/// `factor` x `factor` the resolution: the reference the GPU's reduction is held to.
+fn reduce_on_host(fine: &glassbake_core::PlanarImage, factor: usize) -> Vec<f32> {
+    use glassbake_core::layout::{self, light_coverage::*, opaque};
+    let (fw, w, h) = (fine.width() as usize, fine.width() as usize / factor, fine.height() as usize / factor);
+    let ld = [0, 1, 2].map(|c| fine.plane(opaque::LD + c));
+    let mut planes = vec![0.0f32; layout::LIGHT_COVERAGE_CHANNELS * w * h];
+    let share = 1.0 / (factor * factor) as f32;
+    for y in 0..h {
+        for x in 0..w {
+            for sy in 0..factor {
+                for sx in 0..factor {
+                    let sample = ld.map(|plane| plane[(y * factor + sy) * fw + x * factor + sx]);
+                    if sample.iter().all(|&v| v >= 1.0) {
+                        planes[COVERAGE * w * h + y * w + x] += share;
+                        for c in 0..3 {
+                            planes[(LIGHT + c) * w * h + y * w + x] += sample[c] * share;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    planes
+}
+
+#[test]
+fn the_gpu_reduction_matches_the_host_reduction_of_the_fine_gbuffers() {
+    // A light seen directly and through glass, and a wall lit strongly enough to clamp white
+    // in places: every branch of the reduction, for both G-buffers.
+    let mut scene = empty_scene("light, glass and a bright wall");
+    add_quads(
+        &mut scene,
+        &[
+            Quad { centre: Vec3::new(0.0, 0.0, -1.0), u: Vec3::X * 10.0, v: Vec3::Y * 10.0, albedo: Vec3::splat(0.9), roughness: 1.0, transparent: false },
+            Quad {
+                centre: Vec3::new(0.2, 0.1, 0.0),
+                u: Vec3::new(1.1, 0.3, 0.0),
+                v: Vec3::new(-0.2, 0.7, 0.0),
+                albedo: Vec3::splat(0.5),
+                roughness: 1.0,
+                transparent: false,
+            },
+            Quad { centre: Vec3::new(-0.4, 0.0, 0.5), u: Vec3::X, v: Vec3::Y * 2.0, albedo: Vec3::splat(0.9), roughness: 0.0, transparent: true },
+        ],
+    );
+    scene.materials[1].emission = EMISSION;
+    let cam = camera(Vec3::new(0.3, -0.2, 3.0), Vec3::ZERO, 55.0);
+    let factor = 4;
+    let mut r = rasterizer();
+    let both = light_coverage(&mut r, &scene, &cam, W, H, factor).unwrap();
+    let mut fine = r.begin_frame(&scene, &cam, W * factor, H * factor).unwrap();
+    let (opaque, naive) = (fine.opaque().unwrap(), fine.naive().unwrap());
+    for (name, gpu, host) in
+        [("opaque", &both.opaque, reduce_on_host(&opaque, factor as usize)), ("naive", &both.naive, reduce_on_host(&naive, factor as usize))]
+    {
+        assert_eq!((gpu.width(), gpu.height()), (W, H));
+        let covered = host.iter().take((W * H) as usize).filter(|&&c| c > 0.0 && c < 1.0).count();
+        assert!(covered > 5, "{name}: {covered} partly covered pixels; the scene should have light edges");
+        for (i, (&g, &h)) in gpu.data().iter().zip(&host).enumerate() {
+            // The same sums in the same order; only the GPU's rounding (fused multiply-adds) differs.
+            assert!((g - h).abs() <= 1e-5 * h.abs().max(1.0), "{name} value {i}: GPU {g}, host {h}");
+        }
+    }
+}
