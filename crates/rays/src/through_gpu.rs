@@ -18,6 +18,8 @@ use wgpu::util::DeviceExt;
 
 use crate::geometry::scene_triangles;
 use crate::gpu_bvh::{GpuBvhs, GpuTriangle, COMMON_WGSL, OPTICS_WGSL};
+use crate::gpu_cache::Recent;
+use crate::gpu_stats::{created, GpuObject};
 use crate::through::{LOBE_SAMPLES, MAX_INTERFACES, SELF_HIT, VIEW_SLACK};
 use crate::triangle::{Owner, TriangleAttributes};
 
@@ -88,12 +90,26 @@ fn shader_source() -> String {
     source
 }
 
-/// The compiled kernel on a wgpu device (the rasterizer's, to share it).
+/// The compiled kernel on a wgpu device (the rasterizer's, to share it), and what its
+/// dispatches bind, kept across frames.
 pub struct GpuThroughPass {
     device: wgpu::Device,
     queue: wgpu::Queue,
     pipeline: wgpu::ComputePipeline,
+    /// The parameters each dispatch writes before it is submitted.
+    uniform: wgpu::Buffer,
+    bound: std::sync::Mutex<Bound>,
 }
+
+/// The L_d planes' copy (grown to the largest frame yet) and the bind groups, by the
+/// scene upload, the copy and the planes they bind.
+struct Bound {
+    ld_copy: Option<wgpu::Buffer>,
+    groups: Recent<([wgpu::Buffer; 6], wgpu::Buffer, wgpu::Buffer, u64, u64), wgpu::BindGroup>,
+}
+
+/// Bind groups kept: a frame's objects write into a few tensors of burn's pool.
+const KEPT_GROUPS: usize = 16;
 
 /// One scene instance uploaded for the kernel: the BVHs of the opaque scene and of each
 /// transparent object (in `Scene::transparent_objects` order), their triangles' attributes,
@@ -139,12 +155,31 @@ impl GpuThroughPass {
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(Error::Internal(format!("compiling through.wgsl: {e}")));
         }
-        Ok(GpuThroughPass { device, queue, pipeline })
+        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("through params"),
+            size: std::mem::size_of::<Params>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Ok(GpuThroughPass {
+            device,
+            queue,
+            pipeline: created(GpuObject::Pipeline, pipeline),
+            uniform: created(GpuObject::Buffer, uniform),
+            bound: std::sync::Mutex::new(Bound { ld_copy: None, groups: Recent::new(KEPT_GROUPS) }),
+        })
     }
 
     /// Upload `scene`'s geometry, materials, textures and lights. Fails, naming the scene or
     /// object, when a BVH is deeper than the kernel's traversal stack.
     pub fn upload(&self, scene: &Scene) -> Result<GpuThroughScene> {
+        self.upload_reusing(scene, None)
+    }
+
+    /// [`Self::upload`] into `previous`'s buffers where the new arrays fit in them (written
+    /// with `queue.write_buffer`, after the work already submitted that reads them): what a
+    /// frame does when a variable moves an object or a light, so that it makes no GPU object.
+    pub fn upload_reusing(&self, scene: &Scene, previous: Option<GpuThroughScene>) -> Result<GpuThroughScene> {
         let mut bvhs = GpuBvhs::default();
         let mut attributes: Vec<[f32; 4]> = Vec::new();
         let mut add = |triangles: Vec<TriangleAttributes>, name: &str| -> Result<u32> {
@@ -204,23 +239,38 @@ impl GpuThroughPass {
                 return Err(Error::bad_input(&scene.name, what, format!("{bytes} bytes for the GPU through pass; this GPU binds at most {limit}")));
             }
         }
-        let storage = |label: &str, data: &[[f32; 4]]| {
+        let mut kept = previous.map(|p| p.arrays.map(Some));
+        let mut storage = |array: usize, label: &str, data: &[[f32; 4]]| {
             // Bindings cannot be empty: an empty array travels as one unused vec4.
             let padded: &[[f32; 4]] = if data.is_empty() { &[[0.0; 4]] } else { data };
-            self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: bytemuck::cast_slice(padded),
-                usage: wgpu::BufferUsages::STORAGE,
-            })
+            let bytes: &[u8] = bytemuck::cast_slice(padded);
+            match kept.as_mut().and_then(|k| k[array].take()).filter(|b| b.size() >= bytes.len() as u64) {
+                Some(buffer) => {
+                    self.queue.write_buffer(&buffer, 0, bytes);
+                    buffer
+                }
+                None => {
+                    // Room to the next power of two: a moved object's BVH may need a few more
+                    // nodes, which then fit.
+                    let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some(label),
+                        size: (bytes.len() as u64).next_power_of_two(),
+                        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    });
+                    self.queue.write_buffer(&buffer, 0, bytes);
+                    created(GpuObject::Buffer, buffer)
+                }
+            }
         };
         Ok(GpuThroughScene {
             arrays: [
-                storage("through BVH nodes", &bvhs.nodes),
-                storage("through triangles", &bvhs.triangles),
-                storage("through attributes", &attributes),
-                storage("through materials", &materials),
-                storage("through texels", &texels),
-                storage("through lights", &lights),
+                storage(0, "through BVH nodes", &bvhs.nodes),
+                storage(1, "through triangles", &bvhs.triangles),
+                storage(2, "through attributes", &attributes),
+                storage(3, "through materials", &materials),
+                storage(4, "through texels", &texels),
+                storage(5, "through lights", &lights),
             ],
             opaque_root,
             objects,
@@ -237,7 +287,9 @@ impl GpuThroughPass {
         assert_eq!(coverage.len(), pixels, "one coverage value per pixel of the frame");
         let ld = &opaque_gbuffer.data()[opaque::LD * pixels..(opaque::LD + 3) * pixels];
         let storage = |label: &str, contents: &[f32], usage: wgpu::BufferUsages| {
-            self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytemuck::cast_slice(contents), usage })
+            let buffer =
+                self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytemuck::cast_slice(contents), usage });
+            created(GpuObject::Buffer, buffer)
         };
         let light = storage("through direct light", ld, wgpu::BufferUsages::COPY_SRC);
         // The coverage plane, then room for the through planes.
@@ -251,6 +303,7 @@ impl GpuThroughPass {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let readback = created(GpuObject::Buffer, readback);
         self.cast_into(scene, k, camera, width, height, PlanesAt { buffer: &light, byte_offset: 0, plane: 0 }, &object, 0, 0, 1)?;
         let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("through readback") });
         encoder.copy_buffer_to_buffer(&object, (pixels * 4) as u64, &readback, 0, out_bytes);
@@ -259,7 +312,7 @@ impl GpuThroughPass {
         readback.map_async(wgpu::MapMode::Read, .., move |r| {
             let _ = tx.send(r);
         });
-        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| Error::Internal(format!("waiting for the GPU: {e}")))?;
+        crate::gpu_stats::wait(&self.device).map_err(Error::Internal)?;
         rx.recv().map_err(|_| Error::Internal("readback callback dropped".into()))?.map_err(|e| Error::Internal(format!("reading the through buffer: {e}")))?;
         let data: Vec<f32> = match readback.get_mapped_range(..) {
             Ok(view) => bytemuck::pod_collect_to_vec(&view),
@@ -300,12 +353,17 @@ impl GpuThroughPass {
         if ld_source + ld_bytes > gbuffer.buffer.size() || !ld_source.is_multiple_of(4) {
             return Err(Error::Internal(format!("the L_d planes at byte {ld_source} do not fit their buffer of {}", gbuffer.buffer.size())));
         }
-        let ld_copy = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("through direct light"),
-            size: ld_bytes,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let mut bound = self.bound.lock().map_err(|_| Error::Internal("the through pass's bindings were poisoned by a panic".into()))?;
+        if bound.ld_copy.as_ref().is_none_or(|b| b.size() < ld_bytes) {
+            let ld_copy = self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("through direct light"),
+                size: ld_bytes.next_power_of_two(),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            bound.ld_copy = Some(created(GpuObject::Buffer, ld_copy));
+        }
+        let ld_copy = bound.ld_copy.clone().expect("made above");
         let (object_binding, object_offset) = object_planes.binding(&self.device, pixels, (coverage + 1).max(through + layout::THROUGH_CHANNELS as u64))?;
         let object_params = scene.objects[k];
         let f = camera.frame();
@@ -332,24 +390,34 @@ impl GpuThroughPass {
             through_offset: element(object_offset + through * pixels)?,
             _pad: [0; 3],
         };
-        // Whatever wgpu refuses below comes back as an error, not as a panic of its handler.
-        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let uniform = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("through params"),
-            contents: bytemuck::bytes_of(&params),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() }];
-        for (i, buffer) in scene.arrays.iter().enumerate() {
-            entries.push(wgpu::BindGroupEntry { binding: i as u32 + 1, resource: buffer.as_entire_binding() });
+        let key = (scene.arrays.clone(), ld_copy.clone(), object.clone(), object_binding.offset, object_binding.size.map_or(0, |s| s.get()));
+        let mut refused = None;
+        let bind_group = bound
+            .groups
+            .get_or_make(key, || {
+                // Whatever wgpu refuses here comes back as an error, not as a panic of its
+                // handler; a kept bind group was checked when it was made.
+                let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+                let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: self.uniform.as_entire_binding() }];
+                for (i, buffer) in scene.arrays.iter().enumerate() {
+                    entries.push(wgpu::BindGroupEntry { binding: i as u32 + 1, resource: buffer.as_entire_binding() });
+                }
+                entries.push(wgpu::BindGroupEntry { binding: 7, resource: ld_copy.as_entire_binding() });
+                entries.push(wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::Buffer(object_binding) });
+                let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("through"),
+                    layout: &self.pipeline.get_bind_group_layout(0),
+                    entries: &entries,
+                });
+                refused = pollster::block_on(scope.pop());
+                created(GpuObject::BindGroup, bind_group)
+            })
+            .clone();
+        if let Some(e) = refused {
+            return Err(Error::Internal(format!("the GPU through pass: {e}")));
         }
-        entries.push(wgpu::BindGroupEntry { binding: 7, resource: ld_copy.as_entire_binding() });
-        entries.push(wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::Buffer(object_binding) });
-        let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("through"),
-            layout: &self.pipeline.get_bind_group_layout(0),
-            entries: &entries,
-        });
+        drop(bound);
+        self.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&params));
         let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("through pass") });
         encoder.copy_buffer_to_buffer(gbuffer.buffer, ld_source, &ld_copy, 0, ld_bytes);
         {
@@ -359,9 +427,6 @@ impl GpuThroughPass {
             pass.dispatch_workgroups(width.div_ceil(WORKGROUP_SIDE), height.div_ceil(WORKGROUP_SIDE), 1);
         }
         let commands = encoder.finish();
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(Error::Internal(format!("the GPU through pass: {e}")));
-        }
         self.queue.submit([commands]);
         Ok(())
     }
