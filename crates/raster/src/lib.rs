@@ -13,6 +13,7 @@
 
 pub mod composition;
 pub mod device;
+mod frame_data;
 pub mod light_coverage;
 pub mod ltc;
 mod rasterizer;

@@ -18,6 +18,7 @@
 
 use glassbake_core::layout;
 use glassbake_core::{Camera, Error, PlanarImage, Result};
+use glassbake_rays::gpu_stats::{created, GpuObject};
 use glassbake_scene::Scene;
 
 use crate::{Frame, Rasterizer};
@@ -59,6 +60,23 @@ pub fn light_coverage_of(
     let mut frame = fine_frame(rasterizer, scene, camera, width, height, factor)?;
     let names = if naive { layout::naive_light_coverage_channel_names() } else { layout::opaque_light_coverage_channel_names() };
     frame.light_coverage(naive, factor, names)
+}
+
+/// [`light_coverage_of`] written into `out` from `byte_offset` on (a network input tensor's
+/// storage on the rasterizer's device), on the GPU: nothing is read back or waited for.
+#[allow(clippy::too_many_arguments)]
+pub fn light_coverage_into(
+    rasterizer: &mut Rasterizer,
+    scene: &Scene,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    factor: u32,
+    naive: bool,
+    out: &wgpu::Buffer,
+    byte_offset: u64,
+) -> Result<()> {
+    fine_frame(rasterizer, scene, camera, width, height, factor)?.light_coverage_to_buffer(naive, factor, out, byte_offset)
 }
 
 /// The frame at `factor` x `factor` the resolution that the coverage is reduced from.
@@ -150,23 +168,13 @@ impl CoverageReducer {
             compilation_options: Default::default(),
             cache: None,
         });
-        CoverageReducer { pipeline, layout }
+        CoverageReducer { pipeline: created(GpuObject::Pipeline, pipeline), layout }
     }
 
-    /// Encodes the reduction of `direct_light` (the L_d target of a G-buffer drawn at
-    /// `factor` x `factor` the resolution) into `out`: `layout::LIGHT_COVERAGE_CHANNELS`
-    /// f32 planes of `width` x `height`.
-    #[allow(clippy::too_many_arguments)]
-    pub fn encode(
-        &self,
-        device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
-        direct_light: &wgpu::TextureView,
-        width: u32,
-        height: u32,
-        factor: u32,
-        out: &wgpu::Buffer,
-    ) {
+    /// The bind group that reduces `direct_light` (the L_d target of a G-buffer drawn at
+    /// `factor` x `factor` the resolution) into `out`: `layout::LIGHT_COVERAGE_CHANNELS` f32
+    /// planes of `width` x `height`. Made once per target and kept (see [`Self::encode`]).
+    pub fn bind(&self, device: &wgpu::Device, direct_light: &wgpu::TextureView, width: u32, height: u32, factor: u32, out: &wgpu::Buffer) -> wgpu::BindGroup {
         use wgpu::util::DeviceExt;
         let params = ReduceParams {
             width,
@@ -181,6 +189,7 @@ impl CoverageReducer {
             contents: bytemuck::bytes_of(&params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
+        let uniform = created(GpuObject::Buffer, uniform);
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("light coverage"),
             layout: &self.layout,
@@ -190,9 +199,15 @@ impl CoverageReducer {
                 wgpu::BindGroupEntry { binding: 2, resource: uniform.as_entire_binding() },
             ],
         });
+        created(GpuObject::BindGroup, group)
+    }
+
+    /// Encodes the reduction `group` (from [`Self::bind`]) describes, to a `width` x `height`
+    /// coverage.
+    pub fn encode(&self, encoder: &mut wgpu::CommandEncoder, group: &wgpu::BindGroup, width: u32, height: u32) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("light coverage"), timestamp_writes: None });
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &group, &[]);
+        pass.set_bind_group(0, group, &[]);
         pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
     }
 }

@@ -3,12 +3,17 @@
 use glam::{Mat4, Vec3};
 use glassbake_core::layout::{self, opaque, transparent};
 use glassbake_core::{Camera, Error, PlanarImage, Result};
-use glassbake_scene::{Mesh, Scene};
+use glassbake_scene::Scene;
 
 use crate::device::{self, RasterizerOptions, GBUFFER_TARGETS};
+use crate::frame_data::{FrameData, Layouts, LightUniform, ObjectUniform, ShadingInputs, ShadowContent, ViewUniform};
 use crate::light_coverage::LightCoverage;
 use crate::ltc;
-use crate::resources::{self, Cache, GpuMesh};
+use crate::resources::{self, Cache};
+use glassbake_rays::gpu_stats::{self, created, GpuObject};
+
+/// Sizes of render targets a rasterizer keeps (the current and the one before).
+pub(crate) const KEPT_TARGET_SIZES: usize = 2;
 
 /// Largest accepted image side.
 pub const MAX_RESOLUTION: u32 = 8192;
@@ -19,9 +24,6 @@ const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 /// its far pass (L_d of the object's farthest visible surface).
 const TRANSPARENCY_TARGETS: u32 = 6;
 const TRANSPARENCY_NEAR_TARGETS: usize = 5;
-/// Bytes reserved per object in the per-frame uniform buffer (>= every device's
-/// `min_uniform_buffer_offset_alignment`).
-const OBJECT_STRIDE: u64 = 256;
 /// Half field of view of each face of a light's shadow hemicube: a little over 45 degrees so
 /// that the 3x3 PCF taps near a face's border stay inside the face.
 const SHADOW_HALF_FOV_DEG: f32 = 47.5;
@@ -56,32 +58,6 @@ const TRANSPARENT_MAP: [(usize, usize, u32, u32); 10] = [
     (transparent::LD_FAR, 3, 5, 0),
 ];
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct ViewUniform {
-    view_proj: [[f32; 4]; 4],
-    camera_pos: [f32; 4],
-    params: [u32; 4],
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct ObjectUniform {
-    model: [[f32; 4]; 4],
-    normal_matrix: [[f32; 4]; 4],
-    base_color: [f32; 4],
-    emission: [f32; 4],
-    params: [f32; 4],
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct LightUniform {
-    corners: [[f32; 4]; 4],
-    radiance: [f32; 4],
-    shadow: [f32; 4],
-}
-
 /// One set of same-sized Rgba32Float render targets and the buffer they are read back
 /// through (rows padded to 256 bytes).
 struct TargetSet {
@@ -95,7 +71,7 @@ impl TargetSet {
     fn new(device: &wgpu::Device, count: u32, width: u32, height: u32, label: &str) -> TargetSet {
         let textures: Vec<wgpu::Texture> = (0..count)
             .map(|_| {
-                device.create_texture(&wgpu::TextureDescriptor {
+                let texture = device.create_texture(&wgpu::TextureDescriptor {
                     label: Some(label),
                     size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
                     mip_level_count: 1,
@@ -104,10 +80,11 @@ impl TargetSet {
                     format: TARGET_FORMAT,
                     usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::TEXTURE_BINDING,
                     view_formats: &[],
-                })
+                });
+                created(GpuObject::Texture, texture)
             })
             .collect();
-        let views = textures.iter().map(|t| t.create_view(&wgpu::TextureViewDescriptor::default())).collect();
+        let views = textures.iter().map(|t| created(GpuObject::Texture, t.create_view(&wgpu::TextureViewDescriptor::default()))).collect();
         let padded_row = padded_row_bytes(width);
         let readback = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),
@@ -115,6 +92,7 @@ impl TargetSet {
             usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
             mapped_at_creation: false,
         });
+        let readback = created(GpuObject::Buffer, readback);
         TargetSet { textures, views, readback, padded_row }
     }
 
@@ -189,7 +167,7 @@ fn map_for_reading(device: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<()> {
     buffer.map_async(wgpu::MapMode::Read, .., move |r| {
         let _ = tx.send(r);
     });
-    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| Error::Internal(format!("waiting for the GPU: {e}")))?;
+    gpu_stats::wait(device).map_err(Error::Internal)?;
     rx.recv().map_err(|_| Error::Internal("readback callback dropped".into()))?.map_err(|e| Error::Internal(format!("mapping the readback buffer: {e}")))
 }
 
@@ -207,6 +185,33 @@ struct Targets {
     opaque: TargetSet,
     transparency: TargetSet,
     naive: Option<TargetSet>,
+    /// The light coverage reduced from this frame, and its host copy's staging buffer, for
+    /// the one coverage size (made on first use).
+    coverage: Option<CoverageBuffers>,
+}
+
+/// Where a frame's light coverage is reduced to, and read back through.
+struct CoverageBuffers {
+    /// The reduction's factor (the coverage is the frame's size over it).
+    factor: u32,
+    reduced: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    /// The reduction's bind groups from the opaque and the naive G-buffer (made on first use).
+    groups: [Option<wgpu::BindGroup>; 2],
+}
+
+impl CoverageBuffers {
+    fn new(device: &wgpu::Device, factor: u32, bytes: u64) -> CoverageBuffers {
+        let buffer = |label: &str, usage: wgpu::BufferUsages| {
+            created(GpuObject::Buffer, device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: bytes, usage, mapped_at_creation: false }))
+        };
+        CoverageBuffers {
+            factor,
+            reduced: buffer("light coverage", wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC),
+            readback: buffer("light coverage readback", wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ),
+            groups: [None, None],
+        }
+    }
 }
 
 struct ShadowMaps {
@@ -228,15 +233,18 @@ impl ShadowMaps {
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
             view_formats: &[],
         });
+        let texture = created(GpuObject::Texture, texture);
         let array_view = texture.create_view(&wgpu::TextureViewDescriptor { dimension: Some(wgpu::TextureViewDimension::D2Array), ..Default::default() });
+        let array_view = created(GpuObject::Texture, array_view);
         let layer_views = (0..layers)
             .map(|l| {
-                texture.create_view(&wgpu::TextureViewDescriptor {
+                let view = texture.create_view(&wgpu::TextureViewDescriptor {
                     dimension: Some(wgpu::TextureViewDimension::D2),
                     base_array_layer: l,
                     array_layer_count: Some(1),
                     ..Default::default()
-                })
+                });
+                created(GpuObject::Texture, view)
             })
             .collect();
         ShadowMaps { size, layers, array_view, layer_views }
@@ -275,7 +283,11 @@ pub struct Rasterizer {
     ltc_matrix: wgpu::TextureView,
     ltc_amplitude: wgpu::TextureView,
     cache: Cache,
+    /// The per-frame data's buffers and bind groups, kept across frames.
+    frame_data: FrameData,
     targets: Option<Targets>,
+    /// The targets of the size drawn before the current one.
+    spare_targets: Option<Targets>,
     shadows: Option<ShadowMaps>,
     /// The compute pass writing buffers into caller-owned storage buffers (made on first use).
     unpacker: Option<crate::unpack::Unpacker>,
@@ -340,7 +352,7 @@ fn texture_entry(binding: u32, sample_type: wgpu::TextureSampleType, dimension: 
 
 fn small_texture(device: &wgpu::Device, queue: &wgpu::Queue, format: wgpu::TextureFormat, size: u32, data: &[u8]) -> wgpu::TextureView {
     use wgpu::util::DeviceExt;
-    device
+    let view = device
         .create_texture_with_data(
             queue,
             &wgpu::TextureDescriptor {
@@ -356,7 +368,8 @@ fn small_texture(device: &wgpu::Device, queue: &wgpu::Queue, format: wgpu::Textu
             wgpu::util::TextureDataOrder::LayerMajor,
             data,
         )
-        .create_view(&wgpu::TextureViewDescriptor::default())
+        .create_view(&wgpu::TextureViewDescriptor::default());
+    created(GpuObject::Texture, view)
 }
 
 /// Bytes of the one buffer all G-buffer targets are read back through.
@@ -470,7 +483,7 @@ impl Rasterizer {
         let transparency_targets = vec![target.clone(); TRANSPARENCY_NEAR_TARGETS];
         let far_targets = vec![target; TRANSPARENCY_TARGETS as usize - TRANSPARENCY_NEAR_TARGETS];
         let make_pipeline = |label: &str, fragment: &str, targets: &[Option<wgpu::ColorTargetState>], compare: wgpu::CompareFunction| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
                 layout: Some(&shading_pipeline_layout),
                 vertex: wgpu::VertexState { module: &module, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &vertex_layouts },
@@ -480,7 +493,8 @@ impl Rasterizer {
                 fragment: Some(wgpu::FragmentState { module: &module, entry_point: Some(fragment), compilation_options: Default::default(), targets }),
                 multiview_mask: None,
                 cache: None,
-            })
+            });
+            created(GpuObject::Pipeline, pipeline)
         };
         let less = wgpu::CompareFunction::Less;
         let gbuffer_pipeline = make_pipeline("gbuffer", "fs_gbuffer", &gbuffer_targets, less);
@@ -497,6 +511,7 @@ impl Rasterizer {
             multiview_mask: None,
             cache: None,
         });
+        let shadow_pipeline = created(GpuObject::Pipeline, shadow_pipeline);
 
         let material_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("material"),
@@ -550,11 +565,36 @@ impl Rasterizer {
             ltc_matrix,
             ltc_amplitude,
             cache: Cache::default(),
+            frame_data: FrameData::new(),
             targets: None,
+            spare_targets: None,
             shadows: None,
             unpacker: None,
             coverage_reducer: None,
         })
+    }
+
+    /// The wgpu objects alive on this rasterizer's device, whoever made them (burn's runtime
+    /// too, when it shares the device), from wgpu's internal counters: a frame loop whose
+    /// count grows leaks.
+    pub fn live_gpu_objects(&self) -> i64 {
+        let hal = self.device.get_internal_counters().hal;
+        [
+            &hal.buffers,
+            &hal.textures,
+            &hal.texture_views,
+            &hal.bind_groups,
+            &hal.bind_group_layouts,
+            &hal.render_pipelines,
+            &hal.compute_pipelines,
+            &hal.pipeline_layouts,
+            &hal.samplers,
+            &hal.shader_modules,
+            &hal.query_sets,
+        ]
+        .iter()
+        .map(|c| c.read() as i64)
+        .sum()
     }
 
     /// The adapter the rasterizer runs on.
@@ -627,13 +667,20 @@ impl Rasterizer {
         Ok(())
     }
 
+    /// Makes the current targets `width` x `height`: the last two sizes drawn are kept, so a
+    /// caller alternating between two sizes (a frame and its super-sampler's) makes none.
     fn ensure_targets(&mut self, width: u32, height: u32) {
-        if self.targets.as_ref().is_some_and(|t| t.width == width && t.height == height) {
+        let fits = |t: &Option<Targets>| t.as_ref().is_some_and(|t| t.width == width && t.height == height);
+        if fits(&self.targets) {
             return;
         }
-        let depth = self
-            .device
-            .create_texture(&wgpu::TextureDescriptor {
+        if fits(&self.spare_targets) {
+            std::mem::swap(&mut self.targets, &mut self.spare_targets);
+            return;
+        }
+        let depth = created(
+            GpuObject::Texture,
+            self.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("depth"),
                 size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
                 mip_level_count: 1,
@@ -642,83 +689,37 @@ impl Rasterizer {
                 format: DEPTH_FORMAT,
                 usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
                 view_formats: &[],
-            })
-            .create_view(&wgpu::TextureViewDescriptor::default());
-        self.targets = Some(Targets {
+            }),
+        );
+        let depth = created(GpuObject::Texture, depth.create_view(&wgpu::TextureViewDescriptor::default()));
+        let targets = Targets {
             width,
             height,
             depth,
             opaque: TargetSet::new(&self.device, GBUFFER_TARGETS, width, height, "opaque"),
             transparency: TargetSet::new(&self.device, TRANSPARENCY_TARGETS, width, height, "transparency"),
             naive: None,
-        });
+            coverage: None,
+        };
+        self.spare_targets = self.targets.replace(targets);
     }
 
-    fn ensure_shadow_maps(&mut self, layers: u32) {
+    /// Makes the shadow maps fit `layers` faces; true when they were made anew (and so hold
+    /// nothing).
+    fn ensure_shadow_maps(&mut self, layers: u32) -> bool {
         let size = if layers == 0 { 1 } else { self.options.shadow_map_size.max(16) };
         let layers = layers.max(1);
         if self.shadows.as_ref().is_some_and(|s| s.size == size && s.layers == layers) {
-            return;
+            return false;
         }
         self.shadows = Some(ShadowMaps::new(&self.device, size, layers));
-    }
-
-    fn object_bind_group(&self, buffer: &wgpu::Buffer, slot: u64, base: &wgpu::TextureView, rough: &wgpu::TextureView) -> wgpu::BindGroup {
-        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("object"),
-            layout: &self.object_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer,
-                        offset: slot * OBJECT_STRIDE,
-                        size: wgpu::BufferSize::new(std::mem::size_of::<ObjectUniform>() as u64),
-                    }),
-                },
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(base) },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(rough) },
-                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::Sampler(&self.material_sampler) },
-            ],
-        })
-    }
-
-    fn view_bind_group(&self, uniform: &ViewUniform) -> wgpu::BindGroup {
-        use wgpu::util::DeviceExt;
-        let buffer = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("view"),
-            contents: bytemuck::bytes_of(uniform),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("view"),
-            layout: &self.view_layout,
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() }],
-        })
-    }
-
-    fn shading_bind_group(&self, lights: &wgpu::Buffer, matrices: &wgpu::Buffer, opaque_ref: &wgpu::TextureView) -> wgpu::BindGroup {
-        let shadows = self.shadows.as_ref().expect("shadow maps exist during a frame");
-        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("shading"),
-            layout: &self.shading_layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: lights.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&shadows.array_view) },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&self.shadow_sampler) },
-                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&self.ltc_matrix) },
-                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&self.ltc_amplitude) },
-                wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(opaque_ref) },
-                wgpu::BindGroupEntry { binding: 6, resource: matrices.as_entire_binding() },
-            ],
-        })
+        true
     }
 
     /// Upload a frame (scene instance + camera), render the shadow maps and the opaque
     /// G-buffer on the GPU, and return a handle that produces the buffers on request. The
     /// transparency buffers are rendered one at a time into one reused set of targets.
     pub fn begin_frame(&mut self, scene: &Scene, camera: &Camera, width: u32, height: u32) -> Result<Frame<'_>> {
-        use wgpu::util::DeviceExt;
         self.check_resolution(scene, width, height)?;
         camera.check()?;
         if scene.rect_lights.is_empty() {
@@ -764,21 +765,13 @@ impl Rasterizer {
         if light_data.is_empty() {
             light_data.push(LightUniform::zeroed_light());
         }
-        let lights = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("lights"),
-            contents: bytemuck::cast_slice(&light_data),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
-        self.ensure_shadow_maps(shadow_views.len() as u32);
+        if self.ensure_shadow_maps(shadow_views.len() as u32) {
+            self.frame_data.shadow_content = None;
+        }
         let mut matrix_data: Vec<[[f32; 4]; 4]> = shadow_views.iter().map(|m| mat4_cols(*m)).collect();
         if matrix_data.is_empty() {
             matrix_data.push(mat4_cols(Mat4::IDENTITY));
         }
-        let shadow_matrices = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("shadow matrices"),
-            contents: bytemuck::cast_slice(&matrix_data),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
 
         // Objects (opaque, transparent) and the lights' own quads.
         let mut uniforms: Vec<ObjectUniform> = Vec::new();
@@ -820,10 +813,9 @@ impl Rasterizer {
             draws.push(Draw { slot: uniforms.len() - 1, class, mesh: meshes_to_draw.len() - 1 });
         }
         if self.options.draw_lights {
-            for light in &scene.rect_lights {
-                let mesh: Mesh = light.to_mesh();
-                let Some(gpu) = GpuMesh::upload(&self.device, &mesh, "light quad") else { continue };
-                meshes_to_draw.push((gpu.vertices, gpu.indices, gpu.index_count));
+            for (light, quad) in scene.rect_lights.iter().zip(self.cache.light_quads(&self.device, &self.queue, &scene.rect_lights)) {
+                let Some(quad) = quad else { continue };
+                meshes_to_draw.push((quad.vertices.clone(), quad.indices.clone(), quad.index_count));
                 textures.push((self.white.clone(), self.white.clone()));
                 uniforms.push(ObjectUniform {
                     model: mat4_cols(Mat4::IDENTITY),
@@ -835,60 +827,69 @@ impl Rasterizer {
                 draws.push(Draw { slot: uniforms.len() - 1, class: DrawClass::Light, mesh: meshes_to_draw.len() - 1 });
             }
         }
-        let mut object_bytes = vec![0u8; (uniforms.len().max(1) as u64 * OBJECT_STRIDE) as usize];
-        for (i, u) in uniforms.iter().enumerate() {
-            let at = i * OBJECT_STRIDE as usize;
-            object_bytes[at..at + std::mem::size_of::<ObjectUniform>()].copy_from_slice(bytemuck::bytes_of(u));
-        }
-        let object_buffer = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("objects"),
-            contents: &object_bytes,
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let object_groups: Vec<wgpu::BindGroup> =
-            (0..uniforms.len()).map(|i| self.object_bind_group(&object_buffer, i as u64, &textures[i].0, &textures[i].1)).collect();
 
-        let view = self.view_bind_group(&ViewUniform {
+        // The frame's data into the buffers kept across frames.
+        let layouts = Layouts {
+            view: &self.view_layout,
+            object: &self.object_layout,
+            shading: &self.shading_layout,
+            material_sampler: &self.material_sampler,
+            shadow_sampler: &self.shadow_sampler,
+            ltc_matrix: &self.ltc_matrix,
+            ltc_amplitude: &self.ltc_amplitude,
+        };
+        let object_groups = self.frame_data.write_objects(&self.device, &self.queue, &layouts, &uniforms, &textures);
+        let mut views = vec![ViewUniform {
             view_proj: mat4_cols(camera.view_projection(width, height)),
             camera_pos: camera.position.extend(1.0).to_array(),
             params: [light_count, u32::from(self.options.shadows), 0, 0],
-        });
-        let shadow_view_groups: Vec<wgpu::BindGroup> =
-            shadow_views.iter().map(|m| self.view_bind_group(&ViewUniform { view_proj: mat4_cols(*m), camera_pos: [0.0; 4], params: [0; 4] })).collect();
+        }];
+        views.extend(shadow_views.iter().map(|m| ViewUniform { view_proj: mat4_cols(*m), camera_pos: [0.0; 4], params: [0; 4] }));
+        let view_groups = self.frame_data.write_views(&self.device, &self.queue, &layouts, &views).to_vec();
+        let shadows = self.shadows.as_ref().expect("ensured");
         let targets = self.targets.as_ref().expect("ensured");
-        let shading_opaque = self.shading_bind_group(&lights, &shadow_matrices, &self.no_opaque);
-        let shading_transparency = self.shading_bind_group(&lights, &shadow_matrices, &targets.opaque.views[1]);
+        let inputs =
+            ShadingInputs { shadow_maps: shadows.array_view.clone(), no_opaque: self.no_opaque.clone(), opaque_positions: targets.opaque.views[1].clone() };
+        let (shading_opaque, shading_transparency) = self.frame_data.write_shading(&self.device, &self.queue, &layouts, &light_data, &matrix_data, inputs);
 
         let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
-        // Shadow maps: opaque geometry only (glass and the lights' quads cast no shadow).
-        let shadows = self.shadows.as_ref().expect("ensured");
-        for (layer, group) in shadow_view_groups.iter().enumerate() {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("shadow"),
-                color_attachments: &[],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &shadows.layer_views[layer],
-                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_pipeline(&self.shadow_pipeline);
-            pass.set_bind_group(0, group, &[]);
-            for d in draws.iter().filter(|d| d.class == DrawClass::Opaque) {
-                let (v, i, n) = &meshes_to_draw[d.mesh];
-                pass.set_bind_group(1, &object_groups[d.slot], &[]);
-                pass.set_vertex_buffer(0, v.slice(..));
-                pass.set_index_buffer(i.slice(..), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..*n, 0, 0..1);
+        // Shadow maps: opaque geometry only (glass and the lights' quads cast no shadow), drawn
+        // again only when a light or an occluder moved.
+        let occluders = || draws.iter().filter(|d| d.class == DrawClass::Opaque);
+        let content = ShadowContent {
+            faces: matrix_data.iter().map(|m| m.map(|c| c.map(f32::to_bits))).collect(),
+            occluders: occluders().map(|d| (meshes_to_draw[d.mesh].0.clone(), uniforms[d.slot].model.map(|c| c.map(f32::to_bits)))).collect(),
+        };
+        if self.frame_data.shadow_content.as_ref() != Some(&content) {
+            for (layer, group) in view_groups[1..].iter().enumerate() {
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("shadow"),
+                    color_attachments: &[],
+                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                        view: &shadows.layer_views[layer],
+                        depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
+                        stencil_ops: None,
+                    }),
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                pass.set_pipeline(&self.shadow_pipeline);
+                pass.set_bind_group(0, group, &[]);
+                for d in occluders() {
+                    let (v, i, n) = &meshes_to_draw[d.mesh];
+                    pass.set_bind_group(1, &object_groups[d.slot], &[]);
+                    pass.set_vertex_buffer(0, v.slice(..));
+                    pass.set_index_buffer(i.slice(..), wgpu::IndexFormat::Uint32);
+                    pass.draw_indexed(0..*n, 0, 0..1);
+                }
             }
+            self.frame_data.shadow_content = Some(content);
         }
         let frame = Frame {
             width,
             height,
-            view,
+            view: view_groups[0].clone(),
             shading_opaque,
             shading_transparency,
             object_groups,
@@ -1060,46 +1061,64 @@ impl Frame<'_> {
     /// frame `factor` times smaller on each side than this one: reduced on the GPU, so that
     /// only the coverage's planes are read back.
     pub(crate) fn light_coverage(&mut self, naive: bool, factor: u32, names: Vec<String>) -> Result<PlanarImage> {
-        if factor == 0 || !self.width.is_multiple_of(factor) || !self.height.is_multiple_of(factor) {
-            return Err(Error::Internal(format!("light coverage of a {}x{} frame at factor {factor}", self.width, self.height)));
-        }
-        let (width, height) = (self.width / factor, self.height / factor);
-        if naive {
-            self.ensure_naive_targets();
-        }
-        let r = &mut *self.rasterizer;
-        if r.coverage_reducer.is_none() {
-            r.coverage_reducer = Some(crate::light_coverage::CoverageReducer::new(&r.device));
-        }
+        let (width, height) = self.reduce_light_coverage(naive, factor, None)?;
         let r = &*self.rasterizer;
-        let bytes = (layout::LIGHT_COVERAGE_CHANNELS as u64) * (width as u64) * (height as u64) * 4;
-        let reduced = r.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("light coverage"),
-            size: bytes,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let readback = r.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("light coverage readback"),
-            size: bytes,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
-        let mut encoder = r.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("light coverage") });
-        if naive {
-            self.encode_pass(&mut encoder, PassKind::Naive);
-        }
-        let targets = r.targets.as_ref().expect("targets");
-        let set = if naive { targets.naive.as_ref().expect("created above") } else { &targets.opaque };
-        let reducer = r.coverage_reducer.as_ref().expect("made above");
-        reducer.encode(&r.device, &mut encoder, &set.views[LD_TARGET as usize], width, height, factor, &reduced);
-        encoder.copy_buffer_to_buffer(&reduced, 0, &readback, 0, bytes);
-        r.queue.submit([encoder.finish()]);
-        map_for_reading(&r.device, &readback)?;
+        let readback = &r.targets.as_ref().expect("targets").coverage.as_ref().expect("reduced above").readback;
+        map_for_reading(&r.device, readback)?;
         let planes = readback.get_mapped_range(..).map(|view| bytemuck::pod_collect_to_vec::<u8, f32>(&view));
         readback.unmap();
         let planes = planes.map_err(|e| Error::Internal(format!("reading the light coverage: {e}")))?;
         PlanarImage::from_planes(width, height, names, planes)
+    }
+
+    /// [`Self::light_coverage`] written into `out` from `byte_offset` on (4 f32 planes, e.g.
+    /// a network input tensor's storage on this device), on the GPU: submitted, not waited
+    /// for, and nothing read back.
+    pub fn light_coverage_to_buffer(&mut self, naive: bool, factor: u32, out: &wgpu::Buffer, byte_offset: u64) -> Result<()> {
+        self.reduce_light_coverage(naive, factor, Some((out, byte_offset))).map(|_| ())
+    }
+
+    /// Reduces the light coverage on the GPU into the targets' coverage buffer and copies it
+    /// to `out` when given, else to the readback buffer (to be mapped). Returns the
+    /// coverage's size.
+    fn reduce_light_coverage(&mut self, naive: bool, factor: u32, out: Option<(&wgpu::Buffer, u64)>) -> Result<(u32, u32)> {
+        if factor == 0 || !self.width.is_multiple_of(factor) || !self.height.is_multiple_of(factor) {
+            return Err(Error::Internal(format!("light coverage of a {}x{} frame at factor {factor}", self.width, self.height)));
+        }
+        let (width, height) = (self.width / factor, self.height / factor);
+        let bytes = (layout::LIGHT_COVERAGE_CHANNELS as u64) * (width as u64) * (height as u64) * 4;
+        if let Some((buffer, offset)) = out {
+            if !offset.is_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT) || offset + bytes > buffer.size() {
+                return Err(Error::Internal(format!("the light coverage's {bytes} bytes at byte {offset} of a buffer of {}", buffer.size())));
+            }
+        }
+        if naive {
+            self.ensure_naive_targets();
+        }
+        let r = &mut *self.rasterizer;
+        let reducer = r.coverage_reducer.get_or_insert_with(|| crate::light_coverage::CoverageReducer::new(&r.device));
+        let targets = r.targets.as_mut().expect("targets");
+        if targets.coverage.as_ref().is_none_or(|c| c.factor != factor) {
+            targets.coverage = Some(CoverageBuffers::new(&r.device, factor, bytes));
+        }
+        let coverage = targets.coverage.as_mut().expect("made above");
+        let set = if naive { targets.naive.as_ref().expect("created above") } else { &targets.opaque };
+        let group = coverage.groups[usize::from(naive)]
+            .get_or_insert_with(|| reducer.bind(&r.device, &set.views[LD_TARGET as usize], width, height, factor, &coverage.reduced))
+            .clone();
+        let r = &*self.rasterizer;
+        let mut encoder = r.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("light coverage") });
+        if naive {
+            self.encode_pass(&mut encoder, PassKind::Naive);
+        }
+        let coverage = r.targets.as_ref().expect("targets").coverage.as_ref().expect("made above");
+        r.coverage_reducer.as_ref().expect("made above").encode(&mut encoder, &group, width, height);
+        match out {
+            Some((buffer, offset)) => encoder.copy_buffer_to_buffer(&coverage.reduced, 0, buffer, offset, bytes),
+            None => encoder.copy_buffer_to_buffer(&coverage.reduced, 0, &coverage.readback, 0, bytes),
+        }
+        r.queue.submit([encoder.finish()]);
+        Ok((width, height))
     }
 
     /// Render transparency buffer `k` into the reused transparency targets, on the GPU only
@@ -1164,7 +1183,7 @@ impl Frame<'_> {
         } else {
             (&targets.opaque, &OPAQUE_MAP, layout::OPAQUE_CHANNELS)
         };
-        r.unpacker.as_ref().expect("made above").encode(&r.device, encoder, &set.views, map, channels, self.width, self.height, out, byte_offset)
+        r.unpacker.as_mut().expect("made above").encode(&r.device, encoder, &set.views, map, channels, self.width, self.height, out, byte_offset)
     }
 
     /// Render and read back transparency buffer `k`.
@@ -1176,7 +1195,7 @@ impl Frame<'_> {
 
     /// Block until the GPU has finished all submitted work (for timing).
     pub fn wait(&self) -> Result<()> {
-        self.rasterizer.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| Error::Internal(format!("waiting for the GPU: {e}")))
+        gpu_stats::wait(&self.rasterizer.device).map_err(Error::Internal)
     }
 
     /// The reused transparency targets, holding the buffer last rendered.

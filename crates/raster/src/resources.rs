@@ -6,7 +6,8 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 use glam::Vec4;
-use glassbake_scene::{Mesh, Texture};
+use glassbake_rays::gpu_stats::{created, GpuObject};
+use glassbake_scene::{Mesh, RectLight, Texture};
 use wgpu::util::DeviceExt;
 
 /// Interleaved vertex: position, normal, uv (32 bytes).
@@ -30,30 +31,46 @@ pub(crate) struct GpuMesh {
     pub index_count: u32,
 }
 
+fn vertices(mesh: &Mesh) -> Vec<Vertex> {
+    (0..mesh.positions.len())
+        .map(|i| Vertex {
+            position: mesh.positions[i].to_array(),
+            normal: mesh.normals.get(i).copied().unwrap_or_default().to_array(),
+            uv: mesh.uvs.get(i).copied().unwrap_or_default().to_array(),
+        })
+        .collect()
+}
+
 impl GpuMesh {
     pub fn upload(device: &wgpu::Device, mesh: &Mesh, label: &str) -> Option<GpuMesh> {
+        GpuMesh::upload_with(device, mesh, label, wgpu::BufferUsages::empty())
+    }
+
+    /// [`GpuMesh::upload`] with the vertex buffer's usage widened by `vertex_usage` (COPY_DST
+    /// for a mesh rewritten in place).
+    fn upload_with(device: &wgpu::Device, mesh: &Mesh, label: &str, vertex_usage: wgpu::BufferUsages) -> Option<GpuMesh> {
         if mesh.indices.is_empty() || mesh.positions.is_empty() {
             return None;
         }
-        let vertices: Vec<Vertex> = (0..mesh.positions.len())
-            .map(|i| Vertex {
-                position: mesh.positions[i].to_array(),
-                normal: mesh.normals.get(i).copied().unwrap_or_default().to_array(),
-                uv: mesh.uvs.get(i).copied().unwrap_or_default().to_array(),
-            })
-            .collect();
+        let vertices = vertices(mesh);
         let indices: Vec<u32> = mesh.indices.iter().flatten().copied().collect();
         Some(GpuMesh {
-            vertices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: bytemuck::cast_slice(&vertices),
-                usage: wgpu::BufferUsages::VERTEX,
-            }),
-            indices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: bytemuck::cast_slice(&indices),
-                usage: wgpu::BufferUsages::INDEX,
-            }),
+            vertices: created(
+                GpuObject::Buffer,
+                device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents: bytemuck::cast_slice(&vertices),
+                    usage: wgpu::BufferUsages::VERTEX | vertex_usage,
+                }),
+            ),
+            indices: created(
+                GpuObject::Buffer,
+                device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents: bytemuck::cast_slice(&indices),
+                    usage: wgpu::BufferUsages::INDEX,
+                }),
+            ),
             index_count: indices.len() as u32,
         })
     }
@@ -118,6 +135,8 @@ pub(crate) fn upload_texture(device: &wgpu::Device, queue: &wgpu::Queue, texture
 pub(crate) struct Cache {
     meshes: HashMap<usize, (Arc<Mesh>, Option<GpuMesh>)>,
     textures: HashMap<usize, (Arc<Texture>, wgpu::TextureView)>,
+    /// The last frame's light quads, with their corners (bit for bit).
+    light_quads: Vec<([[u32; 3]; 4], Option<GpuMesh>)>,
 }
 
 impl Cache {
@@ -131,16 +150,44 @@ impl Cache {
         self.textures
             .entry(key)
             .or_insert_with(|| {
-                let t = upload_texture(device, queue, texture);
-                (texture.clone(), t.create_view(&wgpu::TextureViewDescriptor::default()))
+                let t = created(GpuObject::Texture, upload_texture(device, queue, texture));
+                (texture.clone(), created(GpuObject::Texture, t.create_view(&wgpu::TextureViewDescriptor::default())))
             })
             .1
             .clone()
     }
 
+    /// The quad of each of `lights`: the last call's quad of the same index, its vertices
+    /// written anew where the light moved (a quad's four vertices always fit), so moving a
+    /// light makes no buffer.
+    pub fn light_quads(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, lights: &[RectLight]) -> Vec<Option<&GpuMesh>> {
+        self.light_quads.truncate(lights.len());
+        for (i, light) in lights.iter().enumerate() {
+            let key = light.corners().map(|c| c.to_array().map(f32::to_bits));
+            match self.light_quads.get_mut(i) {
+                Some((kept, Some(quad))) => {
+                    if *kept != key {
+                        queue.write_buffer(&quad.vertices, 0, bytemuck::cast_slice(&vertices(&light.to_mesh())));
+                        *kept = key;
+                    }
+                }
+                _ => {
+                    let quad = GpuMesh::upload_with(device, &light.to_mesh(), "light quad", wgpu::BufferUsages::COPY_DST);
+                    if i < self.light_quads.len() {
+                        self.light_quads[i] = (key, quad);
+                    } else {
+                        self.light_quads.push((key, quad));
+                    }
+                }
+            }
+        }
+        self.light_quads.iter().map(|(_, quad)| quad.as_ref()).collect()
+    }
+
     pub fn clear(&mut self) {
         self.meshes.clear();
         self.textures.clear();
+        self.light_quads.clear();
     }
 }
 

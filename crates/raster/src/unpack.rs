@@ -4,6 +4,8 @@
 //! `Frame::transparent_to_buffer`).
 
 use glassbake_core::{Error, Result};
+use glassbake_rays::gpu_cache::Recent;
+use glassbake_rays::gpu_stats::{created, GpuObject};
 
 /// Most entries a channel map has (the transparency buffer's 10 attributes; `map` in
 /// unpack.wgsl has the same length).
@@ -33,7 +35,13 @@ struct Params {
 pub(crate) struct Unpacker {
     pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
+    /// Bind groups by what they bind: the first target, the output buffer and where in it.
+    groups: Recent<(wgpu::TextureView, wgpu::Buffer, u64, [u32; 2]), wgpu::BindGroup>,
 }
+
+/// Bind groups kept: the opaque G-buffer and the transparency buffer, each into a few
+/// tensors of burn's pool.
+const KEPT_GROUPS: usize = 8;
 
 impl Unpacker {
     pub fn new(device: &wgpu::Device) -> Unpacker {
@@ -76,13 +84,13 @@ impl Unpacker {
             compilation_options: Default::default(),
             cache: None,
         });
-        Unpacker { pipeline, layout }
+        Unpacker { pipeline: created(GpuObject::Pipeline, pipeline), layout, groups: Recent::new(KEPT_GROUPS) }
     }
 
     /// Encodes the scatter of `views` (per `map`) into `out` from `byte_offset` on.
     #[allow(clippy::too_many_arguments)]
     pub fn encode(
-        &self,
+        &mut self,
         device: &wgpu::Device,
         encoder: &mut wgpu::CommandEncoder,
         views: &[wgpu::TextureView],
@@ -112,27 +120,34 @@ impl Unpacker {
         let alignment = device.limits().min_storage_buffer_offset_alignment as u64;
         let bind_offset = byte_offset / alignment * alignment;
         let bind_size = std::num::NonZeroU64::new(needed - bind_offset).expect("at least one plane");
-        let mut params = Params { width, height, base: ((byte_offset - bind_offset) / 4) as u32, entries: map.len() as u32, map: [[0; 4]; MAX_ENTRIES] };
-        for (slot, &(first, count, target, component)) in params.map.iter_mut().zip(map) {
-            *slot = [first as u32, count as u32, target, component];
-        }
-        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("unpack params"),
-            contents: bytemuck::bytes_of(&params),
-            usage: wgpu::BufferUsages::UNIFORM,
+        let key = (views[0].clone(), out.clone(), byte_offset, [width, height]);
+        let group = self.groups.get_or_make(key, || {
+            let mut params = Params { width, height, base: ((byte_offset - bind_offset) / 4) as u32, entries: map.len() as u32, map: [[0; 4]; MAX_ENTRIES] };
+            for (slot, &(first, count, target, component)) in params.map.iter_mut().zip(map) {
+                *slot = [first as u32, count as u32, target, component];
+            }
+            let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("unpack params"),
+                contents: bytemuck::bytes_of(&params),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+            let uniform = created(GpuObject::Buffer, uniform);
+            let mut bindings: Vec<wgpu::BindGroupEntry> = (0..BOUND_TARGETS)
+                .map(|i| wgpu::BindGroupEntry { binding: target_binding(i), resource: wgpu::BindingResource::TextureView(views.get(i).unwrap_or(&views[0])) })
+                .collect();
+            bindings.push(wgpu::BindGroupEntry {
+                binding: 5,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding { buffer: out, offset: bind_offset, size: Some(bind_size) }),
+            });
+            bindings.push(wgpu::BindGroupEntry { binding: 6, resource: uniform.as_entire_binding() });
+            created(
+                GpuObject::BindGroup,
+                device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("unpack"), layout: &self.layout, entries: &bindings }),
+            )
         });
-        let mut bindings: Vec<wgpu::BindGroupEntry> = (0..BOUND_TARGETS)
-            .map(|i| wgpu::BindGroupEntry { binding: target_binding(i), resource: wgpu::BindingResource::TextureView(views.get(i).unwrap_or(&views[0])) })
-            .collect();
-        bindings.push(wgpu::BindGroupEntry {
-            binding: 5,
-            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding { buffer: out, offset: bind_offset, size: Some(bind_size) }),
-        });
-        bindings.push(wgpu::BindGroupEntry { binding: 6, resource: uniform.as_entire_binding() });
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("unpack"), layout: &self.layout, entries: &bindings });
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("unpack"), timestamp_writes: None });
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &group, &[]);
+        pass.set_bind_group(0, group, &[]);
         pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
         Ok(())
     }
