@@ -49,6 +49,17 @@ pub fn downsample_box2(image: &PlanarImage) -> Result<PlanarImage> {
     PlanarImage::from_planes(lw as u32, lh as u32, image.channels().to_vec(), data)
 }
 
+/// [`downsample_box2`] of a [n, c, h, w] tensor on its own device (the real-time frame's
+/// light coverage, which stays on the GPU), adding the four texels in the same order, so the
+/// two agree bit for bit.
+pub fn downsample_box2_tensor(x: Tensor<4>) -> Tensor<4> {
+    let [n, c, h, w] = x.dims();
+    let quads = x.reshape([n * c * h / 2, 2, w / 2, 2]);
+    let texel = |dx: usize, dy: usize| quads.clone().narrow(1, dy, 1).narrow(3, dx, 1);
+    let sum = texel(0, 0) + texel(1, 0) + texel(0, 1) + texel(1, 1);
+    sum.mul_scalar(0.25).reshape([n, c, h / 2, w / 2])
+}
+
 impl SuperSampler {
     /// A super-sampler with weights drawn from `seed` (see `init.rs`).
     pub fn new(config: &SuperSamplerConfig, seed: u64, device: &Device) -> SuperSampler {
@@ -80,5 +91,24 @@ impl Trainable for SuperSampler {
 
     fn target(&self, batch: &HostBatch, device: &Device) -> Result<Tensor<4>> {
         batch.target(device).ok_or_else(|| Error::Internal("a training batch without ground truth".into()))
+    }
+}
+
+#[cfg(test)]
+mod box_tests {
+    use super::*;
+
+    #[test]
+    fn the_tensor_box_filter_is_the_host_one_bit_for_bit() {
+        let (w, h) = (6u32, 4u32);
+        let names: Vec<String> = ["a", "b"].iter().map(|s| s.to_string()).collect();
+        // Values whose sums round differently in another order.
+        let data: Vec<f32> = (0..2 * w * h).map(|i| 1.0 / (1.0 + i as f32) + (i % 5) as f32 * 1e7).collect();
+        let image = PlanarImage::from_planes(w, h, names, data.clone()).unwrap();
+        let host = downsample_box2(&image).unwrap();
+        let device = Device::flex();
+        let tensor = Tensor::<4>::from_data(TensorData::new(data, [1, 2, h as usize, w as usize]), &device);
+        let on_device = downsample_box2_tensor(tensor).into_data().try_to_vec::<f32>().unwrap();
+        assert_eq!(on_device.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), host.data().iter().map(|v| v.to_bits()).collect::<Vec<_>>());
     }
 }
