@@ -4,6 +4,7 @@
 use std::fmt::Write as _;
 
 use glassbake_core::Result;
+use glassbake_rays::gpu_stats::GpuStats;
 use serde::{Deserialize, Serialize};
 
 use crate::memory::{peak_rss_mib, reset_peak_rss};
@@ -45,6 +46,17 @@ pub struct BenchRow {
     pub peak_ram_mib: Option<f64>,
     /// Peak GPU memory (MiB) where the backend reports it.
     pub peak_gpu_mib: Option<f64>,
+    /// wgpu objects glassbake's passes created per timed frame (`gpu_stats`; burn's runtime's
+    /// are not counted here).
+    #[serde(default)]
+    pub gpu_objects_per_frame: f64,
+    /// Times per timed frame the host waited for the GPU (the image's read-back counted).
+    #[serde(default)]
+    pub host_waits_per_frame: f64,
+    /// How many more wgpu objects were alive on the device after the timed frames than
+    /// before them (every user's, from wgpu's counters): above 0, something leaks.
+    #[serde(default)]
+    pub live_gpu_objects_growth: i64,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -81,10 +93,12 @@ pub fn run_bench(pipeline: &mut FramePipeline, device: &str, options: &BenchOpti
             let mut raster = Vec::new();
             let mut through = Vec::new();
             let mut network = Vec::new();
+            let (mut gpu_before, mut live_before) = (GpuStats::now(), pipeline.live_gpu_objects());
             for i in 0..options.warmup + options.frames {
                 if i == options.warmup {
                     // Measure what the timed frames need, not what earlier configurations left.
                     reset_peak_rss();
+                    (gpu_before, live_before) = (GpuStats::now(), pipeline.live_gpu_objects());
                 }
                 let sample = base.sample(options.seed, i as u64);
                 let values = if options.camera_only { base.sample(options.seed, 0).values } else { sample.values };
@@ -99,6 +113,8 @@ pub fn run_bench(pipeline: &mut FramePipeline, device: &str, options: &BenchOpti
                 progress(done, total);
             }
             let peak = peak_rss_mib();
+            let gpu = GpuStats::now().since(&gpu_before);
+            let per_frame = |count: u64| count as f64 / options.frames.max(1) as f64;
             let ms_per_frame = median(&mut totals);
             rows.push(BenchRow {
                 resolution,
@@ -112,6 +128,9 @@ pub fn run_bench(pipeline: &mut FramePipeline, device: &str, options: &BenchOpti
                 max_ms: totals.last().copied().unwrap_or(f64::NAN),
                 peak_ram_mib: peak,
                 peak_gpu_mib: None,
+                gpu_objects_per_frame: per_frame(gpu.objects()),
+                host_waits_per_frame: per_frame(gpu.host_waits),
+                live_gpu_objects_growth: pipeline.live_gpu_objects() - live_before,
             });
         }
     }
@@ -167,13 +186,16 @@ pub fn table(report: &BenchReport) -> String {
     out.push('\n');
     for res in resolutions {
         let size = format!("{res}x{res}");
-        let lines: [(&str, CellFormat); 6] = [
+        let lines: [(&str, CellFormat); 9] = [
             ("framerate (FPS)", Box::new(|r: &BenchRow| format!("{:.1}", r.fps))),
             ("frame time (ms)", Box::new(|r: &BenchRow| format!("{:.1}", r.ms_per_frame))),
             ("  raster (ms)", Box::new(|r: &BenchRow| format!("{:.1}", r.raster_ms))),
             ("  through rays (ms)", Box::new(|r: &BenchRow| format!("{:.1}", r.through_ms))),
             ("  network (ms)", Box::new(|r: &BenchRow| format!("{:.1}", r.network_ms))),
             ("peak RAM (MiB)", Box::new(|r: &BenchRow| r.peak_ram_mib.map(|v| format!("{v:.0}")).unwrap_or_else(|| "-".into()))),
+            ("GPU objects made/frame", Box::new(|r: &BenchRow| format!("{:.1}", r.gpu_objects_per_frame))),
+            ("host waits/frame", Box::new(|r: &BenchRow| format!("{:.1}", r.host_waits_per_frame))),
+            ("live wgpu objects +/-", Box::new(|r: &BenchRow| format!("{:+}", r.live_gpu_objects_growth))),
         ];
         for (i, (name, cell)) in lines.iter().enumerate() {
             let _ = write!(out, "{:<10} {:<22}", if i == 0 { size.as_str() } else { "" }, name);
@@ -210,6 +232,9 @@ mod tests {
             max_ms: ms,
             peak_ram_mib: Some(100.0),
             peak_gpu_mib: None,
+            gpu_objects_per_frame: 0.0,
+            host_waits_per_frame: 1.0,
+            live_gpu_objects_growth: 0,
         }
     }
 

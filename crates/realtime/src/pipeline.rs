@@ -16,9 +16,9 @@ use glassbake_core::{Camera, Error, PlanarImage, Result};
 use glassbake_net::batch::image_from_tensor;
 use glassbake_net::burn::prelude::*;
 use glassbake_net::burn::tensor::TensorData;
-use glassbake_net::super_sampler::downsample_box2;
+use glassbake_net::super_sampler::downsample_box2_tensor;
 use glassbake_net::{TrainedModel, TrainedSuperSampler};
-use glassbake_raster::light_coverage::{coverage_factor, light_coverage_of, LIGHT_COVERAGE_FACTOR};
+use glassbake_raster::light_coverage::{coverage_factor, light_coverage_into, light_coverage_of, LIGHT_COVERAGE_FACTOR};
 use glassbake_raster::{Rasterizer, RasterizerOptions};
 use glassbake_rays::through::{through_buffer, ThroughScene};
 use glassbake_rays::through_gpu::{GpuThroughPass, GpuThroughScene, PlanesAt};
@@ -112,13 +112,15 @@ impl<T> BuiltForValues<T> {
         BuiltForValues { built: None }
     }
 
-    /// What was built for `values` if it `fits`, else what `build` makes now (kept for later
-    /// frames). Values compare bit for bit: any move of a variable rebuilds.
-    fn get_or_build(&mut self, values: &[f32], fits: impl Fn(&T) -> bool, build: impl FnOnce() -> Result<T>) -> Result<&T> {
+    /// What was built for `values` if it `fits`, else what `build` makes now from what was
+    /// built before, if anything (kept for later frames). Values compare bit for bit: any
+    /// move of a variable rebuilds.
+    fn get_or_build(&mut self, values: &[f32], fits: impl Fn(&T) -> bool, build: impl FnOnce(Option<T>) -> Result<T>) -> Result<&T> {
         let key: Vec<u32> = values.iter().map(|v| v.to_bits()).collect();
         let current = matches!(&self.built, Some((built_for, value)) if *built_for == key && fits(value));
         if !current {
-            self.built = Some((key, build()?));
+            let previous = self.built.take().map(|(_, value)| value);
+            self.built = Some((key, build(previous)?));
         }
         Ok(&self.built.as_ref().expect("built above").1)
     }
@@ -213,6 +215,12 @@ impl FramePipeline {
         self.coverage_rasterizer.clear_cache();
     }
 
+    /// The wgpu objects alive on the rasterizer's device (see
+    /// [`Rasterizer::live_gpu_objects`]).
+    pub fn live_gpu_objects(&self) -> i64 {
+        self.rasterizer.live_gpu_objects()
+    }
+
     pub fn adapter_name(&self) -> String {
         self.rasterizer.adapter_info().name.clone()
     }
@@ -248,28 +256,34 @@ impl FramePipeline {
                 if through && self.through_rays == ThroughRays::Gpu && self.gpu_through.is_none() {
                     self.gpu_through = Some(GpuThroughPass::new(self.rasterizer.device().clone(), self.rasterizer.queue().clone())?);
                 }
-                let raster_start = Instant::now();
-                // With the super-sampler the coverage is drawn at the full resolution it composites
-                // at, and 2x2-averaged for the network, as train-sr and eval do.
-                let sampler_coverage = self.super_sampler.as_ref().is_some_and(|s| s.net.config.light_coverage);
-                let coverage = if model.config().light_coverage || sampler_coverage {
-                    let (cw, ch) = if sr { (width, height) } else { (lw, lh) };
-                    let factor = coverage_factor(&self.coverage_rasterizer, cw, ch).min(self.light_coverage_factor.max(1));
-                    Some(light_coverage_of(&mut self.coverage_rasterizer, &instance, camera, cw, ch, factor, naive)?)
-                } else {
-                    None
-                };
-                let coverage_tensor = |image: &PlanarImage, device: &Device| {
-                    let shape = [1, layout::LIGHT_COVERAGE_CHANNELS, image.height() as usize, image.width() as usize];
-                    Tensor::<4>::from_data(TensorData::new(image.data().to_vec(), shape), device)
-                };
-                let light_coverage = match &coverage {
-                    Some(image) if model.config().light_coverage => Some(coverage_tensor(&if sr { downsample_box2(image)? } else { image.clone() }, &device)),
-                    _ => None,
-                };
                 // The through buffers are cast from read-back buffers (on the CPU or the GPU).
                 // A model reading through buffers stays on the GPU when the GPU pass casts them.
                 let zero_copy = self.zero_copy && !naive && (!through || self.through_rays == ThroughRays::Gpu);
+                let raster_start = Instant::now();
+                // With the super-sampler the coverage is drawn at the full resolution it composites
+                // at, and 2x2-averaged for the network, as train-sr and eval do. Zero-copy, it is
+                // reduced into a tensor and averaged on the GPU; else it crosses the host once.
+                let sampler_coverage = self.super_sampler.as_ref().is_some_and(|s| s.net.config.light_coverage);
+                let coverage: Option<Tensor<4>> = if model.config().light_coverage || sampler_coverage {
+                    let (cw, ch) = if sr { (width, height) } else { (lw, lh) };
+                    let factor = coverage_factor(&self.coverage_rasterizer, cw, ch).min(self.light_coverage_factor.max(1));
+                    Some(if zero_copy {
+                        let channels = layout::LIGHT_COVERAGE_CHANNELS;
+                        crate::gpu_handover::input_tensor(&device, channels, ch as usize, cw as usize, |buffer, offset| {
+                            light_coverage_into(&mut self.coverage_rasterizer, &instance, camera, cw, ch, factor, naive, buffer, offset)
+                        })?
+                    } else {
+                        let image = light_coverage_of(&mut self.coverage_rasterizer, &instance, camera, cw, ch, factor, naive)?;
+                        let shape = [1, layout::LIGHT_COVERAGE_CHANNELS, ch as usize, cw as usize];
+                        Tensor::<4>::from_data(TensorData::new(image.data().to_vec(), shape), &device)
+                    })
+                } else {
+                    None
+                };
+                let light_coverage = match &coverage {
+                    Some(full) if model.config().light_coverage => Some(if sr { downsample_box2_tensor(full.clone()) } else { full.clone() }),
+                    _ => None,
+                };
                 let mut frame = self.rasterizer.begin_frame(&instance, camera, lw, lh)?;
                 let (h, w) = (lh as usize, lw as usize);
                 let to_tensor = |data: Vec<f32>, channels: usize| Tensor::<4>::from_data(TensorData::new(data, [1, channels, h, w]), &device);
@@ -304,9 +318,16 @@ impl FramePipeline {
                     Some(self.through_geometry.get_or_build(
                         values,
                         |caster| matches!(caster, ThroughCaster::Gpu(_)) == on_gpu,
-                        || {
+                        |previous| {
                             Ok(match gpu_through {
-                                Some(pass) if on_gpu => ThroughCaster::Gpu(pass.upload(&instance)?),
+                                Some(pass) if on_gpu => {
+                                    // Moved objects are written into the last upload's buffers.
+                                    let previous = match previous {
+                                        Some(ThroughCaster::Gpu(uploaded)) => Some(uploaded),
+                                        _ => None,
+                                    };
+                                    ThroughCaster::Gpu(pass.upload_reusing(&instance, previous)?)
+                                }
                                 _ => ThroughCaster::Cpu(ThroughScene::build(&instance)),
                             })
                         },
@@ -399,8 +420,12 @@ impl FramePipeline {
                     drop(full);
                     times.raster_ms += ms(t);
                     let low = prediction.to_device(&sampler.device);
-                    let light_coverage = coverage.as_ref().filter(|_| sampler_coverage).map(|image| coverage_tensor(image, &sampler.device));
+                    let light_coverage = coverage.filter(|_| sampler_coverage).map(|full| full.to_device(&sampler.device));
                     prediction = sampler.net.forward(low, gbuffer, light_coverage).clamp(0.0, 1.0);
+                }
+                if self.zero_copy {
+                    // Reading the image back is the frame's one wait for the GPU.
+                    glassbake_rays::gpu_stats::waited_elsewhere();
                 }
                 image_from_tensor(&prediction, 0)?
             }
@@ -473,7 +498,7 @@ mod tests {
                 .get_or_build(
                     values,
                     |&k| k == kind,
-                    || {
+                    |_| {
                         builds.set(builds.get() + 1);
                         Ok(kind)
                     },
@@ -495,11 +520,20 @@ mod tests {
     #[test]
     fn a_failed_build_keeps_nothing_for_its_values() {
         let mut built = BuiltForValues::new();
-        assert_eq!(*built.get_or_build(&[1.0], |_| true, || Ok(1)).unwrap(), 1);
-        assert!(built.get_or_build(&[2.0], |_| true, || Err(Error::Internal("no GPU".into()))).is_err());
+        assert_eq!(*built.get_or_build(&[1.0], |_| true, |_| Ok(1)).unwrap(), 1);
+        assert!(built.get_or_build(&[2.0], |_| true, |_| Err(Error::Internal("no GPU".into()))).is_err());
         // The next frame at those values builds again instead of using the old geometry.
-        assert_eq!(*built.get_or_build(&[2.0], |_| true, || Ok(2)).unwrap(), 2);
+        assert_eq!(*built.get_or_build(&[2.0], |_| true, |_| Ok(2)).unwrap(), 2);
         built.clear();
-        assert_eq!(*built.get_or_build(&[2.0], |_| true, || Ok(3)).unwrap(), 3);
+        assert_eq!(*built.get_or_build(&[2.0], |_| true, |_| Ok(3)).unwrap(), 3);
+    }
+
+    #[test]
+    fn a_rebuild_is_handed_what_was_built_before() {
+        let mut built = BuiltForValues::new();
+        assert_eq!(*built.get_or_build(&[1.0], |_| true, |previous| Ok(previous.unwrap_or(0) + 1)).unwrap(), 1);
+        assert_eq!(*built.get_or_build(&[2.0], |_| true, |previous| Ok(previous.unwrap_or(0) + 1)).unwrap(), 2);
+        built.clear();
+        assert_eq!(*built.get_or_build(&[2.0], |_| true, |previous| Ok(previous.unwrap_or(0) + 1)).unwrap(), 1);
     }
 }
