@@ -7,13 +7,14 @@
 //! This file holds one test: the counts are process-wide, and another test running beside it
 //! would add its own.
 
+mod common;
+
 use std::path::Path;
 
 use glassbake_net::init::initialize;
-use glassbake_net::model_dir::{write_weights, FORMAT_VERSION};
+use glassbake_net::model_dir::write_weights;
 use glassbake_net::{
-    select_device, DataSource, DeviceChoice, GlassNet, ModelConfig, ModelFiles, ModelKind, NetConfig, Network, SuperSampler, SuperSamplerConfig, TrainConfig,
-    TrainedModel, TrainedSuperSampler,
+    select_device, DeviceChoice, GlassNet, ModelFiles, ModelKind, NetConfig, Network, SuperSampler, SuperSamplerConfig, TrainedModel, TrainedSuperSampler,
 };
 use glassbake_raster::RasterizerOptions;
 use glassbake_rays::gpu_stats::GpuStats;
@@ -25,32 +26,16 @@ use glassbake_scene::Scene;
 
 const RES: u32 = 32;
 
-fn model_config(scene: &Scene, network: Network) -> ModelConfig {
-    ModelConfig {
-        format_version: FORMAT_VERSION,
-        network,
-        train: TrainConfig::preset("tiny").unwrap(),
-        data: DataSource {
-            dataset: "untrained".into(),
-            scene: scene.name.clone(),
-            scene_hash: String::new(),
-            resolution: RES,
-            scene_argument: Some("cornellbox".into()),
-            sample_seed: Some(0),
-        },
-    }
-}
-
 /// A `tiny` GlassNet (through buffers and light coverage) and a super-sampler, every weight
 /// drawn at random so that each input shows in the image.
 fn write_models(scene: &Scene, glassnet_dir: &Path, sampler_dir: &Path) {
     let device = select_device(DeviceChoice::Cpu, 0, false);
     let config = NetConfig::preset("tiny", ModelKind::Glassnet, scene.variables.len(), scene.transparent_objects().len()).unwrap();
     assert!(config.through && config.light_coverage, "the tiny GlassNet reads through buffers and the light coverage");
-    let files = ModelFiles::prepare(glassnet_dir, model_config(scene, Network::Glassnet(config.clone()))).unwrap();
+    let files = ModelFiles::prepare(glassnet_dir, common::untrained(scene, Network::Glassnet(config.clone()), RES)).unwrap();
     write_weights(&initialize(GlassNet::new(&config, 0, &device).unwrap(), 1), &files, 0).unwrap();
     let sampler = SuperSamplerConfig::preset("tiny").unwrap();
-    let files = ModelFiles::prepare(sampler_dir, model_config(scene, Network::SuperSampler(sampler.clone()))).unwrap();
+    let files = ModelFiles::prepare(sampler_dir, common::untrained(scene, Network::SuperSampler(sampler.clone()), RES)).unwrap();
     write_weights(&initialize(SuperSampler::new(&sampler, 0, &device), 2), &files, 0).unwrap();
 }
 

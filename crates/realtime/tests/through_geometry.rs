@@ -2,9 +2,11 @@
 //! after a variable moved the glass must be the frame a fresh pipeline draws, and a frame at
 //! the old values again must be the first frame.
 
+mod common;
+
 use glassbake_net::init::initialize;
-use glassbake_net::model_dir::{write_weights, FORMAT_VERSION};
-use glassbake_net::{select_device, DataSource, DeviceChoice, GlassNet, ModelConfig, ModelFiles, ModelKind, NetConfig, Network, TrainConfig, TrainedModel};
+use glassbake_net::model_dir::write_weights;
+use glassbake_net::{select_device, DeviceChoice, GlassNet, ModelFiles, ModelKind, NetConfig, Network, TrainedModel};
 use glassbake_raster::RasterizerOptions;
 use glassbake_realtime::{FramePipeline, Output};
 use glassbake_scene::builtin::builtin;
@@ -20,23 +22,7 @@ fn a_moved_object_is_drawn_as_a_fresh_pipeline_draws_it() {
     let config = NetConfig::preset("tiny", ModelKind::Glassnet, scene.variables.len(), scene.transparent_objects().len()).unwrap();
     assert!(config.through);
     let dir = tempfile::tempdir().unwrap();
-    let files = ModelFiles::prepare(
-        dir.path(),
-        ModelConfig {
-            format_version: FORMAT_VERSION,
-            network: Network::Glassnet(config.clone()),
-            train: TrainConfig::preset("tiny").unwrap(),
-            data: DataSource {
-                dataset: "untrained".into(),
-                scene: scene.name.clone(),
-                scene_hash: String::new(),
-                resolution: RES,
-                scene_argument: Some("cornellbox".into()),
-                sample_seed: Some(0),
-            },
-        },
-    )
-    .unwrap();
+    let files = ModelFiles::prepare(dir.path(), common::untrained(&scene, Network::Glassnet(config.clone()), RES)).unwrap();
     write_weights(&initialize(GlassNet::new(&config, 0, &device).unwrap(), 1), &files, 0).unwrap();
     let pipeline = || FramePipeline::new(scene.clone(), TrainedModel::load(dir.path(), &device).unwrap(), None, None, RasterizerOptions::default()).unwrap();
 
