@@ -101,6 +101,13 @@ fn ray(origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> RTCRay {
 }
 
 impl EmbreeCaster {
+    /// Built again: the scene is built with spatial splits (`RTCBuildQuality::HIGH`), which
+    /// Embree's refit quality cannot keep; these builds take milliseconds for the built-in
+    /// scenes (docs/benchmarks.md).
+    pub(crate) fn refit(self, attributes: &[TriangleAttributes]) -> Self {
+        Self::build(attributes)
+    }
+
     pub(crate) fn build(attributes: &[TriangleAttributes]) -> Self {
         let config: &CStr = c"threads=1";
         // SAFETY: plain Embree API calls on handles created here; the buffers Embree allocates

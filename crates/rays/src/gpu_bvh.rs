@@ -83,6 +83,45 @@ impl GpuBvhs {
         Ok(node_base)
     }
 
+    /// Refit the BVHs below `roots` to triangles that moved: each triangle is given its new
+    /// corners by `corners(its attribute)`, each leaf's box becomes its triangles' bounds and
+    /// each inner node's the union of its children's. The tree is kept, so traversal stays
+    /// exact whatever moved; it is as tight as a rebuild when a BVH's triangles moved
+    /// together (a translated object), looser when its parts moved apart.
+    pub fn refit(&mut self, roots: &[u32], corners: &dyn Fn(u32) -> [Vec3; 3]) {
+        for &root in roots.iter().filter(|&&r| r != EMPTY_ROOT) {
+            // Post-order: a node's box is written after both of its children's.
+            let mut stack = vec![(root as usize, false)];
+            while let Some((node, children_done)) = stack.pop() {
+                let (first, count) = (self.nodes[NODE_VEC4S * node][3].to_bits() as usize, self.nodes[NODE_VEC4S * node + 1][3].to_bits() as usize);
+                let (lo, hi) = if count > 0 {
+                    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+                    for slot in first..first + count {
+                        let t = &mut self.triangles[TRIANGLE_VEC4S * slot..TRIANGLE_VEC4S * (slot + 1)];
+                        let [p0, p1, p2] = corners(t[0][3].to_bits());
+                        let (e1, e2) = (p1 - p0, p2 - p0);
+                        t[0][..3].copy_from_slice(&p0.to_array());
+                        t[1][..3].copy_from_slice(&e1.to_array());
+                        t[2][..3].copy_from_slice(&e2.to_array());
+                        lo = lo.min(p0.min(p1).min(p2));
+                        hi = hi.max(p0.max(p1).max(p2));
+                    }
+                    (lo, hi)
+                } else if !children_done {
+                    stack.push((node, true));
+                    stack.push((first, false));
+                    stack.push((first + 1, false));
+                    continue;
+                } else {
+                    let corner = |n: usize, side: usize| Vec3::from_slice(&self.nodes[NODE_VEC4S * n + side][..3]);
+                    (corner(first, 0).min(corner(first + 1, 0)), corner(first, 1).max(corner(first + 1, 1)))
+                };
+                self.nodes[NODE_VEC4S * node][..3].copy_from_slice(&lo.to_array());
+                self.nodes[NODE_VEC4S * node + 1][..3].copy_from_slice(&hi.to_array());
+            }
+        }
+    }
+
     /// The WGSL constants `shaders/bvh.wgsl` reads, then its source. The including shader
     /// declares the storage arrays `nodes` and `triangles` it traverses. (The other WGSL the
     /// GPU kernels share: [`OPTICS_WGSL`], [`COMMON_WGSL`].)
@@ -144,7 +183,14 @@ mod tests {
         let roots: Vec<u32> = sets.iter().map(|s| bvhs.push(s, "test").unwrap()).collect();
         assert_eq!(roots[2], EMPTY_ROOT);
         assert_eq!(roots[0], 0);
-        for (set, &root) in sets.iter().zip(&roots).filter(|(_, &r)| r != EMPTY_ROOT) {
+        check_leaves_and_boxes(&bvhs, &sets, &roots);
+        assert!(bvhs.depth > 0 && bvhs.depth < MAX_BVH_DEPTH);
+    }
+
+    /// Every triangle of `sets[i]` (attributes numbered within its set) lies in exactly one
+    /// leaf below `roots[i]`, with the corners `sets[i]` gives it, inside every box on the way.
+    fn check_leaves_and_boxes(bvhs: &GpuBvhs, sets: &[Vec<GpuTriangle>], roots: &[u32]) {
+        for (set, &root) in sets.iter().zip(roots).filter(|(_, &r)| r != EMPTY_ROOT) {
             let mut seen = vec![0u32; set.len()];
             let mut stack = vec![(root as usize, Vec::<([f32; 4], [f32; 4])>::new())];
             while let Some((node, mut boxes)) = stack.pop() {
@@ -175,6 +221,54 @@ mod tests {
             }
             assert!(seen.iter().all(|&n| n == 1), "a triangle is missing from its BVH's leaves or in two of them");
         }
-        assert!(bvhs.depth > 0 && bvhs.depth < MAX_BVH_DEPTH);
+    }
+
+    #[test]
+    fn refitting_unmoved_triangles_changes_no_bit_of_the_build() {
+        let sets = [grid(40, Vec3::ZERO), grid(9, Vec3::Z * 10.0)];
+        let mut bvhs = GpuBvhs::default();
+        let roots: Vec<u32> = sets.iter().map(|s| bvhs.push(s, "test").unwrap()).collect();
+        let built = bvhs.clone();
+        // Attributes are numbered within each set here; the two sets' ranges overlap, so the
+        // lookup goes by the root the triangle was found under.
+        for (set, &root) in sets.iter().zip(&roots) {
+            bvhs.refit(&[root], &|attribute| set[attribute as usize].positions);
+        }
+        assert_eq!(bvhs.nodes.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>(), built.nodes.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>());
+        assert_eq!(
+            bvhs.triangles.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>(),
+            built.triangles.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>()
+        );
+    }
+
+    #[test]
+    fn a_refit_bounds_moved_triangles_as_tightly_as_a_rebuild() {
+        let before = [grid(40, Vec3::ZERO), grid(9, Vec3::Z * 10.0)];
+        let mut bvhs = GpuBvhs::default();
+        let roots: Vec<u32> = before.iter().map(|s| bvhs.push(s, "test").unwrap()).collect();
+        // The first set moves as a whole; the second is pulled apart, one triangle far off.
+        let mut after = [grid(40, Vec3::new(3.0, -2.0, 0.5)), grid(9, Vec3::Z * 10.0)];
+        after[1][4].positions = after[1][4].positions.map(|p| p + Vec3::new(0.0, 50.0, -7.0));
+        for (set, &root) in after.iter().zip(&roots) {
+            bvhs.refit(&[root], &|attribute| set[attribute as usize].positions);
+        }
+        check_leaves_and_boxes(&bvhs, &after, &roots);
+        // Each root's box is the bounds of its set's corners, exactly.
+        for (set, &root) in after.iter().zip(&roots) {
+            let lo = set.iter().flat_map(|t| t.positions).fold(Vec3::INFINITY, Vec3::min);
+            let hi = set.iter().flat_map(|t| t.positions).fold(Vec3::NEG_INFINITY, Vec3::max);
+            let node = NODE_VEC4S * root as usize;
+            assert_eq!(Vec3::from_slice(&bvhs.nodes[node][..3]), lo);
+            assert_eq!(Vec3::from_slice(&bvhs.nodes[node + 1][..3]), hi);
+        }
+        // A translated set keeps its tree, so its refit equals its rebuild's boxes moved.
+        let mut moved = GpuBvhs::default();
+        moved.push(&after[0], "test").unwrap();
+        let first_bvh_nodes = moved.nodes.len();
+        for (refit, rebuilt) in bvhs.nodes[..first_bvh_nodes].iter().zip(&moved.nodes) {
+            for axis in 0..3 {
+                assert!((refit[axis] - rebuilt[axis]).abs() < 1e-5, "{refit:?} against {rebuilt:?}");
+            }
+        }
     }
 }

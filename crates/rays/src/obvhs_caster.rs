@@ -2,12 +2,14 @@
 //! caster behind `geometry::SceneGeometry` (a build with the `embree` feature uses
 //! `embree_caster.rs` instead).
 
-use std::time::Duration;
-
 use glam::Vec3;
 use glam_bvh::Vec3A as BvhVec3;
-use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
+use obvhs::bvh2::Bvh2;
+use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
 use obvhs::cwbvh::CwBvh;
+use obvhs::ploc::PlocBuilder;
 use obvhs::ray::{Ray as BvhRay, RayHit};
 use obvhs::triangle::Triangle as BvhTriangle;
 use obvhs::BvhBuildParams;
@@ -43,13 +45,55 @@ impl HotTriangle {
 pub(crate) struct ObvhsCaster {
     bvh: CwBvh,
     hot: Vec<HotTriangle>,
+    /// The binary BVH the CWBVH was collapsed from, kept for [`Self::refit`].
+    binary: Bvh2,
+}
+
+/// The build: obvhs' `medium_build`, which "tries to be around the same build time as embree
+/// but with faster traversal".
+const BUILD: BvhBuildParams = BvhBuildParams::medium_build();
+
+fn bvh_triangles(attributes: &[TriangleAttributes]) -> Vec<BvhTriangle> {
+    attributes.iter().map(|a| BvhTriangle { v0: to_bvh(a.positions[0]), v1: to_bvh(a.positions[1]), v2: to_bvh(a.positions[2]) }).collect()
 }
 
 impl ObvhsCaster {
+    /// The steps of obvhs' `build_cwbvh_from_tris` without spatial splits (which
+    /// `medium_build` does not make), keeping the binary BVH between them.
     pub(crate) fn build(attributes: &[TriangleAttributes]) -> Self {
-        let bvh_triangles: Vec<BvhTriangle> =
-            attributes.iter().map(|a| BvhTriangle { v0: to_bvh(a.positions[0]), v1: to_bvh(a.positions[1]), v2: to_bvh(a.positions[2]) }).collect();
-        let bvh = build_cwbvh_from_tris(&bvh_triangles, BvhBuildParams::medium_build(), &mut Duration::default());
+        let triangles = bvh_triangles(attributes);
+        let indices = (0..triangles.len() as u32).collect();
+        let mut binary = PlocBuilder::with_capacity(triangles.len()).build(
+            BUILD.ploc_search_distance,
+            &triangles,
+            indices,
+            BUILD.sort_precision,
+            BUILD.search_depth_threshold,
+        );
+        ReinsertionOptimizer::default().run(&mut binary, BUILD.reinsertion_batch_ratio, None);
+        Self::collapse(binary, attributes)
+    }
+
+    /// The same tree over `attributes`' triangles where they are now (as many as at the
+    /// build): leaf boxes from the triangles, inner boxes from their children, then collapsed
+    /// to a CWBVH again. Traversal stays exact whatever moved; the tree is as good as a
+    /// rebuild's when each part moved as a whole.
+    pub(crate) fn refit(self, attributes: &[TriangleAttributes]) -> Self {
+        assert_eq!(attributes.len(), self.hot.len(), "a refit keeps the triangle count");
+        let triangles = bvh_triangles(attributes);
+        let mut binary = self.binary;
+        for node in binary.nodes.iter_mut().filter(|n| n.is_leaf()) {
+            let first = node.first_index as usize;
+            let prims = &binary.primitive_indices[first..first + node.prim_count as usize];
+            let aabb = prims.iter().fold(Aabb::empty(), |aabb, &p| aabb.union(&triangles[p as usize].aabb()));
+            node.set_aabb(aabb);
+        }
+        binary.refit_all();
+        Self::collapse(binary, attributes)
+    }
+
+    fn collapse(binary: Bvh2, attributes: &[TriangleAttributes]) -> Self {
+        let bvh = bvh2_to_cwbvh(&binary, BUILD.max_prims_per_leaf.clamp(1, 3), true, false);
         let hot = bvh
             .primitive_indices
             .iter()
@@ -58,7 +102,7 @@ impl ObvhsCaster {
                 HotTriangle { v0: p[0], edge1: p[1] - p[0], edge2: p[2] - p[0], index: i }
             })
             .collect();
-        ObvhsCaster { bvh, hot }
+        ObvhsCaster { bvh, hot, binary }
     }
 
     pub(crate) fn closest_hit(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Option<Hit> {

@@ -47,6 +47,24 @@ impl ThroughScene {
         ThroughScene { opaque, objects, object_indices }
     }
 
+    /// [`Self::build`] for a new instance of the same scene (a variable moved an object or a
+    /// light, or no geometry at all): each BVH whose triangle count is unchanged is refit
+    /// rather than built (`SceneGeometry::refit_or_build`).
+    pub fn refit_or_build(self, scene: &Scene) -> ThroughScene {
+        let object_indices = scene.transparent_objects();
+        if object_indices != self.object_indices {
+            return Self::build(scene);
+        }
+        let opaque = self.opaque.refit_or_build(scene_triangles(scene, &|o| !scene.objects[o].transparent, true, &|_, _| None));
+        let objects = self
+            .objects
+            .into_iter()
+            .zip(&object_indices)
+            .map(|(geometry, &k)| geometry.refit_or_build(scene_triangles(scene, &|o| o == k, false, &|_, _| None)))
+            .collect();
+        ThroughScene { opaque, objects, object_indices }
+    }
+
     pub fn object_count(&self) -> usize {
         self.objects.len()
     }

@@ -21,7 +21,7 @@ use crate::gpu_bvh::{GpuBvhs, GpuTriangle, COMMON_WGSL, OPTICS_WGSL};
 use crate::gpu_cache::Recent;
 use crate::gpu_stats::{created, GpuObject};
 use crate::through::{LOBE_SAMPLES, MAX_INTERFACES, SELF_HIT, VIEW_SLACK};
-use crate::triangle::{Owner, TriangleAttributes};
+use crate::triangle::Owner;
 
 /// Record sizes in vec4s, and the flags of a triangle's attributes: these constants reach the
 /// shader (`shader_source`).
@@ -119,6 +119,26 @@ pub struct GpuThroughScene {
     opaque_root: u32,
     objects: Vec<ObjectParams>,
     texture_table: u32,
+    geometry: BuiltGeometry,
+}
+
+/// The host's copy of an upload's BVHs, kept so that the next instance of the scene can
+/// refit them instead of building them again.
+struct BuiltGeometry {
+    bvhs: GpuBvhs,
+    /// The opaque scene's root, then each transparent object's.
+    roots: Vec<u32>,
+    /// Triangles per BVH, in `roots`' order: a refit needs the same.
+    triangle_counts: Vec<usize>,
+    /// Refits since the BVHs were built.
+    refits: u64,
+}
+
+impl GpuThroughScene {
+    /// How many uploads refit this upload's BVHs since they were built (0: built for it).
+    pub fn refits_since_build(&self) -> u64 {
+        self.geometry.refits
+    }
 }
 
 #[derive(Clone, Copy)]
@@ -179,14 +199,29 @@ impl GpuThroughPass {
     /// [`Self::upload`] into `previous`'s buffers where the new arrays fit in them (written
     /// with `queue.write_buffer`, after the work already submitted that reads them): what a
     /// frame does when a variable moves an object or a light, so that it makes no GPU object.
+    ///
+    /// When every BVH holds as many triangles as in `previous` (a variable moved an object or
+    /// a light, or changed no geometry at all), `previous`'s BVHs are refit to the new
+    /// positions instead of built again (`GpuBvhs::refit`).
     pub fn upload_reusing(&self, scene: &Scene, previous: Option<GpuThroughScene>) -> Result<GpuThroughScene> {
-        let mut bvhs = GpuBvhs::default();
+        let mut sets = vec![(scene_triangles(scene, &|o| !scene.objects[o].transparent, true, &|_, _| None), scene.name.clone())];
+        for index in scene.transparent_objects() {
+            let name = format!("{} (object {})", scene.name, scene.objects[index].name);
+            sets.push((scene_triangles(scene, &|o| o == index, false, &|_, _| None), name));
+        }
+        let triangle_counts: Vec<usize> = sets.iter().map(|(triangles, _)| triangles.len()).collect();
+        let (mut previous_arrays, refittable) = match previous {
+            Some(p) => {
+                let refittable = (p.geometry.triangle_counts == triangle_counts).then_some(p.geometry);
+                (Some(p.arrays), refittable)
+            }
+            None => (None, None),
+        };
         let mut attributes: Vec<[f32; 4]> = Vec::new();
-        let mut add = |triangles: Vec<TriangleAttributes>, name: &str| -> Result<u32> {
-            let first = (attributes.len() / ATTRIBUTE_VEC4S) as u32;
-            let bvh_triangles: Vec<GpuTriangle> =
-                triangles.iter().enumerate().map(|(i, t)| GpuTriangle { positions: t.positions, attribute: first + i as u32, flags: 0 }).collect();
-            for t in &triangles {
+        let mut firsts = Vec::with_capacity(sets.len());
+        for (triangles, _) in &sets {
+            firsts.push((attributes.len() / ATTRIBUTE_VEC4S) as u32);
+            for t in triangles {
                 let (material_or_light, mut flags) = match t.owner {
                     Owner::Object { material, .. } => (material, 0),
                     Owner::RectLight { light } => (light, ATTR_RECT_LIGHT),
@@ -200,13 +235,32 @@ impl GpuThroughPass {
                 let [t0, t1, t2] = t.uvs;
                 attributes.extend([[t0.x, t0.y, t1.x, t1.y], [t2.x, t2.y, 0.0, 0.0]]);
             }
-            bvhs.push(&bvh_triangles, name)
+        }
+        let geometry = match refittable {
+            Some(mut geometry) => {
+                let corners = |attribute: u32| {
+                    let a = &attributes[attribute as usize * ATTRIBUTE_VEC4S..];
+                    [0, 1, 2].map(|c| Vec3::from_slice(&a[c][..3]))
+                };
+                geometry.bvhs.refit(&geometry.roots, &corners);
+                geometry.refits += 1;
+                geometry
+            }
+            None => {
+                let mut bvhs = GpuBvhs::default();
+                let mut roots = Vec::with_capacity(sets.len());
+                for ((triangles, name), &first) in sets.iter().zip(&firsts) {
+                    let bvh_triangles: Vec<GpuTriangle> =
+                        triangles.iter().enumerate().map(|(i, t)| GpuTriangle { positions: t.positions, attribute: first + i as u32, flags: 0 }).collect();
+                    roots.push(bvhs.push(&bvh_triangles, name)?);
+                }
+                BuiltGeometry { bvhs, roots, triangle_counts, refits: 0 }
+            }
         };
-        let opaque_root = add(scene_triangles(scene, &|o| !scene.objects[o].transparent, true, &|_, _| None), &scene.name)?;
+        let opaque_root = geometry.roots[0];
         let mut objects = Vec::new();
-        for index in scene.transparent_objects() {
+        for (index, &root) in scene.transparent_objects().into_iter().zip(&geometry.roots[1..]) {
             let object = &scene.objects[index];
-            let root = add(scene_triangles(scene, &|o| o == index, false, &|_, _| None), &format!("{} (object {})", scene.name, object.name))?;
             let material = &scene.materials[object.material];
             let transmission = material.transmission;
             objects.push(ObjectParams {
@@ -231,15 +285,19 @@ impl GpuThroughPass {
         let lights: Vec<[f32; 4]> = scene.rect_lights.iter().flat_map(|l| [v4(l.normal(), if l.two_sided { 1.0 } else { 0.0 }), v4(l.radiance, 0.0)]).collect();
 
         let limit = self.device.limits().max_storage_buffer_binding_size.min(self.device.limits().max_buffer_size);
-        for (what, data) in
-            [("BVH nodes", &bvhs.nodes), ("triangles", &bvhs.triangles), ("triangle attributes", &attributes), ("materials", &materials), ("texels", &texels)]
-        {
+        for (what, data) in [
+            ("BVH nodes", &geometry.bvhs.nodes),
+            ("triangles", &geometry.bvhs.triangles),
+            ("triangle attributes", &attributes),
+            ("materials", &materials),
+            ("texels", &texels),
+        ] {
             let bytes = (data.len() * 16) as u64;
             if bytes > limit {
                 return Err(Error::bad_input(&scene.name, what, format!("{bytes} bytes for the GPU through pass; this GPU binds at most {limit}")));
             }
         }
-        let mut kept = previous.map(|p| p.arrays.map(Some));
+        let mut kept = previous_arrays.take().map(|arrays| arrays.map(Some));
         let mut storage = |array: usize, label: &str, data: &[[f32; 4]]| {
             // Bindings cannot be empty: an empty array travels as one unused vec4.
             let padded: &[[f32; 4]] = if data.is_empty() { &[[0.0; 4]] } else { data };
@@ -265,8 +323,8 @@ impl GpuThroughPass {
         };
         Ok(GpuThroughScene {
             arrays: [
-                storage(0, "through BVH nodes", &bvhs.nodes),
-                storage(1, "through triangles", &bvhs.triangles),
+                storage(0, "through BVH nodes", &geometry.bvhs.nodes),
+                storage(1, "through triangles", &geometry.bvhs.triangles),
                 storage(2, "through attributes", &attributes),
                 storage(3, "through materials", &materials),
                 storage(4, "through texels", &texels),
@@ -275,6 +333,7 @@ impl GpuThroughPass {
             opaque_root,
             objects,
             texture_table,
+            geometry,
         })
     }
 

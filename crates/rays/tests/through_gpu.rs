@@ -88,3 +88,46 @@ fn gpu_and_cpu_through_passes_agree_on_builtin_scenes() {
         assert!(bent > 20, "{name}: only {bent} pixels see through bent glass");
     }
 }
+
+/// A variable moves objects and a light: the next upload refits the BVHs it was handed and
+/// casts what a fresh upload casts, but where a ray meets two triangles at the same distance
+/// (an edge the two trees reach in another order).
+#[test]
+fn an_upload_refit_to_moved_objects_casts_what_a_fresh_upload_casts() {
+    let Some((device, queue)) = device() else { return };
+    let pass = GpuThroughPass::new(device, queue).unwrap();
+    let (w, h) = (64, 48);
+    let base = glassbake_scene::builtin::builtin("cornellbox8").unwrap();
+    let (before, after) = (base.sample(5, 0), base.sample(5, 1));
+    let moved = base.instantiate(&after.values).unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    let mut gbuffer = PlanarImage::new(w, h, layout::opaque_channel_names());
+    for c in opaque::LD..opaque::LD + 3 {
+        for y in 0..h {
+            for x in 0..w {
+                gbuffer.set(c, x, y, rng.random::<f32>());
+            }
+        }
+    }
+    let coverage = vec![1.0; (w * h) as usize];
+    let first = pass.upload(&base.instantiate(&before.values).unwrap()).unwrap();
+    assert_eq!(first.refits_since_build(), 0);
+    let refit = pass.upload_reusing(&moved, Some(first)).unwrap();
+    assert_eq!(refit.refits_since_build(), 1, "the same triangles, moved: refit, not built");
+    let fresh = pass.upload(&moved).unwrap();
+    for k in 0..moved.transparent_count() {
+        let a = pass.through_buffer(&refit, k, &after.camera, &gbuffer, &coverage).unwrap();
+        let b = pass.through_buffer(&fresh, k, &after.camera, &gbuffer, &coverage).unwrap();
+        let (share, cast) = disagreement(&a, &b);
+        let identical = a.data().iter().zip(b.data()).filter(|(x, y)| x.to_bits() == y.to_bits()).count();
+        eprintln!("object {k}: {cast} pixels cast, {:.3}% disagree, {identical} of {} values identical", 100.0 * share, a.data().len());
+        assert!(cast > (w * h) as usize / 2, "object {k}: only {cast} pixels cast");
+        assert!(share < 0.001, "object {k}: {:.2}% of pixels disagree", 100.0 * share);
+    }
+    // An object gone from the scene changes the triangles: built again.
+    let mut fewer = moved.clone();
+    let gone = fewer.transparent_objects()[0];
+    fewer.objects.remove(gone);
+    let rebuilt = pass.upload_reusing(&fewer, Some(refit)).unwrap();
+    assert_eq!(rebuilt.refits_since_build(), 0);
+}
