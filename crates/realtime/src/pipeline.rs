@@ -19,7 +19,7 @@ use glassbake_net::burn::tensor::TensorData;
 use glassbake_net::super_sampler::downsample_box2_tensor;
 use glassbake_net::{TrainedModel, TrainedSuperSampler};
 use glassbake_raster::light_coverage::{coverage_factor, light_coverage_into, light_coverage_of, LIGHT_COVERAGE_FACTOR};
-use glassbake_raster::{Rasterizer, RasterizerOptions};
+use glassbake_raster::{wgpu, Rasterizer, RasterizerOptions};
 use glassbake_rays::through::{through_buffer, ThroughScene};
 use glassbake_rays::through_gpu::{GpuThroughPass, GpuThroughScene, PlanesAt};
 use glassbake_scene::Scene;
@@ -97,8 +97,8 @@ pub struct FramePipeline {
     /// The GPU through pass, compiled when first used.
     gpu_through: Option<GpuThroughPass>,
     /// The through rays' geometry (BVHs, on the CPU or uploaded) and the variable values it
-    /// was built for: a camera moving through a still scene rebuilds nothing, a variable that
-    /// moves an object rebuilds it.
+    /// was made for: a camera moving through a still scene does no BVH work, a variable that
+    /// moves an object or a light refits the BVHs to it.
     through_geometry: BuiltForValues<ThroughCaster>,
 }
 
@@ -221,6 +221,13 @@ impl FramePipeline {
         self.rasterizer.live_gpu_objects()
     }
 
+    /// The rasterizer's wgpu instance, adapter, device and queue (the network's too when
+    /// [`Self::zero_copy`]), for a window to draw on the same device.
+    pub fn wgpu_handles(&self) -> (wgpu::Instance, wgpu::Adapter, wgpu::Device, wgpu::Queue) {
+        let r = &self.rasterizer;
+        (r.instance().clone(), r.adapter().clone(), r.device().clone(), r.queue().clone())
+    }
+
     pub fn adapter_name(&self) -> String {
         self.rasterizer.adapter_info().name.clone()
     }
@@ -229,210 +236,203 @@ impl FramePipeline {
     /// units (not normalised). Returns linear RGB clamped to [0, 1] (channels R, G, B).
     pub fn render(&mut self, camera: &Camera, values: &[f32], width: u32, height: u32, output: &Output) -> Result<(PlanarImage, FrameTimes)> {
         let start = Instant::now();
-        let instance = self.scene.instantiate(values)?;
-        let normalised: Vec<f32> = self.scene.variables.iter().zip(values).map(|(v, &x)| v.normalize(x)).collect();
-        let mut times = FrameTimes::default();
-        let image = match output {
+        let (image, mut times) = match output {
             Output::Buffer { layer, attribute } => {
+                let instance = self.scene.instantiate(values)?;
                 let image = self.buffer_view(&instance, camera, width, height, layer, attribute)?;
-                times.raster_ms = ms(start);
-                image
+                (image, FrameTimes { raster_ms: ms(start), ..FrameTimes::default() })
             }
             Output::GlassNet | Output::Naive => {
-                let naive = *output == Output::Naive;
-                if naive && self.naive.is_none() {
-                    return Err(Error::bad_input("--naive", "model", "no naive baseline was loaded"));
-                }
-                let sr = self.super_sampler.is_some();
-                if sr && !(width.is_multiple_of(2) && height.is_multiple_of(2)) {
-                    return Err(Error::bad_input("--res", "resolution", "the x2 super-sampler needs an even size"));
-                }
-                let (lw, lh) = if sr { (width / 2, height / 2) } else { (width, height) };
-                let model = if naive { self.naive.as_ref().expect("checked") } else { &self.glassnet };
-                let reads_objects = model.config().reads_object_buffers();
-                model.net.check_inputs(lw as usize, lh as usize, if reads_objects { instance.transparent_count() } else { 0 })?;
-                let device = model.device.clone();
-                let through = model.config().through;
-                if through && self.through_rays == ThroughRays::Gpu && self.gpu_through.is_none() {
-                    self.gpu_through = Some(GpuThroughPass::new(self.rasterizer.device().clone(), self.rasterizer.queue().clone())?);
-                }
-                // The through buffers are cast from read-back buffers (on the CPU or the GPU).
-                // A model reading through buffers stays on the GPU when the GPU pass casts them.
-                let zero_copy = self.zero_copy && !naive && (!through || self.through_rays == ThroughRays::Gpu);
-                let raster_start = Instant::now();
-                // With the super-sampler the coverage is drawn at the full resolution it composites
-                // at, and 2x2-averaged for the network, as train-sr and eval do. Zero-copy, it is
-                // reduced into a tensor and averaged on the GPU; else it crosses the host once.
-                let sampler_coverage = self.super_sampler.as_ref().is_some_and(|s| s.net.config.light_coverage);
-                let coverage: Option<Tensor<4>> = if model.config().light_coverage || sampler_coverage {
-                    let (cw, ch) = if sr { (width, height) } else { (lw, lh) };
-                    let factor = coverage_factor(&self.coverage_rasterizer, cw, ch).min(self.light_coverage_factor.max(1));
-                    Some(if zero_copy {
-                        let channels = layout::LIGHT_COVERAGE_CHANNELS;
-                        crate::gpu_handover::input_tensor(&device, channels, ch as usize, cw as usize, |buffer, offset| {
-                            light_coverage_into(&mut self.coverage_rasterizer, &instance, camera, cw, ch, factor, naive, buffer, offset)
-                        })?
-                    } else {
-                        let image = light_coverage_of(&mut self.coverage_rasterizer, &instance, camera, cw, ch, factor, naive)?;
-                        let shape = [1, layout::LIGHT_COVERAGE_CHANNELS, ch as usize, cw as usize];
-                        Tensor::<4>::from_data(TensorData::new(image.data().to_vec(), shape), &device)
-                    })
-                } else {
-                    None
-                };
-                let light_coverage = match &coverage {
-                    Some(full) if model.config().light_coverage => Some(if sr { downsample_box2_tensor(full.clone()) } else { full.clone() }),
-                    _ => None,
-                };
-                let mut frame = self.rasterizer.begin_frame(&instance, camera, lw, lh)?;
-                let (h, w) = (lh as usize, lw as usize);
-                let to_tensor = |data: Vec<f32>, channels: usize| Tensor::<4>::from_data(TensorData::new(data, [1, channels, h, w]), &device);
-                // The opaque G-buffer, kept for the through rays' direct light.
-                let mut opaque_image = None;
-                let gbuffer = if zero_copy {
-                    crate::gpu_handover::input_tensor(&device, layout::OPAQUE_CHANNELS, h, w, |buffer, offset| frame.opaque_to_buffer(buffer, offset))?
-                } else if naive {
-                    if through {
-                        opaque_image = Some(frame.opaque()?);
-                    }
-                    to_tensor(frame.naive()?.data().to_vec(), layout::OPAQUE_CHANNELS)
-                } else {
-                    let image = frame.opaque()?;
-                    let tensor = to_tensor(image.data().to_vec(), layout::OPAQUE_CHANNELS);
-                    opaque_image = Some(image);
-                    tensor
-                };
-                let objects = if reads_objects { frame.transparent_count() } else { 0 };
-                // The GPU pass reads the opaque G-buffer's L_d from the network's input tensor.
-                let gbuffer_on_gpu = (zero_copy && through).then(|| gbuffer.clone());
-                times.raster_ms += ms(raster_start);
-                let values_tensor = Tensor::<2>::from_data(TensorData::new(normalised.clone(), [1, normalised.len()]), &device);
-                let planes = &mut self.planes;
-                if !zero_copy {
-                    planes.resize(TRANSPARENT_CHANNELS * w * h, 0.0);
-                }
-                let build_start = Instant::now();
-                let gpu_through = self.gpu_through.as_ref();
-                let caster = if through {
-                    let on_gpu = self.through_rays == ThroughRays::Gpu && gpu_through.is_some();
-                    Some(self.through_geometry.get_or_build(
-                        values,
-                        |caster| matches!(caster, ThroughCaster::Gpu(_)) == on_gpu,
-                        |previous| {
-                            Ok(match gpu_through {
-                                Some(pass) if on_gpu => {
-                                    // Moved objects are written into the last upload's buffers.
-                                    let previous = match previous {
-                                        Some(ThroughCaster::Gpu(uploaded)) => Some(uploaded),
-                                        _ => None,
-                                    };
-                                    ThroughCaster::Gpu(pass.upload_reusing(&instance, previous)?)
-                                }
-                                _ => ThroughCaster::Cpu(ThroughScene::build(&instance)),
-                            })
-                        },
-                    )?)
-                } else {
-                    None
-                };
-                let build_ms = ms(build_start);
-                let mut cast_ms = 0.0;
-                let mut failure = None;
-                let mut raster_ms = 0.0;
-                let prediction = model.net.forward_streaming(gbuffer, light_coverage, values_tensor, objects, |k| {
-                    let t = Instant::now();
-                    let tensor = if let (true, Some(ThroughCaster::Gpu(uploaded)), Some(opaque)) = (zero_copy, &caster, &gbuffer_on_gpu) {
-                        // The transparency buffer, then the through buffer the GPU pass casts
-                        // from its coverage and the opaque G-buffer's L_d, into one tensor.
-                        let channels = TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS;
-                        crate::gpu_handover::input_tensor(&device, channels, h, w, |buffer, offset| {
-                            frame.transparent_to_buffer(k, buffer, offset)?;
-                            let cast = Instant::now();
-                            crate::gpu_handover::with_buffer(opaque, |gbuffer, gbuffer_offset| {
-                                let ld = PlanesAt { buffer: gbuffer, byte_offset: gbuffer_offset, plane: layout::opaque::LD as u64 };
-                                let pass = gpu_through.expect("compiled above");
-                                pass.cast_into(
-                                    uploaded,
-                                    k,
-                                    camera,
-                                    lw,
-                                    lh,
-                                    ld,
-                                    buffer,
-                                    offset,
-                                    layout::transparent::COVERAGE as u64,
-                                    TRANSPARENT_CHANNELS as u64,
-                                )
-                            })?;
-                            cast_ms += ms(cast);
-                            Ok(())
-                        })
-                    } else if zero_copy {
-                        crate::gpu_handover::input_tensor(&device, TRANSPARENT_CHANNELS, h, w, |buffer, offset| frame.transparent_to_buffer(k, buffer, offset))
-                    } else {
-                        frame.transparent_into(k, planes).and_then(|()| match (&caster, &opaque_image) {
-                            (Some(caster), Some(opaque)) => {
-                                let coverage = &planes[layout::transparent::COVERAGE * w * h..(layout::transparent::COVERAGE + 1) * w * h];
-                                let cast = Instant::now();
-                                let through = match caster {
-                                    ThroughCaster::Cpu(geometry) => through_buffer(&instance, geometry, k, camera, opaque, coverage),
-                                    ThroughCaster::Gpu(uploaded) => {
-                                        gpu_through.expect("compiled above").through_buffer(uploaded, k, camera, opaque, coverage)?
-                                    }
-                                };
-                                cast_ms += ms(cast);
-                                let mut data = Vec::with_capacity((TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS) * w * h);
-                                data.extend_from_slice(planes);
-                                data.extend_from_slice(through.data());
-                                Ok(to_tensor(data, TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS))
-                            }
-                            _ => Ok(to_tensor(planes.clone(), TRANSPARENT_CHANNELS)),
-                        })
-                    };
-                    raster_ms += ms(t);
-                    match tensor {
-                        Ok(tensor) => Some(tensor),
-                        Err(e) => {
-                            failure = Some(e);
-                            None
-                        }
-                    }
-                });
-                drop(frame);
-                if let Some(e) = failure {
-                    return Err(e);
-                }
-                // The rays were cast inside the rasterizer's timed callback.
-                times.through_ms = build_ms + cast_ms;
-                times.raster_ms += raster_ms - cast_ms;
-                let mut prediction = prediction.clamp(0.0, 1.0);
-                if let Some(sampler) = &self.super_sampler {
-                    let t = Instant::now();
-                    let mut full = self.rasterizer.begin_frame(&instance, camera, width, height)?;
-                    let (fh, fw) = (height as usize, width as usize);
-                    let gbuffer = if self.zero_copy {
-                        crate::gpu_handover::input_tensor(&sampler.device, layout::OPAQUE_CHANNELS, fh, fw, |buffer, offset| {
-                            full.opaque_to_buffer(buffer, offset)
-                        })?
-                    } else {
-                        Tensor::<4>::from_data(TensorData::new(full.opaque()?.data().to_vec(), [1, layout::OPAQUE_CHANNELS, fh, fw]), &sampler.device)
-                    };
-                    drop(full);
-                    times.raster_ms += ms(t);
-                    let low = prediction.to_device(&sampler.device);
-                    let light_coverage = coverage.filter(|_| sampler_coverage).map(|full| full.to_device(&sampler.device));
-                    prediction = sampler.net.forward(low, gbuffer, light_coverage).clamp(0.0, 1.0);
-                }
+                let (prediction, times) = self.render_on_device(camera, values, width, height, *output == Output::Naive)?;
                 if self.zero_copy {
                     // Reading the image back is the frame's one wait for the GPU.
                     glassbake_rays::gpu_stats::waited_elsewhere();
                 }
-                image_from_tensor(&prediction, 0)?
+                (image_from_tensor(&prediction, 0)?, times)
             }
         };
         times.total_ms = ms(start);
         times.network_ms = (times.total_ms - times.raster_ms - times.through_ms).max(0.0);
         Ok((image, times))
+    }
+
+    /// GlassNet's frame (the naive baseline's with `naive`) left on the network's device: a
+    /// [1, 3, height, width] tensor of linear RGB clamped to [0, 1], which [`Self::render`]
+    /// reads back and a window can show as it is (`raster::display`, the viewer). Its times
+    /// end when the frame's work is submitted, not done.
+    pub fn render_on_device(&mut self, camera: &Camera, values: &[f32], width: u32, height: u32, naive: bool) -> Result<(Tensor<4>, FrameTimes)> {
+        let start = Instant::now();
+        let instance = self.scene.instantiate(values)?;
+        let normalised: Vec<f32> = self.scene.variables.iter().zip(values).map(|(v, &x)| v.normalize(x)).collect();
+        let mut times = FrameTimes::default();
+        if naive && self.naive.is_none() {
+            return Err(Error::bad_input("--naive", "model", "no naive baseline was loaded"));
+        }
+        let sr = self.super_sampler.is_some();
+        if sr && !(width.is_multiple_of(2) && height.is_multiple_of(2)) {
+            return Err(Error::bad_input("--res", "resolution", "the x2 super-sampler needs an even size"));
+        }
+        let (lw, lh) = if sr { (width / 2, height / 2) } else { (width, height) };
+        let model = if naive { self.naive.as_ref().expect("checked") } else { &self.glassnet };
+        let reads_objects = model.config().reads_object_buffers();
+        model.net.check_inputs(lw as usize, lh as usize, if reads_objects { instance.transparent_count() } else { 0 })?;
+        let device = model.device.clone();
+        let through = model.config().through;
+        if through && self.through_rays == ThroughRays::Gpu && self.gpu_through.is_none() {
+            self.gpu_through = Some(GpuThroughPass::new(self.rasterizer.device().clone(), self.rasterizer.queue().clone())?);
+        }
+        // The through buffers are cast from read-back buffers (on the CPU or the GPU).
+        // A model reading through buffers stays on the GPU when the GPU pass casts them.
+        let zero_copy = self.zero_copy && !naive && (!through || self.through_rays == ThroughRays::Gpu);
+        let raster_start = Instant::now();
+        // With the super-sampler the coverage is drawn at the full resolution it composites
+        // at, and 2x2-averaged for the network, as train-sr and eval do. Zero-copy, it is
+        // reduced into a tensor and averaged on the GPU; else it crosses the host once.
+        let sampler_coverage = self.super_sampler.as_ref().is_some_and(|s| s.net.config.light_coverage);
+        let coverage: Option<Tensor<4>> = if model.config().light_coverage || sampler_coverage {
+            let (cw, ch) = if sr { (width, height) } else { (lw, lh) };
+            let factor = coverage_factor(&self.coverage_rasterizer, cw, ch).min(self.light_coverage_factor.max(1));
+            Some(if zero_copy {
+                let channels = layout::LIGHT_COVERAGE_CHANNELS;
+                crate::gpu_handover::input_tensor(&device, channels, ch as usize, cw as usize, |buffer, offset| {
+                    light_coverage_into(&mut self.coverage_rasterizer, &instance, camera, cw, ch, factor, naive, buffer, offset)
+                })?
+            } else {
+                let image = light_coverage_of(&mut self.coverage_rasterizer, &instance, camera, cw, ch, factor, naive)?;
+                let shape = [1, layout::LIGHT_COVERAGE_CHANNELS, ch as usize, cw as usize];
+                Tensor::<4>::from_data(TensorData::new(image.data().to_vec(), shape), &device)
+            })
+        } else {
+            None
+        };
+        let light_coverage = match &coverage {
+            Some(full) if model.config().light_coverage => Some(if sr { downsample_box2_tensor(full.clone()) } else { full.clone() }),
+            _ => None,
+        };
+        let mut frame = self.rasterizer.begin_frame(&instance, camera, lw, lh)?;
+        let (h, w) = (lh as usize, lw as usize);
+        let to_tensor = |data: Vec<f32>, channels: usize| Tensor::<4>::from_data(TensorData::new(data, [1, channels, h, w]), &device);
+        // The opaque G-buffer, kept for the through rays' direct light.
+        let mut opaque_image = None;
+        let gbuffer = if zero_copy {
+            crate::gpu_handover::input_tensor(&device, layout::OPAQUE_CHANNELS, h, w, |buffer, offset| frame.opaque_to_buffer(buffer, offset))?
+        } else if naive {
+            if through {
+                opaque_image = Some(frame.opaque()?);
+            }
+            to_tensor(frame.naive()?.data().to_vec(), layout::OPAQUE_CHANNELS)
+        } else {
+            let image = frame.opaque()?;
+            let tensor = to_tensor(image.data().to_vec(), layout::OPAQUE_CHANNELS);
+            opaque_image = Some(image);
+            tensor
+        };
+        let objects = if reads_objects { frame.transparent_count() } else { 0 };
+        // The GPU pass reads the opaque G-buffer's L_d from the network's input tensor.
+        let gbuffer_on_gpu = (zero_copy && through).then(|| gbuffer.clone());
+        times.raster_ms += ms(raster_start);
+        let values_tensor = Tensor::<2>::from_data(TensorData::new(normalised.clone(), [1, normalised.len()]), &device);
+        let planes = &mut self.planes;
+        if !zero_copy {
+            planes.resize(TRANSPARENT_CHANNELS * w * h, 0.0);
+        }
+        let build_start = Instant::now();
+        let gpu_through = self.gpu_through.as_ref();
+        let caster = if through {
+            let on_gpu = self.through_rays == ThroughRays::Gpu && gpu_through.is_some();
+            Some(self.through_geometry.get_or_build(
+                values,
+                |caster| matches!(caster, ThroughCaster::Gpu(_)) == on_gpu,
+                |previous| {
+                    // Moved objects and lights refit the last BVHs; on the GPU they
+                    // are written into the last upload's buffers.
+                    Ok(match (gpu_through, previous) {
+                        (Some(pass), Some(ThroughCaster::Gpu(uploaded))) if on_gpu => ThroughCaster::Gpu(pass.upload_reusing(&instance, Some(uploaded))?),
+                        (Some(pass), _) if on_gpu => ThroughCaster::Gpu(pass.upload(&instance)?),
+                        (_, Some(ThroughCaster::Cpu(geometry))) => ThroughCaster::Cpu(geometry.refit_or_build(&instance)),
+                        _ => ThroughCaster::Cpu(ThroughScene::build(&instance)),
+                    })
+                },
+            )?)
+        } else {
+            None
+        };
+        let build_ms = ms(build_start);
+        let mut cast_ms = 0.0;
+        let mut failure = None;
+        let mut raster_ms = 0.0;
+        let prediction = model.net.forward_streaming(gbuffer, light_coverage, values_tensor, objects, |k| {
+            let t = Instant::now();
+            let tensor = if let (true, Some(ThroughCaster::Gpu(uploaded)), Some(opaque)) = (zero_copy, &caster, &gbuffer_on_gpu) {
+                // The transparency buffer, then the through buffer the GPU pass casts
+                // from its coverage and the opaque G-buffer's L_d, into one tensor.
+                let channels = TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS;
+                crate::gpu_handover::input_tensor(&device, channels, h, w, |buffer, offset| {
+                    frame.transparent_to_buffer(k, buffer, offset)?;
+                    let cast = Instant::now();
+                    crate::gpu_handover::with_buffer(opaque, |gbuffer, gbuffer_offset| {
+                        let ld = PlanesAt { buffer: gbuffer, byte_offset: gbuffer_offset, plane: layout::opaque::LD as u64 };
+                        let pass = gpu_through.expect("compiled above");
+                        pass.cast_into(uploaded, k, camera, lw, lh, ld, buffer, offset, layout::transparent::COVERAGE as u64, TRANSPARENT_CHANNELS as u64)
+                    })?;
+                    cast_ms += ms(cast);
+                    Ok(())
+                })
+            } else if zero_copy {
+                crate::gpu_handover::input_tensor(&device, TRANSPARENT_CHANNELS, h, w, |buffer, offset| frame.transparent_to_buffer(k, buffer, offset))
+            } else {
+                frame.transparent_into(k, planes).and_then(|()| match (&caster, &opaque_image) {
+                    (Some(caster), Some(opaque)) => {
+                        let coverage = &planes[layout::transparent::COVERAGE * w * h..(layout::transparent::COVERAGE + 1) * w * h];
+                        let cast = Instant::now();
+                        let through = match caster {
+                            ThroughCaster::Cpu(geometry) => through_buffer(&instance, geometry, k, camera, opaque, coverage),
+                            ThroughCaster::Gpu(uploaded) => gpu_through.expect("compiled above").through_buffer(uploaded, k, camera, opaque, coverage)?,
+                        };
+                        cast_ms += ms(cast);
+                        let mut data = Vec::with_capacity((TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS) * w * h);
+                        data.extend_from_slice(planes);
+                        data.extend_from_slice(through.data());
+                        Ok(to_tensor(data, TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS))
+                    }
+                    _ => Ok(to_tensor(planes.clone(), TRANSPARENT_CHANNELS)),
+                })
+            };
+            raster_ms += ms(t);
+            match tensor {
+                Ok(tensor) => Some(tensor),
+                Err(e) => {
+                    failure = Some(e);
+                    None
+                }
+            }
+        });
+        drop(frame);
+        if let Some(e) = failure {
+            return Err(e);
+        }
+        // The rays were cast inside the rasterizer's timed callback.
+        times.through_ms = build_ms + cast_ms;
+        times.raster_ms += raster_ms - cast_ms;
+        let mut prediction = prediction.clamp(0.0, 1.0);
+        if let Some(sampler) = &self.super_sampler {
+            let t = Instant::now();
+            let mut full = self.rasterizer.begin_frame(&instance, camera, width, height)?;
+            let (fh, fw) = (height as usize, width as usize);
+            let gbuffer = if self.zero_copy {
+                crate::gpu_handover::input_tensor(&sampler.device, layout::OPAQUE_CHANNELS, fh, fw, |buffer, offset| full.opaque_to_buffer(buffer, offset))?
+            } else {
+                Tensor::<4>::from_data(TensorData::new(full.opaque()?.data().to_vec(), [1, layout::OPAQUE_CHANNELS, fh, fw]), &sampler.device)
+            };
+            drop(full);
+            times.raster_ms += ms(t);
+            let low = prediction.to_device(&sampler.device);
+            let light_coverage = coverage.filter(|_| sampler_coverage).map(|full| full.to_device(&sampler.device));
+            prediction = sampler.net.forward(low, gbuffer, light_coverage).clamp(0.0, 1.0);
+        }
+        times.total_ms = ms(start);
+        times.network_ms = (times.total_ms - times.raster_ms - times.through_ms).max(0.0);
+        Ok((prediction, times))
     }
 
     /// One attribute of one buffer as an RGB image (scalars grey; normals and directions
