@@ -193,6 +193,38 @@ fn viewer_opens_under_xvfb_and_fails_clearly_without_a_display() {
     colours.sort_unstable();
     colours.dedup();
     assert!(colours.len() > 50, "{} colours", colours.len());
+
+    // With --device wgpu the window is drawn on the network's device and shows its image
+    // from the GPU (`raster::display`); --host-copy reads the same frame back and uploads it.
+    // The frame's part of the two windows must agree to the encoding's rounding.
+    let shoot = |extra: &[&str], name: &str| {
+        let shot = dir.path().join(name);
+        let out = Command::new("xvfb-run")
+            .args(["-a", "-s", "-screen 0 1280x800x24", env!("CARGO_BIN_EXE_glassbake"), "view", path(&model), "--res", "64", "--device", "wgpu"])
+            .args(extra)
+            .args(["--screenshot", path(&shot), "--screenshot-after", "3"])
+            .env_remove("WAYLAND_DISPLAY")
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        image::open(&shot).unwrap().to_rgb8()
+    };
+    let (on_gpu, read_back) = (shoot(&[], "on-gpu.png"), shoot(&["--host-copy"], "read-back.png"));
+    assert_eq!(on_gpu.dimensions(), read_back.dimensions());
+    let (w, h) = on_gpu.dimensions();
+    // Inside the frame, right of the controls and clear of the frame-rate text.
+    let (mut largest, mut colours) = (0u8, Vec::new());
+    for y in h / 5..h * 9 / 10 {
+        for x in w * 2 / 5..w * 17 / 20 {
+            let (a, b) = (on_gpu.get_pixel(x, y).0, read_back.get_pixel(x, y).0);
+            largest = largest.max((0..3).map(|c| a[c].abs_diff(b[c])).max().unwrap());
+            colours.push(a);
+        }
+    }
+    colours.sort_unstable();
+    colours.dedup();
+    assert!(colours.len() > 20, "the GPU-shown frame has {} colours", colours.len());
+    assert!(largest <= 2, "the GPU-shown frame differs from the read-back one by {largest}/255");
 }
 
 /// With --device wgpu the rasterizer (and the GPU through pass) writes GlassNet's inputs

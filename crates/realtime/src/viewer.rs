@@ -2,9 +2,15 @@
 //! frames, with an orbit camera (drag to turn, scroll to zoom), a slider per scene variable, a
 //! resolution slider, a choice between GlassNet, the naive baseline and any single buffer
 //! attribute, and the frame rate.
+//!
+//! When the network runs on the rasterizer's wgpu device (`--device wgpu`), the window is
+//! drawn on that device too, and the network's image goes from its output tensor into a
+//! texture the window samples (`raster::display`) without being read back; buffer views and
+//! the other devices read the image back and upload it.
 
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
+use std::time::Instant;
 
 use eframe::egui;
 use glam::Vec3;
@@ -12,7 +18,9 @@ use glassbake_core::color::linear_to_srgb;
 use glassbake_core::layout::{GROUND_TRUTH_CHANNELS, OPAQUE_ATTRIBUTES, TRANSPARENT_ATTRIBUTES};
 use glassbake_core::{Camera, Error, PlanarImage, Result};
 
-use crate::pipeline::{FramePipeline, Output};
+use glassbake_raster::display::DisplayTexture;
+
+use crate::pipeline::{FramePipeline, FrameTimes, Output};
 
 pub struct ViewerOptions {
     /// Starting frame resolution (square).
@@ -104,9 +112,14 @@ struct Viewer {
     resolution: u32,
     size_multiple: u32,
     texture: Option<egui::TextureHandle>,
-    /// Exponential moving average of the frame time, ms.
+    /// The image written on the GPU, when the network shares the window's device.
+    on_device: Option<OnDevice>,
+    /// Which of the two textures the last frame wrote.
+    shown: Shown,
+    /// Exponential moving average of the time between frames, ms.
     frame_ms: Option<f64>,
-    last: crate::pipeline::FrameTimes,
+    last_frame_at: Option<Instant>,
+    last: FrameTimes,
     error: Option<String>,
     frames: usize,
     screenshot: Option<PathBuf>,
@@ -115,23 +128,89 @@ struct Viewer {
     screenshot_result: Arc<Mutex<Option<std::result::Result<PathBuf, String>>>>,
 }
 
+/// The display pass and the texture id the window's renderer knows it by.
+struct OnDevice {
+    display: DisplayTexture,
+    id: Option<egui::TextureId>,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Shown {
+    Nothing,
+    Uploaded,
+    OnDevice,
+}
+
 impl Viewer {
-    fn render(&mut self, ctx: &egui::Context) {
+    fn render(&mut self, ctx: &egui::Context, frame: &eframe::Frame) {
         let camera = self.orbit.camera(&self.template);
         let output = self.choices[self.choice].1.clone();
-        match self.pipeline.render(&camera, &self.values, self.resolution, self.resolution, &output) {
-            Ok((image, times)) => {
+        let rendered = match (&mut self.on_device, &output, frame.wgpu_render_state()) {
+            (Some(on_device), Output::GlassNet | Output::Naive, Some(state)) => {
+                Self::render_on_device(&mut self.pipeline, on_device, state, &camera, &self.values, self.resolution, output == Output::Naive)
+                    .inspect(|_| self.shown = Shown::OnDevice)
+            }
+            _ => self.pipeline.render(&camera, &self.values, self.resolution, self.resolution, &output).map(|(image, times)| {
                 let picture = color_image(&image);
                 match &mut self.texture {
                     Some(t) => t.set(picture, egui::TextureOptions::NEAREST),
                     None => self.texture = Some(ctx.load_texture("frame", picture, egui::TextureOptions::NEAREST)),
                 }
-                self.frame_ms = Some(self.frame_ms.map_or(times.total_ms, |m| 0.9 * m + 0.1 * times.total_ms));
+                self.shown = Shown::Uploaded;
+                times
+            }),
+        };
+        match rendered {
+            Ok(times) => {
+                // The time between frames: with the image left on the GPU, a frame's own
+                // times end when its work is submitted.
+                let now = Instant::now();
+                if let Some(before) = self.last_frame_at.replace(now) {
+                    let interval = (now - before).as_secs_f64() * 1e3;
+                    self.frame_ms = Some(self.frame_ms.map_or(interval, |m| 0.9 * m + 0.1 * interval));
+                }
                 self.last = times;
                 self.error = None;
                 self.frames += 1;
             }
             Err(e) => self.error = Some(e.to_string()),
+        }
+    }
+
+    /// The frame into the display texture on the shared device; the window's renderer is
+    /// told of the texture when it was made anew.
+    fn render_on_device(
+        pipeline: &mut FramePipeline,
+        on_device: &mut OnDevice,
+        state: &eframe::egui_wgpu::RenderState,
+        camera: &Camera,
+        values: &[f32],
+        resolution: u32,
+        naive: bool,
+    ) -> Result<FrameTimes> {
+        let (image, times) = pipeline.render_on_device(camera, values, resolution, resolution, naive)?;
+        let display = &mut on_device.display;
+        let remade = crate::gpu_handover::with_buffer(&image, |buffer, offset| display.show(buffer, offset, resolution, resolution))?;
+        if remade || on_device.id.is_none() {
+            let view = display.view().expect("written above");
+            let mut renderer = state.renderer.write();
+            on_device.id = Some(match on_device.id {
+                Some(id) => {
+                    renderer.update_egui_texture_from_wgpu_texture(&state.device, view, eframe::wgpu::FilterMode::Nearest, id);
+                    id
+                }
+                None => renderer.register_native_texture(&state.device, view, eframe::wgpu::FilterMode::Nearest),
+            });
+        }
+        Ok(times)
+    }
+
+    /// The texture the last frame wrote.
+    fn frame_texture(&self) -> Option<egui::TextureId> {
+        match self.shown {
+            Shown::Nothing => None,
+            Shown::Uploaded => self.texture.as_ref().map(|t| t.id()),
+            Shown::OnDevice => self.on_device.as_ref().and_then(|d| d.id),
         }
     }
 
@@ -179,16 +258,16 @@ impl Viewer {
 }
 
 impl eframe::App for Viewer {
-    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+    fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
-        self.render(&ctx);
+        self.render(&ctx, frame);
         egui::Panel::left("controls").show(ui, |ui| self.controls(ui));
         egui::CentralPanel::default_margins().show(ui, |ui| {
-            if let Some(texture) = &self.texture {
+            if let Some(texture) = self.frame_texture() {
                 let available = ui.available_size();
                 let side = available.x.min(available.y).max(64.0);
                 let response =
-                    ui.add(egui::Image::from_texture(egui::load::SizedTexture::new(texture.id(), egui::vec2(side, side))).sense(egui::Sense::click_and_drag()));
+                    ui.add(egui::Image::from_texture(egui::load::SizedTexture::new(texture, egui::vec2(side, side))).sense(egui::Sense::click_and_drag()));
                 if response.dragged() {
                     let d = response.drag_delta();
                     self.orbit.azimuth = (self.orbit.azimuth - 0.4 * d.x + 540.0).rem_euclid(360.0) - 180.0;
@@ -237,6 +316,10 @@ pub fn run_viewer(pipeline: FramePipeline, options: ViewerOptions) -> Result<Opt
     let size_multiple = (pipeline.glassnet.config().size_multiple() as u32) * if pipeline.super_sampler.is_some() { 2 } else { 1 };
     let resolution = (options.resolution / size_multiple).max(1) * size_multiple;
     let result = Arc::new(Mutex::new(None));
+    // With the network on the rasterizer's device, the window is drawn on it too, so that
+    // the network's image can be sampled where it is.
+    let shared = pipeline.zero_copy().then(|| pipeline.wgpu_handles());
+    let on_device = shared.as_ref().map(|(_, _, device, queue)| OnDevice { display: DisplayTexture::new(device, queue), id: None });
     let viewer = Viewer {
         orbit: Orbit::from_camera(&template),
         template,
@@ -246,7 +329,10 @@ pub fn run_viewer(pipeline: FramePipeline, options: ViewerOptions) -> Result<Opt
         resolution,
         size_multiple,
         texture: None,
+        on_device,
+        shown: Shown::Nothing,
         frame_ms: None,
+        last_frame_at: None,
         last: Default::default(),
         error: None,
         frames: 0,
@@ -256,11 +342,14 @@ pub fn run_viewer(pipeline: FramePipeline, options: ViewerOptions) -> Result<Opt
         screenshot_result: result.clone(),
         pipeline,
     };
-    let native = eframe::NativeOptions {
+    let mut native = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default().with_inner_size([1100.0, 760.0]).with_title(options.title.clone()),
         renderer: eframe::Renderer::Wgpu,
         ..Default::default()
     };
+    if let Some((instance, adapter, device, queue)) = shared {
+        native.wgpu_options.wgpu_setup = eframe::egui_wgpu::WgpuSetup::Existing(eframe::egui_wgpu::WgpuSetupExisting { instance, adapter, device, queue });
+    }
     eframe::run_native(&options.title, native, Box::new(|_| Ok(Box::new(viewer)))).map_err(|e| Error::Internal(format!("the viewer window: {e}")))?;
     let outcome = result.lock().expect("screenshot result").take();
     match outcome {

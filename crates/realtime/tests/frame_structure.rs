@@ -2,7 +2,8 @@
 //! coverage, through rays on the GPU, and the super-sampler when there is one) creates no wgpu
 //! object in glassbake's passes, waits on the host once (for its image), and leaves no more
 //! objects alive on the device than it found, for 1, 2, 4 and 8 transparent objects; and its
-//! image is the host-copy frame's on the CPU network within 1/255.
+//! image is the host-copy frame's on the CPU network within 1/255. The viewer's frame, shown
+//! from the GPU, does not wait at all.
 //!
 //! This file holds one test: the counts are process-wide, and another test running beside it
 //! would add its own.
@@ -16,9 +17,10 @@ use glassbake_net::model_dir::write_weights;
 use glassbake_net::{
     select_device, DeviceChoice, GlassNet, ModelFiles, ModelKind, NetConfig, Network, SuperSampler, SuperSamplerConfig, TrainedModel, TrainedSuperSampler,
 };
+use glassbake_raster::display::DisplayTexture;
 use glassbake_raster::RasterizerOptions;
 use glassbake_rays::gpu_stats::GpuStats;
-use glassbake_realtime::gpu_handover::open_shared;
+use glassbake_realtime::gpu_handover::{open_shared, with_buffer};
 use glassbake_realtime::synth::with_transparent_count;
 use glassbake_realtime::{FramePipeline, Output, ThroughRays};
 use glassbake_scene::builtin::builtin;
@@ -81,6 +83,22 @@ fn a_warm_zero_copy_frame_creates_nothing_and_waits_once() {
                 let worst = image.data().iter().zip(reference.data()).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
                 assert!(worst <= 1.0 / 255.0, "{what}, frame {i}: the zero-copy frame is {worst} from the host-copy one");
             }
+        }
+    }
+
+    // The viewer's frame: the image stays on the device and goes into the display texture,
+    // so a warm frame creates nothing and does not wait at all.
+    let (_, _, device, queue) = zero_copy.wgpu_handles();
+    let mut display = DisplayTexture::new(&device, &queue);
+    for i in 0..4u64 {
+        let sample = scene.sample(9, i);
+        let before = GpuStats::now();
+        let (image, _) = zero_copy.render_on_device(&sample.camera, &sample.values, RES, RES, false).unwrap();
+        with_buffer(&image, |buffer, offset| display.show(buffer, offset, RES, RES)).unwrap();
+        let done = GpuStats::now().since(&before);
+        if i >= 2 {
+            assert_eq!(done.objects(), 0, "shown frame {i}: glassbake's passes created {done:?}");
+            assert_eq!(done.host_waits, 0, "shown frame {i}: the host waited for the GPU");
         }
     }
 }
