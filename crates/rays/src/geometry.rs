@@ -39,12 +39,20 @@ impl SceneGeometry {
     }
 
     /// [`Self::from_triangles`] for triangles that may have moved since `self` was built:
-    /// with as many triangles as before, the BVH is refit to where they are now (obvhs; the
-    /// `embree` build makes it anew), else built. Traversal is exact either way; a refit tree
-    /// is as good as a new one when each object or light moved as a whole.
+    /// where none moved (a variable changed a colour), the BVH is kept; with as many
+    /// triangles as before, it is refit to where they are now (obvhs; the `embree` build makes
+    /// it anew), else built. Traversal is exact either way; a refit tree is as good as a new
+    /// one when each object or light moved as a whole.
     pub fn refit_or_build(self, attributes: Vec<TriangleAttributes>) -> Self {
+        let same_count = attributes.len() == self.attributes.len();
+        let unmoved = same_count
+            && attributes
+                .iter()
+                .zip(&self.attributes)
+                .all(|(a, b)| a.positions.iter().zip(&b.positions).all(|(p, q)| p.to_array().map(f32::to_bits) == q.to_array().map(f32::to_bits)));
         match self.caster {
-            Some(caster) if attributes.len() == self.attributes.len() => SceneGeometry { caster: Some(caster.refit(&attributes)), attributes },
+            Some(caster) if unmoved => SceneGeometry { caster: Some(caster), attributes },
+            Some(caster) if same_count => SceneGeometry { caster: Some(caster.refit(&attributes)), attributes },
             _ => Self::from_triangles(attributes),
         }
     }
@@ -169,6 +177,9 @@ mod tests {
         assert_eq!(refit.attributes[0].positions, scene_triangles(&moved, &|_| true, true, &|_, _| None)[0].positions);
         check_against_brute_force(&SceneGeometry::build(&moved, &|_, _| None), 2);
         check_against_brute_force(&refit, 2);
+        // Nothing moved the second time: the tree is kept as it is.
+        let kept = refit.refit_or_build(scene_triangles(&moved, &|_| true, true, &|_, _| None));
+        check_against_brute_force(&kept, 3);
     }
 
     /// Random rays from inside the Cornell box: the BVH's nearest hits and shadow queries
