@@ -172,8 +172,8 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 3)]
     pub warmup: usize,
     /// Hold the scene's variables at the first frame's values and move only the camera, as a
-    /// viewer orbiting a still scene does: the through rays' BVHs are then built once, not per
-    /// frame.
+    /// viewer orbiting a still scene does: the through rays' BVHs are then built once and not
+    /// refit per frame.
     #[arg(long)]
     pub camera_only: bool,
     /// bench.json path (default: beside the model directory, where `glassbake bake` reports
