@@ -8,6 +8,7 @@ use burn::tensor::{DType, TensorData};
 
 use crate::config::{CnnConfig, PixelGeneratorConfig, RendererConfig, UNetConfig};
 use crate::flex_ops::{leaky_relu, shift_stack};
+use crate::precision::activation;
 
 /// Leaky slope of every hidden activation: small nets lose too many units to plain ReLU.
 const LEAK: f64 = 0.1;
@@ -26,8 +27,13 @@ fn conv(in_channels: usize, out_channels: usize, kernel: usize, device: &Device)
 /// input (im2col); the backward passes are then matrix products too. Without gradients flex's
 /// own k x k forward pass is faster than im2col and is kept, as are strided convolutions; GPU
 /// backends keep their convolution kernels, where the k*k copies would only cost memory. The
-/// parameters are the same `Conv2d` either way, so saved models are unchanged.
+/// parameters are the same `Conv2d` either way, so saved models are unchanged. Its input and
+/// output are rounded to f16 while `precision::set_f16_activations` is on.
 pub fn apply_conv(conv: &Conv2d, x: Tensor<4>) -> Tensor<4> {
+    activation(convolve(conv, activation(x)))
+}
+
+fn convolve(conv: &Conv2d, x: Tensor<4>) -> Tensor<4> {
     let [k, k2] = conv.kernel_size;
     let same = k == 1 || matches!(conv.padding, PaddingConfig2d::Same);
     let training_on_flex = conv.weight.val().is_require_grad() && conv.weight.device().inner() == Device::flex();
@@ -140,7 +146,7 @@ impl UNet {
         }
         for (up, block) in self.up.iter().zip(&self.decoder) {
             let skip = skips.pop().expect("one skip per decoder level");
-            x = block.forward(Tensor::cat(vec![up.forward(x), skip], 1));
+            x = block.forward(Tensor::cat(vec![activation(up.forward(x)), skip], 1));
         }
         apply_conv(&self.head, x)
     }

@@ -18,6 +18,7 @@ pub mod init;
 pub mod loss;
 pub mod model;
 pub mod model_dir;
+pub mod precision;
 pub mod sum;
 pub mod super_sampler;
 pub mod train;
