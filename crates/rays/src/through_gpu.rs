@@ -210,7 +210,7 @@ impl GpuThroughPass {
             sets.push((scene_triangles(scene, &|o| o == index, false, &|_, _| None), name));
         }
         let triangle_counts: Vec<usize> = sets.iter().map(|(triangles, _)| triangles.len()).collect();
-        let (mut previous_arrays, refittable) = match previous {
+        let (previous_arrays, refittable) = match previous {
             Some(p) => {
                 let refittable = (p.geometry.triangle_counts == triangle_counts).then_some(p.geometry);
                 (Some(p.arrays), refittable)
@@ -297,7 +297,7 @@ impl GpuThroughPass {
                 return Err(Error::bad_input(&scene.name, what, format!("{bytes} bytes for the GPU through pass; this GPU binds at most {limit}")));
             }
         }
-        let mut kept = previous_arrays.take().map(|arrays| arrays.map(Some));
+        let mut kept = previous_arrays.map(|arrays| arrays.map(Some));
         let mut storage = |array: usize, label: &str, data: &[[f32; 4]]| {
             // Bindings cannot be empty: an empty array travels as one unused vec4.
             let padded: &[[f32; 4]] = if data.is_empty() { &[[0.0; 4]] } else { data };

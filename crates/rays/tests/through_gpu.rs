@@ -46,6 +46,20 @@ fn disagreement(cpu: &PlanarImage, gpu: &PlanarImage) -> (f64, usize) {
     (differ as f64 / (w * h) as f64, cast)
 }
 
+/// An opaque G-buffer whose direct light L_d (what the hits read where the camera sees them)
+/// is random: any values will do.
+fn random_direct_light(w: u32, h: u32, rng: &mut rand_chacha::ChaCha8Rng) -> PlanarImage {
+    let mut gbuffer = PlanarImage::new(w, h, layout::opaque_channel_names());
+    for c in opaque::LD..opaque::LD + 3 {
+        for y in 0..h {
+            for x in 0..w {
+                gbuffer.set(c, x, y, rng.random::<f32>());
+            }
+        }
+    }
+    gbuffer
+}
+
 #[test]
 fn gpu_and_cpu_through_passes_agree_on_builtin_scenes() {
     let Some((device, queue)) = device() else { return };
@@ -57,15 +71,7 @@ fn gpu_and_cpu_through_passes_agree_on_builtin_scenes() {
         let base = glassbake_scene::builtin::builtin(name).unwrap();
         let sample = base.sample(3, 1);
         let scene = base.instantiate(&sample.values).unwrap();
-        // The direct light the hits read where the camera sees them: any values will do.
-        let mut gbuffer = PlanarImage::new(w, h, layout::opaque_channel_names());
-        for c in opaque::LD..opaque::LD + 3 {
-            for y in 0..h {
-                for x in 0..w {
-                    gbuffer.set(c, x, y, rng.random::<f32>());
-                }
-            }
-        }
+        let gbuffer = random_direct_light(w, h, &mut rng);
         // Every pixel cast: the rays through each object and past it.
         let coverage = vec![1.0; (w * h) as usize];
         let geometry = ThroughScene::build(&scene);
@@ -100,15 +106,7 @@ fn an_upload_refit_to_moved_objects_casts_what_a_fresh_upload_casts() {
     let base = glassbake_scene::builtin::builtin("cornellbox8").unwrap();
     let (before, after) = (base.sample(5, 0), base.sample(5, 1));
     let moved = base.instantiate(&after.values).unwrap();
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
-    let mut gbuffer = PlanarImage::new(w, h, layout::opaque_channel_names());
-    for c in opaque::LD..opaque::LD + 3 {
-        for y in 0..h {
-            for x in 0..w {
-                gbuffer.set(c, x, y, rng.random::<f32>());
-            }
-        }
-    }
+    let gbuffer = random_direct_light(w, h, &mut rand_chacha::ChaCha8Rng::seed_from_u64(11));
     let coverage = vec![1.0; (w * h) as usize];
     let first = pass.upload(&base.instantiate(&before.values).unwrap()).unwrap();
     assert_eq!(first.refits_since_build(), 0);
