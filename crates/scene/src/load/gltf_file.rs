@@ -8,6 +8,7 @@ use glam::{Affine2, Affine3A, Mat4, Vec2, Vec3, Vec4};
 use glassbake_core::color::srgb_to_linear;
 use glassbake_core::{Error, Result};
 
+use super::scene_files::{read_scene_file, SceneFolder};
 use super::{check_reference, empty_scene, finish_mesh, unique_name};
 use crate::gltf_extensions;
 use crate::model::{Material, Mesh, Object, Scene, Texture, Transmission};
@@ -137,7 +138,7 @@ fn gltf_material(
 /// Load a glTF 2.0 file (.gltf or .glb) with its buffers and textures.
 pub fn load_gltf(path: &Path) -> Result<Scene> {
     let label = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|e| Error::bad_input(&label, "file", e.to_string()))?;
+    let bytes = read_scene_file(path, &label, "file")?;
     let (used, required) = gltf_extensions::declared_extensions(&bytes, &label)?;
     let extension_warnings = gltf_extensions::check_extensions(&used, &required, &label)?;
     let gltf_error = |e: gltf::Error| Error::bad_input(&label, "glTF", e.to_string().replace('\n', " "));
@@ -176,19 +177,21 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
         }
     }
     let document = gltf::Document::from_json(root).map_err(gltf_error)?;
-    let base = path.parent();
-    for buffer in document.buffers() {
-        if let gltf::buffer::Source::Uri(uri) = buffer.source() {
-            check_reference(&label, &format!("buffers[{}].uri", buffer.index()), uri)?;
-        }
+    // Every reference is checked before any file is read.
+    let uris = document.buffers().filter_map(|b| match b.source() {
+        gltf::buffer::Source::Uri(uri) => Some((format!("buffers[{}].uri", b.index()), uri)),
+        gltf::buffer::Source::Bin => None,
+    });
+    let image_uris = document.images().filter_map(|i| match i.source() {
+        gltf::image::Source::Uri { uri, .. } => Some((format!("images[{}].uri", i.index()), uri)),
+        gltf::image::Source::View { .. } => None,
+    });
+    for (field, uri) in uris.chain(image_uris) {
+        check_reference(&label, &field, uri)?;
     }
-    for image in document.images() {
-        if let gltf::image::Source::Uri { uri, .. } = image.source() {
-            check_reference(&label, &format!("images[{}].uri", image.index()), uri)?;
-        }
-    }
-    let buffers = gltf::import_buffers(&document, base, blob).map_err(gltf_error)?;
-    let images = gltf::import_images(&document, base, &buffers).map_err(gltf_error)?;
+    let folder = SceneFolder::of(path)?;
+    let buffers = read_buffers(&document, &folder, blob)?;
+    let images = read_images(&document, &folder, &buffers)?;
     let mut scene = empty_scene(path);
     scene.load_warnings.extend(extension_warnings);
     let mut texture_cache = HashMap::new();
@@ -337,4 +340,71 @@ fn check_accessors(primitive: &gltf::Primitive, buffers: &[gltf::buffer::Data], 
         }
     }
     Ok(())
+}
+
+/// The document's buffers: the GLB's binary chunk, `data:` URIs, and files read through the
+/// scene folder's rule, each exactly its declared `byteLength` (padded to four bytes, as
+/// glTF aligns accessors).
+fn read_buffers(document: &gltf::Document, folder: &SceneFolder, mut blob: Option<Vec<u8>>) -> Result<Vec<gltf::buffer::Data>> {
+    let label = folder.label();
+    let mut buffers = Vec::new();
+    for buffer in document.buffers() {
+        let field = format!("buffers[{}]", buffer.index());
+        let declared = buffer.length() as u64;
+        let mut bytes = match buffer.source() {
+            gltf::buffer::Source::Bin => blob.take().ok_or_else(|| Error::bad_input(label, &field, "refers to the GLB binary chunk, which the file lacks"))?,
+            gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
+                let decoded =
+                    gltf::buffer::Data::from_source(buffer.source(), None).map_err(|e| Error::bad_input(label, format!("{field}.uri"), e.to_string()))?;
+                decoded.0
+            }
+            gltf::buffer::Source::Uri(uri) => folder.read_declared(&format!("{field}.uri"), uri, declared)?,
+        };
+        if (bytes.len() as u64) < declared {
+            return Err(Error::bad_input(label, format!("{field}.byteLength"), format!("declares {declared} bytes where the data holds {}", bytes.len())));
+        }
+        bytes.resize(bytes.len().next_multiple_of(4), 0);
+        buffers.push(gltf::buffer::Data(bytes));
+    }
+    Ok(buffers)
+}
+
+/// The document's images, decoded: those inside the file (`data:` URIs, buffer views) by the
+/// gltf crate, files read through the scene folder's rule. The image crate's default limits
+/// bound the memory a decoded image may take.
+fn read_images(document: &gltf::Document, folder: &SceneFolder, buffers: &[gltf::buffer::Data]) -> Result<Vec<gltf::image::Data>> {
+    use gltf::image::{Format, Source};
+    let label = folder.label();
+    let mut images = Vec::new();
+    for image in document.images() {
+        let field = format!("images[{}]", image.index());
+        let data = match image.source() {
+            Source::Uri { uri, mime_type } if !uri.starts_with("data:") => {
+                let bytes = folder.read(&format!("{field}.uri"), uri)?;
+                let format = match mime_type {
+                    Some("image/png") => Some(image::ImageFormat::Png),
+                    Some("image/jpeg") => Some(image::ImageFormat::Jpeg),
+                    _ => image::ImageFormat::from_path(uri).ok(),
+                };
+                let decoded = match format {
+                    Some(format) => image::load_from_memory_with_format(&bytes, format),
+                    None => image::load_from_memory(&bytes),
+                }
+                .map_err(|e| Error::bad_input(label, format!("{field}.uri"), format!("{uri}: {e}")))?;
+                let (width, height) = (decoded.width(), decoded.height());
+                let format = match decoded {
+                    image::DynamicImage::ImageLuma8(_) => Format::R8,
+                    image::DynamicImage::ImageLumaA8(_) => Format::R8G8,
+                    image::DynamicImage::ImageRgb8(_) => Format::R8G8B8,
+                    image::DynamicImage::ImageRgba8(_) => Format::R8G8B8A8,
+                    other => return Err(Error::bad_input(label, field, format!("unsupported pixel format {:?} (8-bit textures only)", other.color()))),
+                };
+                gltf::image::Data { pixels: decoded.into_bytes(), format, width, height }
+            }
+            // Decoding these touches no file, whatever the base folder.
+            source => gltf::image::Data::from_source(source, Some(Path::new(".")), buffers).map_err(|e| Error::bad_input(label, &field, e.to_string()))?,
+        };
+        images.push(data);
+    }
+    Ok(images)
 }

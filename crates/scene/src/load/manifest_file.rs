@@ -1,12 +1,13 @@
 //! The TOML manifest: the geometry it names, and its objects, lights, camera ranges and
 //! variables applied to that geometry.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use glam::Vec3;
 use glassbake_core::{Error, Result};
 
-use super::{check_reference, load_geometry, require_file};
+use super::scene_files::{read_scene_file, SceneFolder};
+use super::{load_geometry, require_file};
 use crate::camera_spec::{CameraPosition, CameraSpec, Interval};
 use crate::manifest::{parse_manifest, Manifest, NumberOrRange, PositionManifest, TargetManifest};
 use crate::model::{Material, RectLight, Scene};
@@ -35,13 +36,10 @@ fn name_list<'a>(names: impl Iterator<Item = &'a str>) -> String {
 pub fn load_manifest(path: &Path) -> Result<Scene> {
     let file = path.display().to_string();
     require_file(path)?;
-    let text = std::fs::read_to_string(path).map_err(|e| Error::bad_input(&file, "file", e.to_string()))?;
+    let bytes = read_scene_file(path, &file, "file")?;
+    let text = String::from_utf8(bytes).map_err(|e| Error::bad_input(&file, "file", format!("not UTF-8 text: {e}")))?;
     let manifest = parse_manifest(&text).map_err(|(field, message)| Error::bad_input(&file, field, message))?;
-    check_reference(&file, "geometry", &manifest.geometry)?;
-    let geometry: PathBuf = path.parent().unwrap_or(Path::new(".")).join(&manifest.geometry);
-    if !geometry.is_file() {
-        return Err(Error::bad_input(&file, "geometry", format!("no such file: {}", geometry.display())));
-    }
+    let geometry = SceneFolder::of(path)?.resolve("geometry", &manifest.geometry)?;
     let mut scene = load_geometry(&geometry)?;
     apply_manifest(&mut scene, &manifest, &file)?;
     Ok(scene)

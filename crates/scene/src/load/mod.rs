@@ -10,11 +10,13 @@ use glassbake_core::{Error, Result};
 mod gltf_file;
 mod manifest_file;
 mod obj_file;
+mod scene_files;
 mod validate;
 
 pub use gltf_file::load_gltf;
 pub use manifest_file::{apply_manifest, load_manifest};
 pub use obj_file::load_obj;
+pub use scene_files::MAX_SCENE_FILE_BYTES;
 pub use validate::{validate, MAX_RADIANCE};
 
 use crate::builtin::{builtin, BUILTIN_NAMES};

@@ -1,17 +1,23 @@
 //! The Wavefront OBJ loader, with its MTL material libraries and textures.
 
 use std::collections::HashMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use glam::{Affine3A, Vec2, Vec3, Vec4};
 use glassbake_core::color::srgb_to_linear;
 use glassbake_core::{Error, Result};
 
+use super::scene_files::{read_scene_file, SceneFolder};
 use super::{check_reference, empty_scene, finish_mesh, unique_name};
 use crate::model::{Material, Mesh, Object, Scene, Texture, Transmission};
-fn load_image_texture(path: &Path, name: &str, is_color: bool, label: &str, field: &str) -> Result<Texture> {
-    let img = image::open(path).map_err(|e| Error::bad_input(label, field, format!("{}: {e}", path.display())))?.to_rgba32f();
+fn load_image_texture(folder: &SceneFolder, name: &str, is_color: bool, field: &str) -> Result<Texture> {
+    let bytes = folder.read(field, name)?;
+    let decoded = match image::ImageFormat::from_path(name) {
+        Ok(format) => image::load_from_memory_with_format(&bytes, format),
+        Err(_) => image::load_from_memory(&bytes),
+    };
+    let img = decoded.map_err(|e| Error::bad_input(folder.label(), field, format!("{name}: {e}")))?.to_rgba32f();
     let texels = img
         .pixels()
         .map(|p| {
@@ -37,8 +43,7 @@ fn parse_floats3(s: &str) -> Option<Vec3> {
 /// tobj 4.0.5 unwraps a colour statement (`Ka`, `Kd`, `Ks`, `Ke`) of fewer than three numbers
 /// in a material library (a panic): check them first. A library that is not there is tobj's
 /// to report (a warning, grey materials).
-fn check_material_colours(library: &Path) -> Result<()> {
-    let Ok(bytes) = std::fs::read(library) else { return Ok(()) };
+fn check_material_colours(library: &Path, bytes: &[u8]) -> Result<()> {
     for (number, line) in String::from_utf8_lossy(&bytes).lines().enumerate() {
         let mut words = line.split_whitespace();
         if let Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")) = words.next() {
@@ -52,25 +57,37 @@ fn check_material_colours(library: &Path) -> Result<()> {
 
 pub fn load_obj(path: &Path) -> Result<Scene> {
     let label = path.display().to_string();
-    // tobj opens the material libraries itself: check their names first.
-    let text = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let dir = path.parent().unwrap_or(Path::new("."));
+    let text = read_scene_file(path, &label, "file")?;
+    let folder = SceneFolder::of(path)?;
+    // The material libraries are read here, through the scene folder's rule, and handed to
+    // tobj by the name it asks for.
+    let mut libraries = HashMap::new();
     for (number, line) in String::from_utf8_lossy(&text).lines().enumerate() {
         let field = format!("line {} mtllib", number + 1);
-        if let Some(libraries) = line.trim_start().strip_prefix("mtllib") {
-            for library in libraries.split_whitespace() {
-                check_reference(&label, &field, library)?;
+        if let Some(names) = line.trim_start().strip_prefix("mtllib") {
+            for name in names.split_whitespace() {
+                check_reference(&label, &field, name)?;
             }
         }
         if line.split_whitespace().next() == Some("mtllib") {
-            // The name tobj 4.0.5 opens: the rest of the line after the first space.
-            let library = line.split_once(' ').unwrap_or_default().1.trim();
-            check_reference(&label, &field, library)?;
-            check_material_colours(&dir.join(library))?;
+            // The name tobj 4.0.5 asks for: the rest of the line after the first space.
+            let name = line.split_once(' ').unwrap_or_default().1.trim();
+            // A library that is not there is tobj's to report.
+            if path.with_file_name(name).symlink_metadata().is_err() {
+                continue;
+            }
+            let bytes = folder.read(&field, name)?;
+            check_material_colours(&path.with_file_name(name), &bytes)?;
+            libraries.insert(PathBuf::from(name), bytes);
         }
     }
     let options = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
-    let (models, materials) = tobj::load_obj(path, &options).map_err(|e| Error::bad_input(&label, "OBJ", e.to_string()))?;
+    let library = |name: &Path| match libraries.get(name) {
+        Some(bytes) => tobj::load_mtl_buf(&mut std::io::Cursor::new(bytes)),
+        None => Err(tobj::LoadError::OpenFileFailed),
+    };
+    let (models, materials) =
+        tobj::load_obj_buf(&mut std::io::Cursor::new(&text), &options, library).map_err(|e| Error::bad_input(&label, "OBJ", e.to_string()))?;
     let mut scene = empty_scene(path);
     let obj_materials = match materials {
         Ok(m) => m,
@@ -90,8 +107,7 @@ pub fn load_obj(path: &Path) -> Result<Scene> {
         let alpha = (2.0 / (ns + 2.0)).sqrt();
         let base_color_texture = match &m.diffuse_texture {
             Some(tex) => {
-                check_reference(&label, &format!("{field}.map_Kd"), tex)?;
-                let texture = load_image_texture(&dir.join(tex), tex, true, &label, &format!("{field}.map_Kd"))?;
+                let texture = load_image_texture(&folder, tex, true, &format!("{field}.map_Kd"))?;
                 scene.textures.push(Arc::new(texture));
                 Some(scene.textures.len() - 1)
             }
