@@ -44,7 +44,7 @@ fn parse_floats3(s: &str) -> Option<Vec3> {
 /// in a material library (a panic): check them first. A library that is not there is tobj's
 /// to report (a warning, grey materials).
 fn check_material_colours(library: &Path, bytes: &[u8]) -> Result<()> {
-    for (number, line) in String::from_utf8_lossy(&bytes).lines().enumerate() {
+    for (number, line) in String::from_utf8_lossy(bytes).lines().enumerate() {
         let mut words = line.split_whitespace();
         if let Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")) = words.next() {
             if words.take(3).count() < 3 {
