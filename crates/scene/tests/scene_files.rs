@@ -115,7 +115,9 @@ fn referred_name(kind: &Reference) -> &'static str {
 fn load_within_seconds(path: &Path) -> glassbake_core::Result<glassbake_scene::Scene> {
     let (send, receive) = mpsc::channel();
     let arg = path.to_str().unwrap().to_string();
-    std::thread::spawn(move || send.send(load_scene(&arg)));
+    std::thread::spawn(move || {
+        let _ = send.send(load_scene(&arg));
+    });
     receive.recv_timeout(Duration::from_secs(20)).unwrap_or_else(|_| panic!("loading {} did not finish", path.display()))
 }
 
