@@ -38,7 +38,8 @@ impl Scene {
         self.variables.iter().map(|v| v.default).collect()
     }
 
-    /// The scene with `values` applied (one per variable, in order). The original scene is
+    /// The scene with `values` applied (one per variable, in order), as given: validation has
+    /// checked every value of every range against the scene's bounds. The original scene is
     /// untouched; meshes and textures are shared, so this costs a copy of the small tables.
     pub fn instantiate(&self, values: &[f32]) -> Result<Scene> {
         if values.len() != self.variables.len() {
@@ -50,15 +51,15 @@ impl Scene {
                 return Err(Error::bad_input(&self.name, format!("variables.{}", var.name), "value is not finite"));
             }
             match var.target {
-                VariableTarget::Roughness { material } => s.materials[material].roughness = value.clamp(0.0, 1.0),
+                VariableTarget::Roughness { material } => s.materials[material].roughness = value,
                 VariableTarget::Hue { material, saturation, brightness } => s.materials[material].base_color = hsv_to_rgb(value, saturation, brightness),
                 VariableTarget::Translation { object, axis } => {
                     let t = &mut s.objects[object].transform;
                     *t = Affine3A::from_translation(axis * value) * *t;
                 }
                 VariableTarget::LightTranslation { light, axis } => s.rect_lights[light].corner += axis * value,
-                VariableTarget::LightIntensity { light } => s.rect_lights[light].radiance = self.rect_lights[light].radiance * value.max(0.0),
-                VariableTarget::EmissionIntensity { material } => s.materials[material].emission = self.materials[material].emission * value.max(0.0),
+                VariableTarget::LightIntensity { light } => s.rect_lights[light].radiance = self.rect_lights[light].radiance * value,
+                VariableTarget::EmissionIntensity { material } => s.materials[material].emission = self.materials[material].emission * value,
             }
         }
         Ok(s)

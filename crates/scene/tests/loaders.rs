@@ -797,3 +797,30 @@ fn obj_illumination_models_set_the_specular_layer() {
     write(&manifest, format!("{}\n[objects.chalk]\nthin = true\n", manifest_text("m.obj", "")));
     expect_bad_input(load_scene(manifest.to_str().unwrap()), "m.toml", "objects.chalk.thin");
 }
+
+/// Objects the geometry file gives one name are told apart (`wall`, `wall#1`) with a warning,
+/// never colliding with a name the file uses itself; a manifest naming such a name is refused
+/// instead of addressing whichever came first.
+#[test]
+fn repeated_object_names_are_warned_and_a_manifest_cannot_address_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_quad_gltf(dir.path(), false);
+    let mut doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    doc["nodes"][1]["name"] = json!("wall");
+    write(&path, serde_json::to_vec(&doc).unwrap());
+    let scene = load_scene(path.to_str().unwrap()).unwrap();
+    let names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(names, ["wall", "wall#1"]);
+    assert!(scene.warnings().iter().any(|w| w.contains("2 objects are named \"wall\"")), "{:?}", scene.warnings());
+    let variables = "[[variables]]\nname = \"slide\"\nrange = [0.0, 1.0]\ntarget = { kind = \"translation\", object = \"wall\", axis = [1.0, 0.0, 0.0] }\n";
+    let manifest = dir.path().join("scene.toml");
+    write(&manifest, manifest_text("quad.gltf", variables));
+    expect_bad_input(load_scene(manifest.to_str().unwrap()), "scene.toml", "variables[0] (slide).target.object");
+    // A third node named like a told-apart name keeps its own name; the repeat moves on.
+    doc["nodes"].as_array_mut().unwrap().push(json!({"name": "wall#1", "mesh": 0, "translation": [0.0, 0.0, 4.0]}));
+    doc["scenes"][0]["nodes"] = json!([2, 0, 1]);
+    write(&path, serde_json::to_vec(&doc).unwrap());
+    let scene = load_scene(path.to_str().unwrap()).unwrap();
+    let names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(names, ["wall#1", "wall", "wall#2"]);
+}

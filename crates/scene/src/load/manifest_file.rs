@@ -32,6 +32,28 @@ fn name_list<'a>(names: impl Iterator<Item = &'a str>) -> String {
     }
 }
 
+/// The index of `name` among `names`. Refused where the geometry file gives that name to
+/// several objects (or materials), which the loader tells apart as `name`, `name#1`, ...: a
+/// manifest naming one of them would silently address whichever came first.
+fn named(names: &[&str], name: &str, kind: &str, file: &str, field: &str) -> Result<usize> {
+    let Some(index) = names.iter().position(|n| *n == name) else {
+        return Err(Error::bad_input(file, field, format!("no {kind} named {name:?} ({kind}s: {})", name_list(names.iter().copied()))));
+    };
+    let namesakes: Vec<&str> = names.iter().copied().filter(|n| n.strip_prefix(name).is_some_and(|rest| rest.starts_with('#'))).collect();
+    if !namesakes.is_empty() {
+        return Err(Error::bad_input(
+            file,
+            field,
+            format!(
+                "the geometry file names {} {kind}s {name:?} (told apart as {name}, {}); give them distinct names in the geometry file",
+                namesakes.len() + 1,
+                namesakes.join(", ")
+            ),
+        ));
+    }
+    Ok(index)
+}
+
 /// Load a manifest and the geometry it points to, and apply its declarations.
 pub fn load_manifest(path: &Path) -> Result<Scene> {
     let file = path.display().to_string();
@@ -54,13 +76,8 @@ pub fn apply_manifest(scene: &mut Scene, manifest: &Manifest, file: &str) -> Res
         scene.background = Vec3::from(bg);
     }
     for (name, o) in &manifest.objects {
-        let i = scene.object_index(name).ok_or_else(|| {
-            Error::bad_input(
-                file,
-                format!("objects.{name}"),
-                format!("no object of that name (objects: {})", name_list(scene.objects.iter().map(|o| o.name.as_str()))),
-            )
-        })?;
+        let names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
+        let i = named(&names, name, "object", file, &format!("objects.{name}"))?;
         if let Some(thin) = o.thin {
             let field = format!("objects.{name}.thin");
             let material = &scene.materials[scene.objects[i].material];
@@ -130,22 +147,12 @@ pub fn apply_manifest(scene: &mut Scene, manifest: &Manifest, file: &str) -> Res
             r => return Err(Error::bad_input(file, format!("{field}.range"), format!("expected [min, max], got {} values", r.len()))),
         };
         let material = |name: &str| {
-            scene.material_index(name).ok_or_else(|| {
-                Error::bad_input(
-                    file,
-                    format!("{field}.target.material"),
-                    format!("no material named {name:?} (materials: {})", name_list(scene.materials.iter().map(|m| m.name.as_str()))),
-                )
-            })
+            let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
+            named(&names, name, "material", file, &format!("{field}.target.material"))
         };
         let object = |name: &str| {
-            scene.object_index(name).ok_or_else(|| {
-                Error::bad_input(
-                    file,
-                    format!("{field}.target.object"),
-                    format!("no object named {name:?} (objects: {})", name_list(scene.objects.iter().map(|o| o.name.as_str()))),
-                )
-            })
+            let names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
+            named(&names, name, "object", file, &format!("{field}.target.object"))
         };
         let light = |name: &str| {
             scene.light_index(name).ok_or_else(|| {

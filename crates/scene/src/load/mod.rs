@@ -17,7 +17,7 @@ pub use gltf_file::load_gltf;
 pub use manifest_file::{apply_manifest, load_manifest};
 pub use obj_file::load_obj;
 pub use scene_files::MAX_SCENE_FILE_BYTES;
-pub use validate::{validate, MAX_RADIANCE};
+pub use validate::{validate, MAX_COORDINATE, MAX_RADIANCE, MAX_SPECULAR_COLOR, MAX_TEXTURE_COORDINATE};
 
 use crate::builtin::{builtin, BUILTIN_NAMES};
 use crate::camera_spec::CameraSpec;
@@ -120,6 +120,7 @@ pub fn load_geometry(path: &Path) -> Result<Scene> {
         Some("obj") => load_obj(path)?,
         _ => return Err(Error::bad_input(path.display(), "geometry", "expected a .gltf, .glb or .obj file")),
     };
+    warn_repeated_names(&mut scene);
     // Objects left without triangles (all degenerate) have nothing to draw or export.
     let empty: Vec<String> = scene.objects.iter().filter(|o| scene.meshes[o.mesh].indices.is_empty()).map(|o| o.name.clone()).collect();
     if !empty.is_empty() {
@@ -134,16 +135,44 @@ fn empty_scene(path: &Path) -> Scene {
     Scene::empty(&name)
 }
 
-/// Give each object a unique name (a `#n` suffix on repeats), since manifests refer to
-/// objects by name.
+/// Give each object a unique name (a `#n` suffix on repeats, skipping names the file itself
+/// uses), since manifests refer to objects by name.
 fn unique_name(taken: &mut HashMap<String, usize>, base: &str) -> String {
     let count = taken.entry(base.to_string()).or_insert(0);
     *count += 1;
     if *count == 1 {
-        base.to_string()
-    } else {
-        format!("{base}#{}", *count - 1)
+        return base.to_string();
     }
+    let mut n = *count - 1;
+    loop {
+        let candidate = format!("{base}#{n}");
+        if !taken.contains_key(&candidate) {
+            taken.insert(candidate.clone(), 1);
+            return candidate;
+        }
+        n += 1;
+    }
+}
+
+/// A warning for each name the file gives to several objects or materials.
+fn warn_repeated_names(scene: &mut Scene) {
+    let mut warnings = Vec::new();
+    for (kind, names) in [
+        ("objects", scene.objects.iter().map(|o| o.name.as_str()).collect::<Vec<_>>()),
+        ("materials", scene.materials.iter().map(|m| m.name.as_str()).collect()),
+    ] {
+        for name in &names {
+            let repeats: Vec<&str> = names.iter().copied().filter(|n| n.strip_prefix(name).is_some_and(|rest| rest.starts_with('#'))).collect();
+            if !repeats.is_empty() && !name.contains('#') {
+                warnings.push(format!(
+                    "{} {kind} are named {name:?}; they are told apart as {name}, {} (a manifest naming {name:?} is refused)",
+                    repeats.len() + 1,
+                    repeats.join(", ")
+                ));
+            }
+        }
+    }
+    scene.load_warnings.extend(warnings);
 }
 
 /// Drop degenerate triangles and fill in missing normals/UVs, recording warnings.
