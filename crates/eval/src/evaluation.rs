@@ -262,7 +262,9 @@ impl EvaluationSummary {
     pub fn markdown_table(&self) -> String {
         let mut out =
             String::from("| model | MAE ↓ | PSNR ↑ | DSSIM ↓ | T.MAE ↓ | T.PSNR ↑ | FLIP ↓ | LPIPS ↓ | s/frame |\n|---|---|---|---|---|---|---|---|---|\n");
-        for row in self.table_cells() {
+        for mut row in self.table_cells() {
+            // The model's name is the user's; the numbers are ours.
+            row[0] = crate::markdown::text(&row[0]);
             let _ = writeln!(out, "| {} |", row.join(" | "));
         }
         out

@@ -11,6 +11,7 @@ pub mod denoise;
 pub mod evaluation;
 pub mod grid;
 pub mod lpips;
+pub mod markdown;
 pub mod metrics;
 pub mod plot;
 pub mod report;

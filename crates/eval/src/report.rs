@@ -12,6 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::evaluation::EvaluationSummary;
 use crate::grid::column_titles;
+use crate::markdown;
 use crate::plot::{bar_chart, line_chart, Plot, Series};
 
 /// Grids shown in the report (the rest stay in the evaluation directory).
@@ -104,47 +105,6 @@ fn figure(title: &str, file: &str, plot: Option<Plot>) -> Option<Figure> {
     plot.map(|p| Figure { title: title.into(), file: file.into(), png: p.png, svg: Some(p.svg) })
 }
 
-fn html_escape(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
-}
-
-/// Escapes `s` and renders the inline Markdown this module writes: `code` and **strong**.
-fn inline_html(s: &str) -> String {
-    let mut out = String::new();
-    for (i, part) in html_escape(s).split('`').enumerate() {
-        if i % 2 == 1 {
-            let _ = write!(out, "<code>{part}</code>");
-        } else {
-            for (j, piece) in part.split("**").enumerate() {
-                if j % 2 == 1 {
-                    let _ = write!(out, "<strong>{piece}</strong>");
-                } else {
-                    out.push_str(piece);
-                }
-            }
-        }
-    }
-    out
-}
-
-/// Markdown table to HTML (the simple tables this module writes: header, rule, rows).
-fn table_html(markdown: &str) -> String {
-    let mut out = String::from("<table>\n");
-    for (i, line) in markdown.lines().enumerate() {
-        if i == 1 {
-            continue;
-        }
-        let tag = if i == 0 { "th" } else { "td" };
-        out.push_str("<tr>");
-        for cell in line.trim_matches('|').split('|') {
-            let _ = write!(out, "<{tag}>{}</{tag}>", inline_html(cell.trim()));
-        }
-        out.push_str("</tr>\n");
-    }
-    out.push_str("</table>\n");
-    out
-}
-
 fn bench_table(bench: &BenchFile) -> String {
     let mut out = String::from("| resolution | transparent objects | ms / frame | FPS | peak RAM (MiB) | peak GPU (MiB) |\n|---|---|---|---|---|---|\n");
     let mib = |v: Option<f64>| v.map(|v| format!("{v:.1}")).unwrap_or_else(|| "-".into());
@@ -180,13 +140,13 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
     };
     if let Some(summary) = &summary {
         let mut text = format!(
-            "{} frames of the `{}` split of `{}`, {} px. Tone map: {}. LPIPS: {}.\n\n{}",
+            "{} frames of the {} split of {}, {} px. Tone map: {}. LPIPS: {}.\n\n{}",
             summary.frames.len(),
-            summary.split,
-            summary.dataset,
+            markdown::code(&summary.split),
+            markdown::code(&summary.dataset),
             summary.resolution,
-            summary.tone_map,
-            summary.lpips,
+            markdown::text(&summary.tone_map),
+            markdown::text(&summary.lpips),
             summary.markdown_table()
         );
         text.push_str("\nT.MAE and T.PSNR are computed over the pixels covered by a transparent object, averaged over the frames that show one.\n");
@@ -194,7 +154,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
             let _ = write!(
                 text,
                 "\n**Order test** ({}, {} frames): transparent objects reversed, max |difference| {}; shuffled, {} — {}.\n",
-                order.model,
+                markdown::text(&order.model),
                 order.frames,
                 order.reversed_max_abs_diff,
                 order.shuffled_max_abs_diff,
@@ -217,7 +177,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
             let png = std::fs::read(&source).map_err(|e| Error::io(&source, e))?;
             grids.push(Figure { title: format!("frame {}", record.index), file: format!("grids/{:06}.png", record.index), png, svg: None });
         }
-        let columns = column_titles(&groups).join(" | ");
+        let columns = column_titles(&groups).iter().map(|c| markdown::text(c)).collect::<Vec<_>>().join(" | ");
         sections.push(("Comparison grids".into(), format!("Columns: {columns}. FLIP error maps in magma: black is no error, yellow the largest.\n"), grids));
         let mut crops = Vec::new();
         for record in summary.frames.iter().filter(|r| r.transparent_pixels > 0).take(MAX_GRIDS) {
@@ -227,7 +187,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
             }
         }
         if !crops.is_empty() {
-            let columns = std::iter::once("ground truth".to_string()).chain(groups.iter().cloned()).collect::<Vec<_>>().join(" | ");
+            let columns = std::iter::once("ground truth").chain(groups.iter().map(String::as_str)).map(markdown::text).collect::<Vec<_>>().join(" | ");
             let text = format!(
                 "A {side}x{side} window around the transparent objects, enlarged 4x (nearest neighbour). Columns: {columns}.\n",
                 side = crate::grid::CROP_SIDE
@@ -287,14 +247,16 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
         ));
         let memory = per_res(&|r| r.peak_gpu_mib.or(r.peak_ram_mib));
         figures.extend(figure("Peak memory", "memory.png", line_chart("Peak memory", "transparent objects", "MiB", &memory)?));
-        sections.push(("Speed and memory".into(), format!("{} on {}.\n\n{}", path.display(), bench.device, bench_table(&bench)), figures));
+        let text = format!("{} on {}.\n\n{}", markdown::text(&path.display().to_string()), markdown::text(&bench.device), bench_table(&bench));
+        sections.push(("Speed and memory".into(), text, figures));
     }
 
-    // Markdown and PNG files.
-    let mut md = format!("# {}\n\n", inputs.title);
+    // Markdown and PNG files. The inputs' strings are text: escaped, never read as markup.
+    let mut head = format!("# {}\n\n", markdown::text(&inputs.title));
     for fact in &inputs.facts {
-        let _ = writeln!(md, "- {fact}");
+        let _ = writeln!(head, "- {}", markdown::text(fact));
     }
+    let mut md = head.clone();
     for note in &notes {
         let _ = writeln!(md, "\n> {note}");
     }
@@ -302,62 +264,32 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
         let _ = write!(md, "\n## {heading}\n\n{text}\n");
         for f in figures {
             write_bytes_atomically(&dir.join(&f.file), &f.png)?;
-            let _ = writeln!(md, "![{}]({})\n", f.title, f.file);
+            let _ = writeln!(md, "![{}]({})\n", markdown::text(&f.title), f.file);
         }
     }
     write_bytes_atomically(&dir.join("report.md"), md.as_bytes())?;
 
-    // Self-contained HTML.
+    // Self-contained HTML: the same Markdown rendered, with the figures inline.
     let mut html = format!(
-        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{}</title>\n<style>\nbody{{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}}\ntable{{border-collapse:collapse;margin:1em 0}}td,th{{border:1px solid #bbb;padding:4px 10px;text-align:right}}th{{background:#eee}}td:first-child{{text-align:left}}\nimg{{max-width:100%;image-rendering:pixelated}}figure{{margin:1em 0}}figcaption{{color:#555}}.note{{background:#fff4d6;padding:.5em 1em}}\n</style></head><body>\n<h1>{}</h1>\n<ul>\n",
-        html_escape(&inputs.title),
-        html_escape(&inputs.title)
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{}</title>\n<style>\nbody{{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}}\ntable{{border-collapse:collapse;margin:1em 0}}td,th{{border:1px solid #bbb;padding:4px 10px;text-align:right}}th{{background:#eee}}td:first-child{{text-align:left}}\nimg{{max-width:100%;image-rendering:pixelated}}figure{{margin:1em 0}}figcaption{{color:#555}}.note{{background:#fff4d6;padding:.5em 1em}}\n</style></head><body>\n{}",
+        markdown::html_text(&inputs.title),
+        markdown::to_html(&head)
     );
-    for fact in &inputs.facts {
-        let _ = writeln!(html, "<li>{}</li>", inline_html(fact));
-    }
-    html.push_str("</ul>\n");
     for note in &notes {
-        let _ = writeln!(html, "<p class=\"note\">{}</p>", html_escape(note));
+        let _ = writeln!(html, "<p class=\"note\">{}</p>", markdown::html_text(note));
     }
     for (heading, text, figures) in &sections {
-        let _ = writeln!(html, "<h2>{}</h2>", html_escape(heading));
-        let mut paragraph = String::new();
-        let flush = |paragraph: &mut String, html: &mut String| {
-            if !paragraph.trim().is_empty() {
-                let _ = writeln!(html, "<p>{}</p>", inline_html(paragraph.trim()));
-            }
-            paragraph.clear();
-        };
-        let mut table = String::new();
-        for line in text.lines() {
-            if line.starts_with('|') {
-                flush(&mut paragraph, &mut html);
-                table.push_str(line);
-                table.push('\n');
-            } else {
-                if !table.is_empty() {
-                    html.push_str(&table_html(&table));
-                    table.clear();
-                }
-                paragraph.push_str(line);
-                paragraph.push('\n');
-            }
-        }
-        if !table.is_empty() {
-            html.push_str(&table_html(&table));
-        }
-        flush(&mut paragraph, &mut html);
+        html.push_str(&markdown::to_html(&format!("## {heading}\n\n{text}")));
         for f in figures {
             let body = match &f.svg {
                 Some(svg) => svg.clone(),
                 None => format!(
                     "<img alt=\"{}\" src=\"data:image/png;base64,{}\">",
-                    html_escape(&f.title),
+                    markdown::html_text(&f.title),
                     base64::engine::general_purpose::STANDARD.encode(&f.png)
                 ),
             };
-            let _ = writeln!(html, "<figure>{body}<figcaption>{}</figcaption></figure>", html_escape(&f.title));
+            let _ = writeln!(html, "<figure>{body}<figcaption>{}</figcaption></figure>", markdown::html_text(&f.title));
         }
     }
     html.push_str("</body></html>\n");
