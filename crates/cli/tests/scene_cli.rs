@@ -61,8 +61,24 @@ fn mitsuba_writes_xml_and_meshes() {
     let (code, _, err) = glassbake(&["scene", "mitsuba", "cornellbox", "--sample", "4", "--out", xml.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     assert!(std::fs::read_to_string(&xml).unwrap().contains("<sensor type=\"perspective\">"));
-    assert!(dir.path().join("meshes/000.ply").exists());
-    assert!(dir.path().join("textures/texture0.png").exists());
+    assert!(dir.path().join("scene_assets/meshes/000.ply").exists());
+    assert!(dir.path().join("scene_assets/textures/texture0.png").exists());
+    // A second export beside the first keeps to its own assets.
+    let first_mesh = std::fs::read(dir.path().join("scene_assets/meshes/000.ply")).unwrap();
+    let other = dir.path().join("other.xml");
+    let (code, _, err) = glassbake(&["scene", "mitsuba", "cornellbox8", "--sample", "1", "--out", other.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(std::fs::read_to_string(&other).unwrap().contains("other_assets/meshes/000.ply"));
+    assert_eq!(std::fs::read(dir.path().join("scene_assets/meshes/000.ply")).unwrap(), first_mesh);
+    // A folder of the user's own files where the assets would go is refused, untouched.
+    std::fs::create_dir(dir.path().join("mine_assets")).unwrap();
+    std::fs::write(dir.path().join("mine_assets/notes.txt"), b"mine").unwrap();
+    let mine = dir.path().join("mine.xml");
+    let (code, _, err) = glassbake(&["scene", "mitsuba", "cornellbox", "--out", mine.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("mine_assets") && err.contains("did not write"), "{err}");
+    assert!(!mine.exists());
+    assert_eq!(std::fs::read_dir(dir.path().join("mine_assets")).unwrap().count(), 1);
 }
 
 /// A scene that reaches outside its folder is refused (exit 2) unless the user says it is

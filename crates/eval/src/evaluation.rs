@@ -4,6 +4,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use glassbake_core::output_dir::{claim_output_dir, OutputKind};
 use glassbake_core::{Error, Result};
 use serde::{Deserialize, Serialize};
 
@@ -90,9 +91,13 @@ fn mean(values: impl Iterator<Item = f64>) -> Option<f64> {
     (n > 0).then(|| sum / n as f64)
 }
 
+/// The output-folder kind of an evaluation (`glassbake eval --out`).
+pub const EVALUATION_DIRECTORY: OutputKind = OutputKind { name: "evaluation", signatures: &["metrics.json"] };
+
 impl Evaluation {
     /// Starts an evaluation writing under `dir` (`frames/`, `grids/`, `metrics.*`).
     pub fn new(dir: &Path, models: Vec<String>, lpips: Option<Lpips>, dataset: String, split: String) -> Result<Evaluation> {
+        claim_output_dir(dir, EVALUATION_DIRECTORY, "--out")?;
         for sub in ["frames", "grids", "crops"] {
             std::fs::create_dir_all(dir.join(sub)).map_err(|e| Error::io(&dir.join(sub), e))?;
         }

@@ -11,6 +11,7 @@ use burn::store::{BurnToPyTorchAdapter, ModuleSnapshot, PyTorchToBurnAdapter, Sa
 use serde::{Deserialize, Serialize};
 
 use glassbake_core::image::write_bytes_atomically;
+use glassbake_core::output_dir::{claim_output_dir, OutputKind};
 use glassbake_core::{Error, Result};
 
 use crate::config::SuperSamplerConfig;
@@ -77,6 +78,20 @@ pub struct ModelConfig {
     pub data: DataSource,
 }
 
+/// The output-folder kind of a model directory.
+pub const MODEL_DIRECTORY: OutputKind = OutputKind { name: "model directory", signatures: &[CONFIG_FILE] };
+
+impl ModelConfig {
+    /// Checks the network and training settings are buildable; `origin` names the file.
+    pub fn check(&self, origin: &str) -> Result<()> {
+        match &self.network {
+            Network::Glassnet(c) => c.check(origin)?,
+            Network::SuperSampler(c) => c.check(origin)?,
+        }
+        self.train.check(origin)
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct ModelFiles {
     pub dir: PathBuf,
@@ -89,9 +104,11 @@ impl ModelFiles {
     }
 
     /// Creates `dir` for a new run, or reopens it to resume: an existing `config.json` must
-    /// describe the same run.
+    /// describe the same run. The config is checked, and `dir` claimed as a model directory
+    /// (a folder of the user's own files is refused), before anything is written.
     pub fn prepare(dir: &Path, config: ModelConfig) -> Result<ModelFiles> {
-        fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        config.check(&dir.join(CONFIG_FILE).display().to_string())?;
+        claim_output_dir(dir, MODEL_DIRECTORY, "--out")?;
         let path = dir.join(CONFIG_FILE);
         if path.exists() {
             let mut existing = read_config(&path)?;
@@ -134,6 +151,7 @@ impl ModelFiles {
             return Err(Error::bad_input(dir.display(), CONFIG_FILE, "not a glassbake model directory (no config.json)"));
         }
         let config = read_config(&path)?;
+        config.check(&path.display().to_string())?;
         let files = ModelFiles { dir: dir.to_path_buf(), config };
         if !files.weights_path().is_file() {
             return Err(Error::bad_input(
@@ -206,8 +224,37 @@ pub fn weights_step(path: &Path) -> Option<u64> {
     header.get("__metadata__")?.get(STEP_METADATA)?.as_str()?.parse().ok()
 }
 
-/// Loads weights written by [`write_weights`] into `model` (built from the same config).
+/// Refuses a weights file holding NaN or infinity, which would render black (or NaN) frames
+/// that are scored as if they were a model's.
+fn check_weights_are_finite(path: &Path) -> Result<()> {
+    use safetensors::{Dtype, SafeTensors};
+    let bytes = fs::read(path).map_err(|e| Error::io(path, e))?;
+    let tensors = SafeTensors::deserialize(&bytes).map_err(|e| Error::bad_input(path.display(), "weights", e.to_string()))?;
+    for (name, tensor) in tensors.tensors() {
+        let data = tensor.data();
+        let first_bad = match tensor.dtype() {
+            Dtype::F32 => data.chunks_exact(4).position(|b| !f32::from_le_bytes([b[0], b[1], b[2], b[3]]).is_finite()),
+            Dtype::F64 => data.chunks_exact(8).position(|b| !f64::from_le_bytes(b.try_into().expect("8 bytes")).is_finite()),
+            // All exponent bits set is an infinity or a NaN in both 16-bit formats.
+            Dtype::F16 => data.chunks_exact(2).position(|b| u16::from_le_bytes([b[0], b[1]]) & 0x7C00 == 0x7C00),
+            Dtype::BF16 => data.chunks_exact(2).position(|b| u16::from_le_bytes([b[0], b[1]]) & 0x7F80 == 0x7F80),
+            _ => None,
+        };
+        if let Some(index) = first_bad {
+            return Err(Error::bad_input(
+                path.display(),
+                format!("weights {name}"),
+                format!("element {index} is NaN or infinite: the weights are damaged or their training diverged; retrain the model"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Loads weights written by [`write_weights`] into `model` (built from the same config),
+/// refusing weights that are not finite.
 pub fn read_weights<M: Module + ModuleSnapshot>(model: &mut M, path: &Path) -> Result<()> {
+    check_weights_are_finite(path)?;
     let mut store = SafetensorsStore::from_file(path).with_from_adapter(PyTorchToBurnAdapter);
     let result = model.load_from(&mut store).map_err(|e| Error::bad_input(path.display(), "weights", e.to_string()))?;
     if !result.missing.is_empty() || !result.errors.is_empty() || !result.unused.is_empty() {

@@ -3,9 +3,10 @@
 //! Meshes are baked to world space as binary PLY files beside the XML; textures as PNGs.
 
 use std::fmt::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glassbake_core::image::write_bytes_atomically;
+use glassbake_core::output_dir::{claim_output_dir, OutputKind};
 use glassbake_core::{Camera, Result};
 
 use crate::export::texture_png;
@@ -124,8 +125,6 @@ fn dielectric_base_blend_xml(m: &Material, base: &str) -> String {
     )
 }
 
-/// Write `out` (XML) and, beside it, `meshes/*.ply` and `textures/*.png`. Resolution and
-/// samples per pixel are XML defaults (`-Dres=512 -Dspp=1024` on Mitsuba's command line).
 /// A user's name as the text of an XML comment: a comment may not hold "--" nor end in "-",
 /// so an object named "a --> <shape .../>" cannot close it early and inject elements.
 fn comment_text(name: &str) -> String {
@@ -139,7 +138,29 @@ fn comment_text(name: &str) -> String {
     text
 }
 
+/// The output-folder kind of the meshes and textures an exported XML refers to.
+pub const MITSUBA_ASSETS: OutputKind = OutputKind { name: "Mitsuba export's assets", signatures: &["meshes"] };
+
+/// The folder beside `out` that holds its meshes and textures: named after the XML file, so
+/// that two exports side by side never share (and silently change) each other's files.
+pub fn assets_dir(out: &Path) -> PathBuf {
+    let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
+    out.with_file_name(format!("{stem}_assets"))
+}
+
+/// `s` as an XML attribute value.
+fn xml_attribute(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+}
+
+/// Write `out` (XML) and, beside it, `<stem>_assets/meshes/*.ply` and
+/// `<stem>_assets/textures/*.png` (a folder of the user's own files there is refused before
+/// anything is written). Resolution and samples per pixel are XML defaults (`-Dres=512
+/// -Dspp=1024` on Mitsuba's command line).
 pub fn write_mitsuba(scene: &Scene, camera: &Camera, out: &Path) -> Result<()> {
+    let assets = assets_dir(out);
+    claim_output_dir(&assets, MITSUBA_ASSETS, "--out")?;
+    let assets_name = assets.file_name().expect("a file name").to_string_lossy().into_owned();
     for m in &scene.materials {
         if m.base_color_texture.is_some() && m.base_color != glam::Vec3::ONE {
             tracing::warn!("material {}: the base colour factor of a textured material is not exported to Mitsuba", m.name);
@@ -151,12 +172,11 @@ pub fn write_mitsuba(scene: &Scene, camera: &Camera, out: &Path) -> Result<()> {
             tracing::warn!("material {}: partial transmission exported as full transmission", m.name);
         }
     }
-    let dir = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let mut texture_files = Vec::new();
     for (i, t) in scene.textures.iter().enumerate() {
         let rel = format!("textures/texture{i}.png");
-        write_bytes_atomically(&dir.join(&rel), &texture_png(t)?)?;
-        texture_files.push(rel);
+        write_bytes_atomically(&assets.join(&rel), &texture_png(t)?)?;
+        texture_files.push(xml_attribute(&format!("{assets_name}/{rel}")));
     }
     let mut xml = String::new();
     let _ = writeln!(xml, "<!-- glassbake scene {} exported for Mitsuba 3 -->", comment_text(&scene.name));
@@ -184,7 +204,8 @@ pub fn write_mitsuba(scene: &Scene, camera: &Camera, out: &Path) -> Result<()> {
     }
     for (i, o) in scene.objects.iter().enumerate() {
         let rel = format!("meshes/{i:03}.ply");
-        write_bytes_atomically(&dir.join(&rel), &ply_bytes(&scene.world_mesh(i)))?;
+        write_bytes_atomically(&assets.join(&rel), &ply_bytes(&scene.world_mesh(i)))?;
+        let rel = xml_attribute(&format!("{assets_name}/{rel}"));
         let m = &scene.materials[o.material];
         let emitter =
             if m.is_emissive() { format!("<emitter type=\"area\"><rgb name=\"radiance\" value=\"{}\"/></emitter>", rgb(m.emission)) } else { String::new() };

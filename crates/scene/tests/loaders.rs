@@ -623,16 +623,17 @@ fn mitsuba_export_writes_every_shape_and_the_camera() {
     assert_eq!(xml.matches("<shape type=\"rectangle\"").count(), scene.rect_lights.len());
     assert!(xml.contains("thindielectric"));
     assert!(xml.contains(&format!("<float name=\"fov\" value=\"{}\"/>", sample.camera.fov_x_deg)));
+    assert!(xml.contains("value=\"scene_assets/meshes/000.ply\""));
     // Each PLY holds exactly its header plus 8 floats per vertex and 13 bytes per triangle.
     for (i, o) in scene.objects.iter().enumerate() {
-        let bytes = std::fs::read(dir.path().join(format!("meshes/{i:03}.ply"))).unwrap();
+        let bytes = std::fs::read(dir.path().join(format!("scene_assets/meshes/{i:03}.ply"))).unwrap();
         let header_end = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
         let mesh = &scene.meshes[o.mesh];
         assert_eq!(bytes.len() - header_end, mesh.vertex_count() * 32 + mesh.triangle_count() * 13);
     }
     // The pane moved by its variable is baked into its world-space mesh.
     let pane = scene.object_index("pane").unwrap();
-    let bytes = std::fs::read(dir.path().join(format!("meshes/{pane:03}.ply"))).unwrap();
+    let bytes = std::fs::read(dir.path().join(format!("scene_assets/meshes/{pane:03}.ply"))).unwrap();
     let header_end = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
     let x = f32::from_le_bytes(bytes[header_end..header_end + 4].try_into().unwrap());
     assert_eq!(x, instance.world_mesh(pane).positions[0].x);

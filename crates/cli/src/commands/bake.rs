@@ -9,6 +9,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Result;
 use clap::Args;
+use glassbake_core::output_dir::{claim_output_dir, OutputKind};
 use glassbake_core::Error;
 use glassbake_eval::score::{noise_floor_row, path_traced_rows};
 use glassbake_eval::EvaluationSummary;
@@ -87,6 +88,10 @@ fn bake_preset(name: &str) -> glassbake_core::Result<BakePreset> {
 /// Samples per pixel of the path-traced baseline (`--baselines`): the paper's 32.
 const PATH_TRACED_SPP: u32 = 32;
 
+/// The output-folder kind of a bake: recognised, if made before the marker, by its stage
+/// times or its dataset.
+const BAKE_DIRECTORY: OutputKind = OutputKind { name: "bake", signatures: &["stage_times.json", "dataset"] };
+
 /// The models a bake trains: (directory name, model kind, ablation).
 fn models(ablations: bool, baselines: bool) -> Vec<(String, &'static str, Option<Ablation>)> {
     let mut list = vec![("glassnet".to_string(), "glassnet", None), ("naive".to_string(), "naive", None)];
@@ -135,7 +140,7 @@ pub fn run(args: BakeArgs) -> Result<()> {
         }
     }
     glassbake_scene::load_scene(&args.scene)?;
-    std::fs::create_dir_all(&args.out).map_err(|e| Error::io(&args.out, e))?;
+    claim_output_dir(&args.out, BAKE_DIRECTORY, "--out")?;
     let started = Instant::now();
     let dataset_dir = args.out.join("dataset");
     let models = models(args.ablations, args.baselines);
