@@ -152,9 +152,16 @@ fn make_frame(
     Ok(discarded + traced.discarded_samples)
 }
 
-/// Make (or complete) the dataset `spec` of `scene` in `dir`.
+/// The most path-tracer threads a dataset run starts.
+pub const MAX_THREADS: usize = 1024;
+
+/// Make (or complete) the dataset `spec` of `scene` in `dir`. Its spec and options are checked
+/// before anything is written.
 pub fn generate(scene: &Scene, spec: &DatasetSpec, dir: &Path, options: &GenerateOptions, progress: Progress) -> Result<GenerateSummary> {
     spec.validate()?;
+    if options.threads.is_some_and(|n| n == 0 || n > MAX_THREADS) {
+        return Err(Error::bad_input("--threads", "threads", format!("must lie in 1..={MAX_THREADS}")));
+    }
     let start = Instant::now();
     let planned = DatasetManifest::plan(spec, scene);
     let store = DatasetStore::create_or_resume(dir, &planned)?;

@@ -201,6 +201,12 @@ fn worker(shared: Arc<Shared>, jobs: Arc<Mutex<Receiver<Job>>>, results: SyncSen
     }
 }
 
+/// The most worker threads a loader starts: far more than any machine's cores, far fewer than
+/// a process can spawn.
+pub const MAX_WORKERS: usize = 256;
+/// The most frames in one batch.
+pub const MAX_BATCH: usize = 4096;
+
 impl Loader {
     /// A loader over `dir`. `scene` is needed when the dataset did not cache its buffers (they
     /// are rasterized again); it must be the scene the dataset was made from.
@@ -208,6 +214,9 @@ impl Loader {
         let store = DatasetStore::open(dir)?;
         if options.batch_size == 0 || options.workers == 0 {
             return Err(Error::bad_input("loader", "batch_size/workers", "must be at least 1"));
+        }
+        if options.workers > MAX_WORKERS || options.batch_size > MAX_BATCH {
+            return Err(Error::bad_input("loader", "batch_size/workers", format!("at most {MAX_BATCH} frames a batch and {MAX_WORKERS} workers")));
         }
         if !store.manifest.reads_cached_buffers() {
             let scene = scene.as_ref().ok_or_else(|| {

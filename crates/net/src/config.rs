@@ -246,6 +246,24 @@ impl NetConfig {
     /// Checks the config is buildable; `origin` names the file or flag it came from.
     pub fn check(&self, origin: &str) -> Result<()> {
         let bad = |field: &str, message: String| Err(Error::bad_input(origin, field, message));
+        let (f, h, b, r) = (&self.scene_encoder, &self.transparency_encoder, &self.blending, &self.renderer);
+        let mut sizes = vec![
+            ("scene_encoder.base_width", f.base_width),
+            ("scene_encoder.out_channels", f.out_channels),
+            ("transparency_encoder.width", h.width),
+            ("transparency_encoder.layers", h.layers),
+            ("transparency_encoder.out_channels", h.out_channels),
+            ("blending.base_width", b.base_width),
+            ("blending.out_channels", b.out_channels),
+            ("renderer.width", r.width),
+            ("renderer.large_kernel", r.large_kernel),
+            ("renderer.layers", r.layers),
+            ("renderer.pointwise_layers", r.pointwise_layers),
+        ];
+        if let Some(p) = &self.pixel_generator {
+            sizes.extend([("pixel_generator.width", p.width), ("pixel_generator.layers", p.layers)]);
+        }
+        check_sizes(origin, &sizes)?;
         for (field, unet) in [("scene_encoder", &self.scene_encoder), ("blending", &self.blending)] {
             if unet.base_width == 0 || unet.out_channels == 0 || !(1..=6).contains(&unet.levels) {
                 return bad(field, "base_width and out_channels must be at least 1 and levels in 1..=6".into());
@@ -481,6 +499,9 @@ impl TrainConfig {
         if self.ssim_weight.is_nan() || self.ssim_weight < 0.0 {
             return bad("ssim_weight", "must be at least 0");
         }
+        if self.crop.is_some_and(|side| (side as usize) < crate::loss::SSIM_WINDOW) {
+            return Err(Error::bad_input(origin, "crop", format!("crops must be at least the SSIM window, {} px", crate::loss::SSIM_WINDOW)));
+        }
         Ok(())
     }
 }
@@ -545,7 +566,37 @@ pub struct SuperSamplerConfig {
     pub light_coverage: bool,
 }
 
+/// The largest width (channels) or depth (layers) of any convolution stack, and the largest
+/// kernel: far above the paper's network (widths up to 128), far below what cannot be allocated.
+pub const MAX_NETWORK_SIZE: usize = 1024;
+pub const MAX_KERNEL: usize = 31;
+
+/// Each size at most [`MAX_NETWORK_SIZE`] (kernels at most [`MAX_KERNEL`]), checked before a
+/// network of that size is allocated.
+fn check_sizes(origin: &str, sizes: &[(&str, usize)]) -> Result<()> {
+    for &(field, size) in sizes {
+        let limit = if field.ends_with("kernel") { MAX_KERNEL } else { MAX_NETWORK_SIZE };
+        if size > limit {
+            return Err(Error::bad_input(origin, field, format!("{size} is above {limit}")));
+        }
+    }
+    Ok(())
+}
+
 impl SuperSamplerConfig {
+    /// Checks the config is buildable; `origin` names the file or flag it came from.
+    pub fn check(&self, origin: &str) -> Result<()> {
+        let n = &self.network;
+        check_sizes(origin, &[("network.width", n.width), ("network.layers", n.layers)])?;
+        if n.width == 0 || n.layers == 0 || n.out_channels != 3 {
+            return Err(Error::bad_input(origin, "network", "width and layers must be at least 1, out_channels 3 (RGB)"));
+        }
+        if self.encoding_frequencies > 12 {
+            return Err(Error::bad_input(origin, "encoding_frequencies", format!("{} is more than 12", self.encoding_frequencies)));
+        }
+        Ok(())
+    }
+
     pub fn preset(name: &str) -> Result<SuperSamplerConfig> {
         let (frequencies, width, layers) = match name {
             "tiny" => (1, 4, 1),

@@ -389,6 +389,9 @@ pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<bool> {
             Error::bad_input("--crop", "resolution", format!("training frames of {side} px are not a multiple of {}", net_config.size_multiple())).into()
         );
     }
+    // The loaders check their options before the model directory is written.
+    let naive = kind.reads_naive_gbuffer();
+    let (train_loader, val) = loaders(&args.common.dataset, scene, &train_config, args.common.workers, naive)?;
     let files = ModelFiles::prepare(
         &args.common.out,
         ModelConfig {
@@ -398,8 +401,6 @@ pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<bool> {
             data: data_source(&args.common.dataset, &store),
         },
     )?;
-    let naive = kind.reads_naive_gbuffer();
-    let (train_loader, val) = loaders(&args.common.dataset, scene, &train_config, args.common.workers, naive)?;
     let mut data = DatasetData {
         train: train_loader,
         val,
@@ -497,7 +498,21 @@ pub fn run_super_sampler(args: TrainSrArgs) -> Result<()> {
         )
         .into());
     }
+    let glassnet_scene = ModelFiles::open(&args.glassnet)?.config.data;
+    if glassnet_scene.scene_hash != store.manifest.scene.hash {
+        return Err(Error::bad_input(
+            args.glassnet.display(),
+            "scene",
+            format!(
+                "this GlassNet was trained on {} (another scene than the dataset's {}); train the super-sampler on its own scene's dataset",
+                glassnet_scene.scene, store.manifest.scene.name
+            ),
+        )
+        .into());
+    }
     let sr_config = SuperSamplerConfig::preset(&args.common.preset)?;
+    let naive = glassnet.kind().reads_naive_gbuffer();
+    let (train_loader, val) = loaders(&args.common.dataset, scene, &train_config, args.common.workers, naive)?;
     let files = ModelFiles::prepare(
         &args.common.out,
         ModelConfig {
@@ -507,8 +522,6 @@ pub fn run_super_sampler(args: TrainSrArgs) -> Result<()> {
             data: data_source(&args.common.dataset, &store),
         },
     )?;
-    let naive = glassnet.kind().reads_naive_gbuffer();
-    let (train_loader, val) = loaders(&args.common.dataset, scene, &train_config, args.common.workers, naive)?;
     let mut data = DatasetData {
         train: train_loader,
         val,
