@@ -130,6 +130,13 @@ fn bake_runs_every_stage_then_skips_them_and_eval_scores_with_lpips() {
     let report = std::fs::read_to_string(out.join("report/report.md")).unwrap();
     assert!(report.contains("train glassnet:") && report.contains("done earlier"), "{report}");
 
+    // Killed after the metrics were written and before their report: evaluated again, so the
+    // evaluation's report exists once more.
+    std::fs::remove_dir_all(out.join("eval/report")).unwrap();
+    let (code, stdout, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--out", path(&out)]);
+    assert_eq!(code, 0, "{err}");
+    assert!(!stdout.contains("up to date") && out.join("eval/report/index.html").is_file(), "{stdout}");
+
     // eval on its own, with LPIPS weights.
     let weights = dir.path().join("lpips.safetensors");
     write_lpips_weights(&weights);

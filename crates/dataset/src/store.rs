@@ -118,9 +118,15 @@ fn unsealed_bytes(manifest: &DatasetManifest) -> Result<Vec<u8>> {
     Ok(bytes)
 }
 
+/// The SHA-256 of a manifest's content (what `content_sha256` records): a dataset's identity,
+/// the same wherever its folder lies, different once it is made again with other settings.
+pub fn manifest_content_sha256(manifest: &DatasetManifest) -> Result<String> {
+    Ok(sha256_hex(&unsealed_bytes(manifest)?))
+}
+
 /// The bytes of `manifest.json`: the manifest with its checksum (`content_sha256`).
 fn manifest_bytes(manifest: &DatasetManifest) -> Result<Vec<u8>> {
-    let sealed = DatasetManifest { content_sha256: Some(sha256_hex(&unsealed_bytes(manifest)?)), ..manifest.clone() };
+    let sealed = DatasetManifest { content_sha256: Some(manifest_content_sha256(manifest)?), ..manifest.clone() };
     let mut bytes = serde_json::to_vec_pretty(&sealed).map_err(|e| Error::Internal(e.to_string()))?;
     bytes.push(b'\n');
     Ok(bytes)

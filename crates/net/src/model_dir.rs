@@ -67,6 +67,11 @@ pub struct DataSource {
     pub scene_argument: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sample_seed: Option<u64>,
+    /// The dataset's identity: its manifest's content SHA-256. A run resumes onto the same
+    /// dataset moved to another folder, and refuses another dataset made at the same path.
+    /// Absent in models trained before it was recorded (their dataset is named by path).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dataset_sha256: Option<String>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -119,6 +124,26 @@ impl ModelFiles {
                 existing.data.scene_argument.clone_from(&config.data.scene_argument);
                 existing.data.sample_seed = config.data.sample_seed;
             }
+            // The dataset by content where both runs record it, by path where the first did not.
+            let dataset_updated = match (&existing.data.dataset_sha256, &config.data.dataset_sha256) {
+                (Some(trained_on), Some(given)) if trained_on != given => {
+                    return Err(Error::bad_input(
+                        path.display(),
+                        "data.dataset_sha256",
+                        format!(
+                            "the dataset at {} is not the one this run trained on (its manifest's content differs: made again or replaced); train into a new --out",
+                            config.data.dataset
+                        ),
+                    ));
+                }
+                (Some(_), Some(_)) => existing.data.dataset != config.data.dataset,
+                (None, Some(_)) => existing.data.dataset == config.data.dataset,
+                _ => false,
+            };
+            if dataset_updated {
+                existing.data.dataset.clone_from(&config.data.dataset);
+                existing.data.dataset_sha256.clone_from(&config.data.dataset_sha256);
+            }
             if existing != config {
                 let field = if existing.network != config.network {
                     "network"
@@ -133,7 +158,7 @@ impl ModelFiles {
                     "this directory holds a run with different settings; resume with the same settings, or give a new --out",
                 ));
             }
-            if recorded_later && config.data.sample_seed.is_some() {
+            if (recorded_later && config.data.sample_seed.is_some()) || dataset_updated {
                 let json = serde_json::to_vec_pretty(&config).expect("config serialises");
                 write_bytes_atomically(&path, &json)?;
             }

@@ -101,3 +101,29 @@ fn weights_that_are_not_finite_are_refused() {
         assert!(err.is_user_error() && err.to_string().contains("NaN or infinite"), "{value} at {at}: {err}");
     }
 }
+
+/// A run names its dataset by content: the same dataset moved to another folder resumes (and
+/// the config follows it), another dataset made at the same path is refused, and a run from
+/// before the content was recorded adopts it where the path is the same.
+#[test]
+fn a_run_names_its_dataset_by_content_not_by_path() {
+    let source =
+        |path: &str, sha: Option<&str>| glassbake_net::DataSource { dataset: path.into(), dataset_sha256: sha.map(String::from), ..common::synthetic_source() };
+    let config = |data| ModelConfig { data, ..model_config(Network::Glassnet(tiny()), TrainConfig::preset("tiny").unwrap()) };
+    let dir = tempfile::tempdir().unwrap();
+    ModelFiles::prepare(dir.path(), config(source("/data/a", Some("aaaa")))).unwrap();
+    let moved = ModelFiles::prepare(dir.path(), config(source("/elsewhere/a", Some("aaaa")))).expect("the same dataset, moved");
+    assert_eq!(moved.config.data.dataset, "/elsewhere/a");
+    let written: ModelConfig = serde_json::from_slice(&std::fs::read(dir.path().join("config.json")).unwrap()).unwrap();
+    assert_eq!(written.data.dataset, "/elsewhere/a", "the config follows the dataset");
+    let err = ModelFiles::prepare(dir.path(), config(source("/elsewhere/a", Some("bbbb")))).unwrap_err();
+    assert!(err.is_user_error() && err.to_string().contains("dataset_sha256"), "{err}");
+
+    let old = tempfile::tempdir().unwrap();
+    ModelFiles::prepare(old.path(), config(source("/data/a", None))).unwrap();
+    let adopted = ModelFiles::prepare(old.path(), config(source("/data/a", Some("cccc")))).unwrap();
+    assert_eq!(adopted.config.data.dataset_sha256.as_deref(), Some("cccc"));
+    let old = tempfile::tempdir().unwrap();
+    ModelFiles::prepare(old.path(), config(source("/data/a", None))).unwrap();
+    assert!(ModelFiles::prepare(old.path(), config(source("/data/b", Some("cccc")))).is_err(), "a path from before cannot be verified elsewhere");
+}

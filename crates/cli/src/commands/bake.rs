@@ -120,6 +120,8 @@ fn evaluation_is_current(eval_dir: &Path, model_dirs: &[PathBuf], extra_rows: &[
     summary.models.iter().map(|m| &m.model).eq(names.iter())
         && summary.lpips.starts_with("AlexNet") == lpips
         && model_dirs.iter().all(|d| modified(&d.join("glassnet.safetensors")).is_some_and(|w| w <= written))
+        // A bake killed between the metrics and their report evaluates again.
+        && modified(&eval_dir.join("report").join("index.html")).is_some_and(|r| r >= written)
 }
 
 pub fn run(args: BakeArgs) -> Result<()> {

@@ -7,6 +7,7 @@ use std::time::Duration;
 use anyhow::Result;
 use clap::Args;
 use glassbake_core::Error;
+use glassbake_dataset::store::manifest_content_sha256;
 use glassbake_dataset::{DatasetInfo, DatasetStore, Example, Loader, LoaderOptions, Split};
 use glassbake_net::model_dir::{DataSource, ModelConfig, ModelFiles, Network, FORMAT_VERSION};
 use glassbake_net::{
@@ -188,15 +189,16 @@ fn open_dataset(dir: &Path) -> Result<(DatasetStore, DatasetInfo, Option<glassba
     Ok((store, info, scene))
 }
 
-fn data_source(dir: &Path, store: &DatasetStore) -> DataSource {
-    DataSource {
+fn data_source(dir: &Path, store: &DatasetStore) -> Result<DataSource> {
+    Ok(DataSource {
         dataset: dir.display().to_string(),
         scene: store.manifest.scene.name.clone(),
         scene_hash: store.manifest.scene.hash.clone(),
         resolution: store.manifest.spec.resolution,
         scene_argument: Some(store.manifest.spec.scene.clone()),
         sample_seed: Some(store.manifest.spec.seed),
-    }
+        dataset_sha256: Some(manifest_content_sha256(&store.manifest)?),
+    })
 }
 
 /// Turns `bar` into a training-step bar of `steps` steps.
@@ -398,7 +400,7 @@ pub fn train_model(args: &TrainArgs, bar: &ProgressBar) -> Result<bool> {
             format_version: FORMAT_VERSION,
             network: Network::Glassnet(net_config.clone()),
             train: train_config.clone(),
-            data: data_source(&args.common.dataset, &store),
+            data: data_source(&args.common.dataset, &store)?,
         },
     )?;
     let mut data = DatasetData {
@@ -519,7 +521,7 @@ pub fn run_super_sampler(args: TrainSrArgs) -> Result<()> {
             format_version: FORMAT_VERSION,
             network: Network::SuperSampler(sr_config.clone()),
             train: train_config.clone(),
-            data: data_source(&args.common.dataset, &store),
+            data: data_source(&args.common.dataset, &store)?,
         },
     )?;
     let mut data = DatasetData {

@@ -131,5 +131,6 @@ pub fn synthetic_source() -> glassbake_net::DataSource {
         resolution: 16,
         scene_argument: None,
         sample_seed: None,
+        dataset_sha256: None,
     }
 }

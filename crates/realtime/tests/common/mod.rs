@@ -18,6 +18,7 @@ pub fn untrained(scene: &Scene, network: Network, resolution: u32) -> ModelConfi
             resolution,
             scene_argument: Some(scene.name.clone()),
             sample_seed: Some(0),
+            dataset_sha256: None,
         },
     }
 }
