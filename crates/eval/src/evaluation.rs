@@ -1,6 +1,7 @@
 //! One evaluation run: per-frame metrics of every model against the ground truth, per-frame
 //! images and grids, the order test, and `metrics.json` / `metrics.csv`.
 
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -8,6 +9,7 @@ use glassbake_core::output_dir::{claim_output_dir, OutputKind};
 use glassbake_core::{Error, Result};
 use serde::{Deserialize, Serialize};
 
+use crate::bootstrap::{self, Estimate};
 use crate::grid;
 use crate::lpips::Lpips;
 use crate::metrics::{frame_metrics, FrameMetrics};
@@ -42,6 +44,51 @@ pub struct ModelMetrics {
     /// the path-traced baselines tracing, plus denoising for `+oidn`).
     #[serde(default)]
     pub seconds_per_frame: Option<f64>,
+    /// 95% bootstrap intervals of the means above over the frames, by metric name (`mae`,
+    /// `psnr`, `dssim`, `t_mae`, `t_psnr`, `flip`, `lpips`); empty in metrics written before
+    /// they were computed and for metrics with fewer than two frames.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub intervals: BTreeMap<String, Estimate>,
+    /// This model's per-frame differences to the evaluation's first model, paired; `None` for
+    /// the first model itself.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub versus: Option<Versus>,
+}
+
+/// A model's per-frame differences (this model minus `reference`) by metric name, each with
+/// its paired 95% bootstrap interval over the frames.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Versus {
+    pub reference: String,
+    pub differences: BTreeMap<String, Estimate>,
+}
+
+/// The metrics by the names metrics.json uses, each a frame's value where it has one.
+type Metric = (&'static str, fn(&FrameMetrics) -> Option<f64>);
+const METRICS: [Metric; 7] = [
+    ("mae", |m| Some(m.mae)),
+    ("psnr", |m| Some(m.psnr)),
+    ("dssim", |m| Some(m.dssim)),
+    ("t_mae", |m| m.t_mae),
+    ("t_psnr", |m| m.t_psnr),
+    ("flip", |m| Some(m.flip)),
+    ("lpips", |m| m.lpips),
+];
+
+/// The bootstrap intervals of model `m`'s means and, for every model but the first, of its
+/// paired differences to the first.
+fn intervals_of(frames: &[FrameRecord], names: &[String], m: usize) -> (BTreeMap<String, Estimate>, Option<Versus>) {
+    let series = |model: usize, metric: fn(&FrameMetrics) -> Option<f64>| -> Vec<Option<f64>> { frames.iter().map(|r| metric(&r.metrics[model])).collect() };
+    let intervals =
+        METRICS.iter().filter_map(|&(name, metric)| Some((name.to_string(), bootstrap::mean_interval(&series(m, metric), bootstrap::SEED)?))).collect();
+    let versus = (m > 0).then(|| Versus {
+        reference: names[0].clone(),
+        differences: METRICS
+            .iter()
+            .filter_map(|&(name, metric)| Some((name.to_string(), bootstrap::paired_difference(&series(m, metric), &series(0, metric), bootstrap::SEED)?)))
+            .collect(),
+    });
+    (intervals, versus)
 }
 
 /// GlassNet rendered with its transparent objects in other orders than the dataset's.
@@ -162,6 +209,7 @@ impl Evaluation {
             .iter()
             .enumerate()
             .map(|(m, name)| {
+                let (intervals, versus) = intervals_of(&self.frames, &self.models, m);
                 let of = |f: &dyn Fn(&FrameMetrics) -> f64| mean(self.frames.iter().map(|r| f(&r.metrics[m]))).unwrap_or(f64::NAN);
                 let t = |f: &dyn Fn(&FrameMetrics) -> Option<f64>| mean(self.frames.iter().filter_map(|r| f(&r.metrics[m])));
                 ModelMetrics {
@@ -179,6 +227,8 @@ impl Evaluation {
                         (_, 0) => None,
                         (total, n) => Some(total / n as f64),
                     },
+                    intervals,
+                    versus,
                 }
             })
             .collect();
@@ -267,12 +317,69 @@ impl EvaluationSummary {
     pub fn markdown_table(&self) -> String {
         let mut out =
             String::from("| model | MAE ↓ | PSNR ↑ | DSSIM ↓ | T.MAE ↓ | T.PSNR ↑ | FLIP ↓ | LPIPS ↓ | s/frame |\n|---|---|---|---|---|---|---|---|---|\n");
-        for mut row in self.table_cells() {
+        for (mut row, m) in self.table_cells().into_iter().zip(&self.models) {
             // The model's name is the user's; the numbers are ours.
             row[0] = crate::markdown::text(&row[0]);
+            for (column, metric) in [(2, "psnr"), (5, "t_psnr")] {
+                if let Some(e) = m.intervals.get(metric) {
+                    row[column] = format!("{} [{:.2}, {:.2}]", row[column], e.low, e.high);
+                }
+            }
             let _ = writeln!(out, "| {} |", row.join(" | "));
         }
         out
+    }
+
+    /// Each model's paired differences to the first model as a Markdown table (empty when no
+    /// model has them).
+    pub fn markdown_differences(&self) -> String {
+        let Some(reference) = self.models.iter().find_map(|m| m.versus.as_ref().map(|v| v.reference.clone())) else {
+            return String::new();
+        };
+        let metrics = [("psnr", "PSNR", 2), ("t_psnr", "T.PSNR", 2), ("dssim", "DSSIM", 4), ("flip", "FLIP", 4)];
+        let mut out = format!(
+            "Differences to {} (this row minus it, mean over the frames with its paired 95% bootstrap interval):\n\n| model |",
+            crate::markdown::text(&reference)
+        );
+        for (_, title, _) in metrics {
+            let _ = write!(out, " Δ{title} |");
+        }
+        out.push_str(&format!("\n|---|{}\n", "---|".repeat(metrics.len())));
+        for m in &self.models {
+            let Some(versus) = &m.versus else { continue };
+            let _ = write!(out, "| {} |", crate::markdown::text(&m.model));
+            for (metric, _, digits) in metrics {
+                match versus.differences.get(metric) {
+                    Some(d) => {
+                        let _ = write!(out, " {:+.digits$} [{:+.digits$}, {:+.digits$}] |", d.mean, d.low, d.high);
+                    }
+                    None => out.push_str(" - |"),
+                }
+            }
+            out.push('\n');
+        }
+        out
+    }
+
+    /// A sentence for each baseline the first model does not lead on PSNR or T.PSNR: where the
+    /// paired interval of the baseline's difference is not wholly below zero. Rows named
+    /// `gt-*` (the noise floor) are references, not baselines.
+    pub fn not_leading(&self) -> Vec<String> {
+        let mut sentences = Vec::new();
+        for m in self.models.iter().filter(|m| !m.model.starts_with("gt-")) {
+            let Some(versus) = &m.versus else { continue };
+            for (metric, title) in [("psnr", "PSNR"), ("t_psnr", "T.PSNR")] {
+                let Some(d) = versus.differences.get(metric) else { continue };
+                if !d.below_zero() {
+                    let how = if d.above_zero() { "trails" } else { "does not lead" };
+                    sentences.push(format!(
+                        "{} {how} {} on {title}: {} scores {:+.2} dB against it, 95% interval [{:+.2}, {:+.2}] dB over {} frames.",
+                        versus.reference, m.model, m.model, d.mean, d.low, d.high, m.frames
+                    ));
+                }
+            }
+        }
+        sentences
     }
 
     /// A plain-text table for the terminal.

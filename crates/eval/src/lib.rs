@@ -7,6 +7,7 @@
 //! test; without it the crate builds without burn). The baseline's denoiser
 //! (Intel Open Image Denoise, the optional `oidn` feature) lives here too.
 
+pub mod bootstrap;
 pub mod denoise;
 pub mod evaluation;
 pub mod grid;

@@ -149,7 +149,14 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<PathBuf> {
             markdown::text(&summary.lpips),
             summary.markdown_table()
         );
-        text.push_str("\nT.MAE and T.PSNR are computed over the pixels covered by a transparent object, averaged over the frames that show one.\n");
+        text.push_str("\nT.MAE and T.PSNR are computed over the pixels covered by a transparent object, averaged over the frames that show one. Brackets hold 95% bootstrap intervals over the frames.\n");
+        let differences = summary.markdown_differences();
+        if !differences.is_empty() {
+            let _ = write!(text, "\n{differences}");
+        }
+        for sentence in summary.not_leading() {
+            let _ = write!(text, "\n**Warning:** {}\n", markdown::text(&sentence));
+        }
         if let Some(order) = &summary.order_test {
             let _ = write!(
                 text,

@@ -45,6 +45,20 @@ fn metrics_files_grids_and_report() {
     assert_eq!((g.seconds_per_frame, summary.models[1].seconds_per_frame), (Some(0.5), None));
     assert!(summary.text_table().lines().nth(1).unwrap().trim_end().ends_with("0.500"), "{}", summary.text_table());
 
+    // Intervals over the two frames: PSNR's bootstrap means lie between the two frames'
+    // values; naive's paired difference to GlassNet is the per-frame mean difference; T.PSNR
+    // has one frame only, so no interval. Naive trails GlassNet on every frame: no warning.
+    let psnr = g.intervals["psnr"];
+    assert!(24.77 <= psnr.low && psnr.low <= psnr.mean && psnr.mean <= psnr.high && psnr.high <= 100.0, "{psnr:?}");
+    assert!(!g.intervals.contains_key("t_psnr") && g.versus.is_none());
+    let n = &summary.models[1];
+    let versus = n.versus.as_ref().unwrap();
+    assert_eq!(versus.reference, "glassnet");
+    assert!((versus.differences["psnr"].mean - (n.psnr - g.psnr)).abs() < 1e-9);
+    assert!(versus.differences["psnr"].below_zero());
+    assert!(summary.not_leading().is_empty(), "{:?}", summary.not_leading());
+    assert!(summary.markdown_differences().contains("| naive |"));
+
     // metrics.json reads back to the summary (to the last digit or so: serde_json's default
     // float parsing may differ from the written value in the last bit).
     let read = EvaluationSummary::read(&eval_dir.join("metrics.json")).unwrap();
@@ -52,6 +66,8 @@ fn metrics_files_grids_and_report() {
     assert_eq!(read.models.len(), summary.models.len());
     for (r, m) in read.models.iter().zip(&summary.models) {
         assert_eq!((&r.model, r.frames, r.t_frames, r.lpips, r.seconds_per_frame), (&m.model, m.frames, m.t_frames, m.lpips, m.seconds_per_frame));
+        assert_eq!(r.intervals.keys().collect::<Vec<_>>(), m.intervals.keys().collect::<Vec<_>>());
+        assert_eq!(r.versus.as_ref().map(|v| &v.reference), m.versus.as_ref().map(|v| &v.reference));
         for (a, b) in [
             (r.mae, m.mae),
             (r.psnr, m.psnr),
@@ -136,4 +152,31 @@ fn metrics_files_grids_and_report() {
 /// there a test must not skip for want of it.
 fn resources_required() -> bool {
     std::env::var("GLASSBAKE_TEST_RESOURCES").is_ok_and(|v| v == "required")
+}
+
+/// When the first model does not lead a baseline (here it trails on every frame, and on a
+/// second baseline the frames disagree), the summary says so in words, with the interval, and
+/// the report carries the sentence; the noise-floor row is a reference and gets none.
+#[test]
+fn a_first_model_that_does_not_lead_is_said_to() {
+    let dir = tempfile::tempdir().unwrap();
+    let eval_dir = dir.path().join("eval");
+    let models = ["glassnet", "naive", "concat", "gt-4spp"].map(String::from).to_vec();
+    let mut evaluation = Evaluation::new(&eval_dir, models, None, "data".into(), "test".into()).unwrap();
+    let (w, h) = (16, 16);
+    let truth = frame(w, h, 0.5);
+    let mask = vec![true; w * h];
+    for (index, concat_level) in [(0, 0.55), (1, 0.7), (2, 0.52), (3, 0.75)] {
+        let models = [frame(w, h, 0.6), frame(w, h, 0.55), frame(w, h, concat_level), frame(w, h, 0.51)];
+        evaluation.add_frame(index, &truth, &mask, &models).unwrap();
+    }
+    let summary = evaluation.finish().unwrap();
+    let sentences = summary.not_leading();
+    assert!(sentences.iter().any(|s| s.starts_with("glassnet trails naive on PSNR")), "{sentences:?}");
+    assert!(sentences.iter().any(|s| s.starts_with("glassnet does not lead concat on T.PSNR")), "{sentences:?}");
+    assert!(!sentences.iter().any(|s| s.contains("gt-4spp")), "{sentences:?}");
+    let report = dir.path().join("report");
+    write_report(&report, &ReportInputs { title: "t".into(), facts: vec![], eval_dir: Some(eval_dir), training_logs: vec![], bench: None }).unwrap();
+    let md = std::fs::read_to_string(report.join("report.md")).unwrap();
+    assert!(md.contains("**Warning:** glassnet trails naive on PSNR"), "{md}");
 }

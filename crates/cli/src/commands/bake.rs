@@ -290,8 +290,13 @@ pub fn run(args: BakeArgs) -> Result<()> {
     print!("{}", summary.text_table());
     if let (Some(g), Some(n)) = (summary.models.iter().find(|m| m.model == "glassnet"), summary.models.iter().find(|m| m.model == "naive")) {
         if let (Some(gt), Some(nt)) = (g.t_psnr, n.t_psnr) {
-            println!("GlassNet vs Naive on transparent pixels: T.PSNR {gt:.2} vs {nt:.2} dB ({:+.2} dB)", gt - nt);
+            let interval =
+                n.versus.as_ref().and_then(|v| v.differences.get("t_psnr")).map(|d| format!(", 95% [{:+.2}, {:+.2}]", -d.high, -d.low)).unwrap_or_default();
+            println!("GlassNet vs Naive on transparent pixels: T.PSNR {gt:.2} vs {nt:.2} dB ({:+.2} dB{interval})", gt - nt);
         }
+    }
+    for sentence in summary.not_leading() {
+        println!("warning: {sentence}");
     }
     if let Some(floor) = noise_floor.as_ref().and_then(|row| summary.models.iter().find(|m| &m.model == row)) {
         println!(
