@@ -136,7 +136,19 @@ impl PlanarImage {
     /// The bytes of the EXR file [`PlanarImage::write_exr`] writes: all channels, ZIP16,
     /// scan lines in increasing order, so that equal pixels give equal bytes.
     pub fn exr_bytes(&self, precision: ExrPrecision) -> Result<Vec<u8>> {
+        self.exr_bytes_labelled(precision, None)
+    }
+
+    /// [`PlanarImage::exr_bytes`] with one text attribute `(name, value)` in the header. One
+    /// only: the EXR writer (exr 1.74) keeps custom attributes in a hash map and writes them in
+    /// its order, which would make the bytes differ from run to run.
+    pub fn exr_bytes_labelled(&self, precision: ExrPrecision, label: Option<(&str, &str)>) -> Result<Vec<u8>> {
         use exr::prelude::*;
+        let mut attributes = LayerAttributes::default();
+        if let Some((name, value)) = label {
+            let text = |s: &str| Text::new_or_none(s).ok_or_else(|| CoreError::Internal(format!("EXR attribute text {s:?} is not ASCII")));
+            attributes.other.insert(text(name)?, exr::meta::attribute::AttributeValue::Text(text(value)?));
+        }
         let channels: Vec<AnyChannel<FlatSamples>> = self
             .channels
             .iter()
@@ -152,7 +164,7 @@ impl PlanarImage {
             .collect();
         let layer = Layer::new(
             (self.width as usize, self.height as usize),
-            LayerAttributes::default(),
+            attributes,
             // Scan lines in increasing order: the bytes of a file then depend on the pixels
             // alone, not on which compression thread finished first (resume and shard merge
             // compare files byte for byte). ZIP suits float data; every EXR reader knows it.
@@ -163,6 +175,18 @@ impl PlanarImage {
         let mut bytes = std::io::Cursor::new(Vec::new());
         image.write().to_buffered(&mut bytes).map_err(|e| CoreError::Internal(format!("encoding EXR: {e}")))?;
         Ok(bytes.into_inner())
+    }
+
+    /// The text attribute `name` of an EXR file's first header, read without its pixels;
+    /// `None` where the file has no such attribute or is not an EXR file.
+    pub fn exr_text_attribute(bytes: &[u8], name: &str) -> Option<String> {
+        let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false).ok()?;
+        let header = meta.headers.first()?;
+        let key = exr::meta::attribute::Text::new_or_none(name)?;
+        match header.own_attributes.other.get(&key)? {
+            exr::meta::attribute::AttributeValue::Text(text) => Some(text.to_string()),
+            _ => None,
+        }
     }
 
     /// Read every channel of the first layer of an EXR file (channel order as stored, which

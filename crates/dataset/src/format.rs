@@ -311,7 +311,16 @@ pub struct DatasetManifest {
     /// Absent in manifests from before the field.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub content_sha256: Option<String>,
+    /// Whether every frame carries its label (the EXR header attribute [`FRAME_LABEL`]:
+    /// [`DatasetManifest::frame_label`]) and has its checksum, so that a frame copied in from
+    /// another dataset, or swapped with another frame of this one, is refused and made again.
+    /// False in datasets started before frames were labelled (kept so by an upgrade).
+    #[serde(default)]
+    pub frames_labelled: bool,
 }
+
+/// The EXR header attribute that names a frame's dataset and index.
+pub const FRAME_LABEL: &str = "glassbake.frame";
 
 impl DatasetManifest {
     /// The ray caster that traced a CPU dataset's frames: the recorded one, or obvhs for a
@@ -353,7 +362,23 @@ impl DatasetManifest {
             },
             samples,
             content_sha256: None,
+            frames_labelled: true,
         }
+    }
+
+    /// What frame `index`'s label says: this dataset's identity (a digest of its scene, its
+    /// spec but the scene's path, and the tracer that traces it: the same for every shard, for
+    /// the dataset moved or upgraded, different for another scene, seed, resolution, spp or
+    /// tracer) and the frame's index.
+    pub fn frame_label(&self, index: u64) -> String {
+        let spec = DatasetSpec { scene: String::new(), ..self.spec.clone() };
+        let key = serde_json::json!({
+            "scene": self.scene.hash,
+            "spec": spec,
+            "tracer_revision": self.tracer_revision,
+            "ray_caster": self.ray_caster,
+        });
+        format!("{}/{index}", glassbake_core::checksum::sha256_hex(key.to_string().as_bytes()))
     }
 
     /// Whether training and evaluation read the cached buffer files. An older dataset's

@@ -102,7 +102,7 @@ fn frame_work(spec: &DatasetSpec, sample: &SampleRecord) -> u64 {
 fn store_buffers(store: &DatasetStore, rasterizer: &mut Rasterizer, instance: &Scene, sample: &SampleRecord) -> Result<()> {
     let res = store.manifest.spec.resolution;
     let buffers = rasterizer.render(instance, &sample.camera, res, res)?.combined()?;
-    write_frame(&store.buffers_path(sample.index), &buffers, ExrPrecision::F16)
+    write_frame(&store.buffers_path(sample.index), &buffers, ExrPrecision::F16, &store.manifest.frame_label(sample.index))
 }
 
 fn make_frame(
@@ -141,14 +141,14 @@ fn make_frame(
         // the high-spp ground truth is the noise floor of what the models learned from.
         let copy = trace(spec.spp, spec.glass_spp_of(Split::Train), purpose_seed(sample.seed, "training-spp copy of a test frame"))?;
         refuse_non_finite(&copy.image, &scene.name, sample.index)?;
-        write_frame(&store.train_spp_gt_path(sample.index), &copy.image, ExrPrecision::F32)?;
+        write_frame(&store.train_spp_gt_path(sample.index), &copy.image, ExrPrecision::F32, &store.manifest.frame_label(sample.index))?;
         discarded += copy.discarded_samples;
     }
     let traced = trace(spec.spp_of(sample.split), spec.glass_spp_of(sample.split), sample_trace_seed(sample.seed))?;
     refuse_non_finite(&traced.image, &scene.name, sample.index)?;
     traced.image.write_png_rgb(&store.preview_path(sample.index), [0, 1, 2])?;
     // Ground truth last: it is what marks a frame as started-and-finished for humans too.
-    write_frame(&store.gt_path(sample.index), &traced.image, ExrPrecision::F32)?;
+    write_frame(&store.gt_path(sample.index), &traced.image, ExrPrecision::F32, &store.manifest.frame_label(sample.index))?;
     Ok(discarded + traced.discarded_samples)
 }
 
@@ -233,6 +233,8 @@ pub fn upgrade(dir: &Path, scene: &Scene, options: &RasterizerOptions, progress:
     // The ground truth stays, and with it the revision that traced it.
     planned.tracer_revision = existing.tracer_revision;
     planned.ray_caster = existing.ray_caster.clone();
+    // Frames traced before they were labelled stay unlabelled.
+    planned.frames_labelled = existing.frames_labelled;
     let mut as_today = existing.clone();
     as_today.format_version = crate::FORMAT_VERSION;
     if let Some(why) = as_today.mismatch(&planned) {

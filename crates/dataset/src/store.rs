@@ -15,7 +15,7 @@ use glassbake_core::image::{write_bytes_atomically, ExrPrecision};
 use glassbake_core::layout;
 use glassbake_core::{Error, PlanarImage, Result};
 
-use crate::format::{DatasetManifest, Split, TraceDevice, FORMAT_VERSION};
+use crate::format::{DatasetManifest, Split, TraceDevice, FORMAT_VERSION, FRAME_LABEL};
 
 pub const MANIFEST_FILE: &str = "manifest.json";
 
@@ -102,10 +102,10 @@ fn checksum_line(bytes: &[u8], frame: &Path) -> String {
     sha256sum_line(bytes, &frame.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default())
 }
 
-/// Writes a frame file and, first, its checksum: a frame on disk always has one (a kill between
+/// Writes a frame file labelled `label` ([`DatasetManifest::frame_label`]) and, first, its checksum: a frame on disk always has one (a kill between
 /// the two leaves a checksum without its frame, which counts as missing).
-pub fn write_frame(path: &Path, image: &PlanarImage, precision: ExrPrecision) -> Result<()> {
-    let bytes = image.exr_bytes(precision).map_err(|e| Error::Internal(format!("{}: {e}", path.display())))?;
+pub fn write_frame(path: &Path, image: &PlanarImage, precision: ExrPrecision, label: &str) -> Result<()> {
+    let bytes = image.exr_bytes_labelled(precision, Some((FRAME_LABEL, label))).map_err(|e| Error::Internal(format!("{}: {e}", path.display())))?;
     write_bytes_atomically(&checksum_path(path), checksum_line(&bytes, path).as_bytes())?;
     write_bytes_atomically(path, &bytes)
 }
@@ -264,7 +264,7 @@ impl DatasetStore {
         Ok(())
     }
 
-    fn check_image(&self, path: &Path, channels: &[String]) -> FrameStatus {
+    fn check_image(&self, path: &Path, index: u64, channels: &[String]) -> FrameStatus {
         if !path.exists() {
             return FrameStatus::Missing;
         }
@@ -275,7 +275,11 @@ impl DatasetStore {
         let sums = checksum_path(path);
         match std::fs::read_to_string(&sums) {
             Ok(recorded) => {
-                let recorded = parse_sha256sum(&recorded).into_iter().next().map(|(digest, _)| digest).unwrap_or_default();
+                let (recorded, named) = parse_sha256sum(&recorded).into_iter().next().unwrap_or_default();
+                let file_name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+                if named != file_name {
+                    return FrameStatus::Corrupt(format!("{}: its checksum is {named:?}'s, not this file's: copied or swapped in", sums.display()));
+                }
                 if recorded != sha256_hex(&bytes) {
                     return FrameStatus::Corrupt(format!(
                         "{}: its SHA-256 differs from the one recorded when it was written ({}): the file changed on disk",
@@ -284,8 +288,25 @@ impl DatasetStore {
                     ));
                 }
             }
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound && !self.manifest.frames_labelled => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return FrameStatus::Corrupt(format!("{}: no checksum beside it, where every frame of this dataset has one", path.display()))
+            }
             Err(e) => return FrameStatus::Corrupt(format!("{}: {e}", sums.display())),
+        }
+        if self.manifest.frames_labelled {
+            let expected = self.manifest.frame_label(index);
+            match PlanarImage::exr_text_attribute(&bytes, FRAME_LABEL) {
+                Some(label) if label == expected => {}
+                Some(label) => {
+                    return FrameStatus::Corrupt(format!(
+                        "{}: it is frame {} of another dataset or another frame of this one (its label), not frame {index} of this one: copied or swapped in",
+                        path.display(),
+                        label.rsplit('/').next().unwrap_or("?")
+                    ))
+                }
+                None => return FrameStatus::Corrupt(format!("{}: its header does not name its dataset and frame", path.display())),
+            }
         }
         let image = match PlanarImage::read_exr_bytes(&bytes, &path.display()) {
             Ok(image) => image,
@@ -321,18 +342,18 @@ impl DatasetStore {
     /// training spp, its training-spp copy), and cached buffers when asked for.
     pub fn frame_status(&self, index: u64) -> FrameStatus {
         let gt_channels = &self.manifest.channel_layout.ground_truth;
-        match self.check_image(&self.gt_path(index), gt_channels) {
+        match self.check_image(&self.gt_path(index), index, gt_channels) {
             FrameStatus::Done => {}
             other => return other,
         }
         if self.manifest.spec.has_train_spp_copy(self.manifest.spec.split_of(index)) {
-            match self.check_image(&self.train_spp_gt_path(index), gt_channels) {
+            match self.check_image(&self.train_spp_gt_path(index), index, gt_channels) {
                 FrameStatus::Done => {}
                 other => return other,
             }
         }
         if self.manifest.spec.cache_buffers {
-            return self.check_image(&self.buffers_path(index), &self.buffer_channels());
+            return self.check_image(&self.buffers_path(index), index, &self.buffer_channels());
         }
         FrameStatus::Done
     }

@@ -138,6 +138,62 @@ fn a_frame_whose_bytes_changed_after_writing_is_named_and_made_again() {
     assert_eq!(snapshot(&d), reference);
 }
 
+/// Each frame file is bound to its dataset and index: one swapped with another frame of the
+/// dataset, one copied in (with its checksum) from another dataset, and one whose checksum is
+/// gone are all named and made again, for every kind of frame file (ground truth, its
+/// training-spp copy, cached buffers).
+#[test]
+fn frames_copied_swapped_or_without_their_checksum_are_made_again() {
+    let scene = builtin("cornell-glass").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let (d, other) = (dir.path().join("set"), dir.path().join("other"));
+    generate(&scene, &spec(1), &d, &GenerateOptions::default(), &no_progress).unwrap();
+    generate(&scene, &spec(2), &other, &GenerateOptions::default(), &no_progress).unwrap();
+    let reference = snapshot(&d);
+    let (store, other_store) = (DatasetStore::open(&d).unwrap(), DatasetStore::open(&other).unwrap());
+    // Frame 6 is a test frame: it has all three kinds of file.
+    let files = store.frame_files(6);
+    assert_eq!(files.len(), 3, "{files:?}");
+    let copy_with_checksum = |from: &Path, to: &Path| {
+        std::fs::copy(from, to).unwrap();
+        std::fs::copy(checksum_path(from), checksum_path(to)).unwrap();
+    };
+    for (kind, file) in files.iter().enumerate() {
+        let name = |index: u64| file.with_file_name(format!("{index:06}.exr"));
+        let original = (std::fs::read(file).unwrap(), std::fs::read(checksum_path(file)).unwrap());
+        let restore = || {
+            std::fs::write(file, &original.0).unwrap();
+            std::fs::write(checksum_path(file), &original.1).unwrap();
+        };
+        // Frame 7's file (another test frame, so it exists) put in frame 6's place, both the
+        // frame alone and with its checksum renamed as well.
+        std::fs::copy(name(7), file).unwrap();
+        assert!(matches!(store.frame_status(6), FrameStatus::Corrupt(_)), "kind {kind}: a swapped frame passed");
+        std::fs::copy(checksum_path(&name(7)), checksum_path(file)).unwrap();
+        assert!(matches!(store.frame_status(6), FrameStatus::Corrupt(_)), "kind {kind}: a swapped frame with its checksum passed");
+        restore();
+        // The same frame index of another dataset (another seed), with its checksum.
+        let theirs = other_store.frame_files(6)[kind].clone();
+        copy_with_checksum(&theirs, file);
+        match store.frame_status(6) {
+            FrameStatus::Corrupt(why) => assert!(why.contains("another dataset"), "{why}"),
+            status => panic!("kind {kind}: another dataset's frame passed: {status:?}"),
+        }
+        restore();
+        // No checksum.
+        std::fs::remove_file(checksum_path(file)).unwrap();
+        assert!(matches!(store.frame_status(6), FrameStatus::Corrupt(_)), "kind {kind}: a frame without its checksum passed");
+        restore();
+        assert!(matches!(store.frame_status(6), FrameStatus::Done));
+    }
+    // Put in place for good, they are made again, and the dataset is as it was.
+    copy_with_checksum(&other_store.frame_files(6)[0], &files[0]);
+    drop(store);
+    let resumed = generate(&scene, &spec(1), &d, &GenerateOptions::default(), &no_progress).unwrap();
+    assert_eq!((resumed.generated, resumed.redone), (1, 1));
+    assert_eq!(snapshot(&d), reference);
+}
+
 #[test]
 fn a_manifest_changed_after_writing_is_refused_not_trusted() {
     let scene = builtin("cornell-glass").unwrap();
