@@ -6,7 +6,7 @@
 use glam::{Affine3A, Vec2, Vec3};
 use glassbake_core::Error;
 use glassbake_scene::builtin::builtin;
-use glassbake_scene::load::{validate, MAX_COORDINATE, MAX_RADIANCE, MAX_SPECULAR_COLOR, MAX_TEXTURE_COORDINATE};
+use glassbake_scene::load::{validate, MAX_COORDINATE, MAX_RADIANCE, MAX_SPECULAR_COLOR, MAX_TEXTURE_COORDINATE, MAX_VARIABLES};
 use glassbake_scene::{CameraPosition, Material, Scene, Variable, VariableTarget};
 
 /// Cornellbox without its variables, with an emissive material (index `EMISSIVE`) added.
@@ -143,6 +143,18 @@ fn variable_ranges_reaching_beyond_the_bounds_are_refused() {
         target: VariableTarget::Translation { object, axis: Vec3::X },
     });
     refused(&scene, "every variable at its max", "two translations together");
+}
+
+/// The number of variables is bounded before any is instantiated.
+#[test]
+fn the_number_of_variables_is_bounded() {
+    let mut scene = base();
+    let light = VariableTarget::LightIntensity { light: 0 };
+    for count in [MAX_VARIABLES, MAX_VARIABLES + 1] {
+        scene.variables = (0..count).map(|i| Variable { name: format!("v{i}"), min: 0.5, max: 1.0, default: 1.0, target: light }).collect();
+        let result = validate(&scene, "scene.toml");
+        assert_eq!(result.is_ok(), count == MAX_VARIABLES, "{count}: {result:?}");
+    }
 }
 
 /// A validated scene's variables are applied as given, not clamped: what validation saw is

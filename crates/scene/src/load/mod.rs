@@ -17,7 +17,7 @@ pub use gltf_file::load_gltf;
 pub use manifest_file::{apply_manifest, load_manifest};
 pub use obj_file::load_obj;
 pub use scene_files::MAX_SCENE_FILE_BYTES;
-pub use validate::{validate, MAX_COORDINATE, MAX_RADIANCE, MAX_SPECULAR_COLOR, MAX_TEXTURE_COORDINATE};
+pub use validate::{validate, MAX_COORDINATE, MAX_RADIANCE, MAX_SPECULAR_COLOR, MAX_TEXTURE_COORDINATE, MAX_VARIABLES};
 
 use crate::builtin::{builtin, BUILTIN_NAMES};
 use crate::camera_spec::CameraSpec;

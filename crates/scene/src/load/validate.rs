@@ -203,7 +203,14 @@ fn variable_extremes(scene: &Scene) -> Vec<(String, Vec<f32>)> {
     extremes
 }
 
+/// The most variables a scene may declare: each is an input plane of the network, and
+/// validation instantiates the scene at both ends of each.
+pub const MAX_VARIABLES: usize = 256;
+
 fn check_variables(scene: &Scene, file: &str, mesh_bounds: &[Option<(Vec3, Vec3)>]) -> Result<()> {
+    if scene.variables.len() > MAX_VARIABLES {
+        return Err(Error::bad_input(file, "variables", format!("{} variables; a scene has at most {MAX_VARIABLES}", scene.variables.len())));
+    }
     for (i, v) in scene.variables.iter().enumerate() {
         let field = format!("variables[{i}] ({})", v.name);
         if !(v.min < v.max && v.min.is_finite() && v.max.is_finite()) {
