@@ -314,8 +314,9 @@ pub struct DatasetManifest {
     /// Whether every frame carries its label (the EXR header attribute [`FRAME_LABEL`]:
     /// [`DatasetManifest::frame_label`]) and has its checksum, so that a frame copied in from
     /// another dataset, or swapped with another frame of this one, is refused and made again.
-    /// False in datasets started before frames were labelled (kept so by an upgrade).
-    #[serde(default)]
+    /// False in datasets started before frames were labelled (kept so by an upgrade), and then
+    /// not written: their manifests' checksums cover the bytes written without the field.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub frames_labelled: bool,
 }
 
@@ -453,6 +454,37 @@ impl DatasetManifest {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A manifest from before frames were labelled reads back with the flag off and is written
+    /// back without it, byte for byte as before, so its recorded checksum still holds; a new
+    /// one carries it.
+    #[test]
+    fn the_frame_label_flag_is_absent_from_manifests_that_predate_it() {
+        let spec = DatasetSpec {
+            scene: "cornellbox".into(),
+            resolution: 8,
+            spp: 2,
+            glass_spp: None,
+            test_spp: None,
+            test_glass_spp: None,
+            seed: 0,
+            train: 1,
+            val: 0,
+            test: 0,
+            cache_buffers: false,
+            device: TraceDevice::Cpu,
+            estimator: Estimator::default(),
+        };
+        let scene = glassbake_scene::builtin::builtin("cornellbox").unwrap();
+        let planned = DatasetManifest::plan(&spec, &scene);
+        assert!(planned.frames_labelled && serde_json::to_string(&planned).unwrap().contains("\"frames_labelled\":true"));
+        let old = DatasetManifest { frames_labelled: false, ..planned };
+        let written = serde_json::to_string_pretty(&old).unwrap();
+        assert!(!written.contains("frames_labelled"));
+        let read: DatasetManifest = serde_json::from_str(&written).unwrap();
+        assert!(!read.frames_labelled);
+        assert_eq!(serde_json::to_string_pretty(&read).unwrap(), written);
+    }
 
     /// Manifests written before the caustic estimator existed have no `estimator`: they were
     /// traced by the plain path tracer and must be continued with it.
