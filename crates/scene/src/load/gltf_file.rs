@@ -135,17 +135,14 @@ fn gltf_material(
     Ok((material, transform))
 }
 
-/// Load a glTF 2.0 file (.gltf or .glb) with its buffers and textures.
-pub fn load_gltf(path: &Path) -> Result<Scene> {
-    let label = path.display().to_string();
-    let bytes = read_scene_file(path, &label, "file")?;
-    let (used, required) = gltf_extensions::declared_extensions(&bytes, &label)?;
-    let extension_warnings = gltf_extensions::check_extensions(&used, &required, &label)?;
-    let gltf_error = |e: gltf::Error| Error::bad_input(&label, "glTF", e.to_string().replace('\n', " "));
+/// The glTF document of `bytes`, validated, with every file reference checked before any
+/// file is read.
+fn parse_document(bytes: &[u8], label: &str) -> Result<(gltf::Document, Option<Vec<u8>>)> {
+    let gltf_error = |e: gltf::Error| Error::bad_input(label, "glTF", e.to_string().replace('\n', " "));
     // The required extensions are checked above against what glassbake renders; the gltf
     // crate's own check (gltf 1.4.1) also refuses KHR_materials_specular and _volume, which
     // it parses, so it validates the document with that list emptied.
-    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(&bytes).map_err(gltf_error)?;
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes).map_err(gltf_error)?;
     let mut root = document.into_json();
     root.extensions_required.clear();
     // gltf-json 1.4.1's validation indexes the accessors with a primitive's POSITION before it
@@ -155,7 +152,7 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
             if let Some(accessor) = primitive.attributes.get(&gltf::json::validation::Checked::Valid(gltf::Semantic::Positions)) {
                 if accessor.value() >= root.accessors.len() {
                     return Err(Error::bad_input(
-                        &label,
+                        label,
                         format!("meshes[{m}].primitives[{p}].attributes.POSITION"),
                         format!("accessor {} does not exist (the file has {})", accessor.value(), root.accessors.len()),
                     ));
@@ -173,7 +170,7 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
             _ => None,
         };
         if let Some(problem) = problem {
-            return Err(Error::bad_input(&label, format!("images[{i}]"), problem));
+            return Err(Error::bad_input(label, format!("images[{i}]"), problem));
         }
     }
     let document = gltf::Document::from_json(root).map_err(gltf_error)?;
@@ -187,8 +184,18 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
         gltf::image::Source::View { .. } => None,
     });
     for (field, uri) in uris.chain(image_uris) {
-        check_reference(&label, &field, uri)?;
+        check_reference(label, &field, uri)?;
     }
+    Ok((document, blob))
+}
+
+/// Load a glTF 2.0 file (.gltf or .glb) with its buffers and textures.
+pub fn load_gltf(path: &Path) -> Result<Scene> {
+    let label = path.display().to_string();
+    let bytes = read_scene_file(path, &label, "file")?;
+    let (used, required) = gltf_extensions::declared_extensions(&bytes, &label)?;
+    let extension_warnings = gltf_extensions::check_extensions(&used, &required, &label)?;
+    let (document, blob) = parse_document(&bytes, &label)?;
     let folder = SceneFolder::of(path)?;
     let buffers = read_buffers(&document, &folder, blob)?;
     let images = read_images(&document, &folder, &buffers)?;

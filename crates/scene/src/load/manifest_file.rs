@@ -9,7 +9,7 @@ use glassbake_core::{Error, Result};
 use super::scene_files::{read_scene_file, SceneFolder};
 use super::{load_geometry, require_file};
 use crate::camera_spec::{CameraPosition, CameraSpec, Interval};
-use crate::manifest::{parse_manifest, Manifest, NumberOrRange, PositionManifest, TargetManifest};
+use crate::manifest::{parse_manifest, CameraManifest, Manifest, NumberOrRange, PositionManifest, TargetManifest};
 use crate::model::{Material, RectLight, Scene};
 use crate::variables::{Variable, VariableTarget};
 fn interval(value: &NumberOrRange, file: &str, field: &str) -> Result<Interval> {
@@ -67,6 +67,34 @@ pub fn load_manifest(path: &Path) -> Result<Scene> {
     Ok(scene)
 }
 
+/// The camera ranges a manifest's `[camera]` declares.
+fn camera_spec(c: &CameraManifest, file: &str) -> Result<CameraSpec> {
+    let position = match &c.position {
+        PositionManifest::Box { min, max } => {
+            let (min, max) = (Vec3::from(*min), Vec3::from(*max));
+            if !min.cmple(max).all() {
+                return Err(Error::bad_input(file, "camera.position", format!("reversed box: min {min} exceeds max {max}")));
+            }
+            CameraPosition::Box { min, max }
+        }
+        PositionManifest::Orbit { center, radius, azimuth_deg, elevation_deg } => CameraPosition::Orbit {
+            center: Vec3::from(*center),
+            radius: interval(radius, file, "camera.position.radius")?,
+            azimuth_deg: interval(azimuth_deg, file, "camera.position.azimuth_deg")?,
+            elevation_deg: interval(elevation_deg, file, "camera.position.elevation_deg")?,
+        },
+    };
+    Ok(CameraSpec {
+        position,
+        target: Vec3::from(c.target),
+        target_jitter: c.target_jitter.map(Vec3::from).unwrap_or(Vec3::ZERO),
+        up: c.up.map(Vec3::from).unwrap_or(Vec3::Y),
+        fov_x_deg: interval(&c.fov_x_deg, file, "camera.fov_x_deg")?,
+        near: c.near.unwrap_or(0.01),
+        far: c.far.unwrap_or(100.0),
+    })
+}
+
 /// Apply a parsed manifest to a loaded geometry scene.
 pub fn apply_manifest(scene: &mut Scene, manifest: &Manifest, file: &str) -> Result<()> {
     if let Some(name) = &manifest.name {
@@ -109,30 +137,7 @@ pub fn apply_manifest(scene: &mut Scene, manifest: &Manifest, file: &str) -> Res
         scene.rect_lights.push(light);
     }
     if let Some(c) = &manifest.camera {
-        let position = match &c.position {
-            PositionManifest::Box { min, max } => {
-                let (min, max) = (Vec3::from(*min), Vec3::from(*max));
-                if !min.cmple(max).all() {
-                    return Err(Error::bad_input(file, "camera.position", format!("reversed box: min {min} exceeds max {max}")));
-                }
-                CameraPosition::Box { min, max }
-            }
-            PositionManifest::Orbit { center, radius, azimuth_deg, elevation_deg } => CameraPosition::Orbit {
-                center: Vec3::from(*center),
-                radius: interval(radius, file, "camera.position.radius")?,
-                azimuth_deg: interval(azimuth_deg, file, "camera.position.azimuth_deg")?,
-                elevation_deg: interval(elevation_deg, file, "camera.position.elevation_deg")?,
-            },
-        };
-        scene.camera = CameraSpec {
-            position,
-            target: Vec3::from(c.target),
-            target_jitter: c.target_jitter.map(Vec3::from).unwrap_or(Vec3::ZERO),
-            up: c.up.map(Vec3::from).unwrap_or(Vec3::Y),
-            fov_x_deg: interval(&c.fov_x_deg, file, "camera.fov_x_deg")?,
-            near: c.near.unwrap_or(0.01),
-            far: c.far.unwrap_or(100.0),
-        };
+        scene.camera = camera_spec(c, file)?;
     } else if let Some((lo, hi)) = scene.bounds() {
         scene.camera = CameraSpec::framing(lo, hi);
     }

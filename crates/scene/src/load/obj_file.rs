@@ -37,9 +37,59 @@ fn parse_floats3(s: &str) -> Option<Vec3> {
     }
 }
 
-/// Load a Wavefront OBJ file with its MTL materials. Glass is recognised by dissolve `d` < 1
-/// or an illumination model 4, 6, 7 or 9; `Ni` is its IOR and `Tf` its tint; `Ke` emission;
-/// roughness from the Phong exponent `Ns` (alpha = sqrt(2 / (Ns + 2))).
+/// An MTL material as glassbake's: glass by dissolve `d` < 1 or illumination model 4, 6, 7 or
+/// 9 (its tint `Tf`, IOR `Ni`), roughness from the Phong exponent `Ns`, the specular layer from
+/// `Ks`, emission `Ke`; its diffuse texture, read through the scene folder, joins `scene`.
+fn obj_material(m: &tobj::Material, i: usize, folder: &SceneFolder, scene: &mut Scene) -> Result<Material> {
+    let field = format!("material {}", m.name);
+    let unknown = |key: &str| m.unknown_param.get(key).and_then(|v| parse_floats3(v));
+    let kd = m.diffuse.map(Vec3::from).unwrap_or(Vec3::splat(0.8));
+    let illum = m.illumination_model.unwrap_or(2);
+    let dissolve = m.dissolve.unwrap_or(1.0);
+    let glass = dissolve < 1.0 || matches!(illum, 4 | 6 | 7 | 9);
+    let ns = m.shininess.unwrap_or(0.0).max(0.0);
+    let alpha = (2.0 / (ns + 2.0)).sqrt();
+    let base_color_texture = match &m.diffuse_texture {
+        Some(tex) => {
+            let texture = load_image_texture(folder, tex, true, &format!("{field}.map_Kd"))?;
+            scene.textures.push(Arc::new(texture));
+            Some(scene.textures.len() - 1)
+        }
+        None => None,
+    };
+    // The specular layer by illumination model: 0 and 1 have none (Lambertian); 2 and
+    // the others take Ks as the reflectance at normal incidence (F0 = 0.04 x colour, so
+    // colour = Ks / 0.04), or glTF's default 4% where Ks is absent. Ks of zero is none.
+    let (specular, specular_color) = match (illum, m.specular) {
+        (0 | 1, _) => (0.0, Vec3::ONE),
+        (_, Some(ks)) if Vec3::from(ks).max_element() <= 0.0 => (0.0, Vec3::ONE),
+        (_, Some(ks)) => (1.0, Vec3::from(ks).max(Vec3::ZERO) / 0.04),
+        (_, None) => (1.0, Vec3::ONE),
+    };
+    if !matches!(illum, 0..=2 | 4 | 6 | 7 | 9) {
+        scene.load_warnings.push(format!("{field}: illum {illum} is read as illum 2 (diffuse + specular)"));
+    }
+    let mut material = Material {
+        name: if m.name.is_empty() { format!("material{i}") } else { m.name.clone() },
+        base_color: kd,
+        base_color_texture,
+        // glTF roughness is sqrt(alpha).
+        roughness: alpha.sqrt().clamp(0.0, 1.0),
+        roughness_texture: None,
+        specular,
+        specular_color,
+        emission: m.emissive.map(Vec3::from).unwrap_or(Vec3::ZERO),
+        ..Material::diffuse("", kd)
+    };
+    if glass {
+        material.base_color = unknown("Tf").unwrap_or(Vec3::ONE);
+        material.roughness = if ns >= 1000.0 || m.shininess.is_none() { 0.0 } else { material.roughness };
+        material.transmission =
+            Some(Transmission { weight: if dissolve < 1.0 { 1.0 - dissolve } else { 1.0 }, ior: m.optical_density.unwrap_or(1.5), thin: false });
+    }
+    Ok(material)
+}
+
 /// tobj 4.0.5 unwraps a colour statement (`Ka`, `Kd`, `Ks`, `Ke`) of fewer than three numbers
 /// in a material library (a panic): check them first. A library that is not there is tobj's
 /// to report (a warning, grey materials).
@@ -55,6 +105,9 @@ fn check_material_colours(library: &Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
+/// Load a Wavefront OBJ file with its MTL materials ([`obj_material`]: glass by dissolve `d` < 1
+/// or an illumination model 4, 6, 7 or 9; roughness from the Phong exponent `Ns`, alpha =
+/// sqrt(2 / (Ns + 2))).
 pub fn load_obj(path: &Path) -> Result<Scene> {
     let label = path.display().to_string();
     let text = read_scene_file(path, &label, "file")?;
@@ -97,52 +150,7 @@ pub fn load_obj(path: &Path) -> Result<Scene> {
         }
     };
     for (i, m) in obj_materials.iter().enumerate() {
-        let field = format!("material {}", m.name);
-        let unknown = |key: &str| m.unknown_param.get(key).and_then(|v| parse_floats3(v));
-        let kd = m.diffuse.map(Vec3::from).unwrap_or(Vec3::splat(0.8));
-        let illum = m.illumination_model.unwrap_or(2);
-        let dissolve = m.dissolve.unwrap_or(1.0);
-        let glass = dissolve < 1.0 || matches!(illum, 4 | 6 | 7 | 9);
-        let ns = m.shininess.unwrap_or(0.0).max(0.0);
-        let alpha = (2.0 / (ns + 2.0)).sqrt();
-        let base_color_texture = match &m.diffuse_texture {
-            Some(tex) => {
-                let texture = load_image_texture(&folder, tex, true, &format!("{field}.map_Kd"))?;
-                scene.textures.push(Arc::new(texture));
-                Some(scene.textures.len() - 1)
-            }
-            None => None,
-        };
-        // The specular layer by illumination model: 0 and 1 have none (Lambertian); 2 and
-        // the others take Ks as the reflectance at normal incidence (F0 = 0.04 x colour, so
-        // colour = Ks / 0.04), or glTF's default 4% where Ks is absent. Ks of zero is none.
-        let (specular, specular_color) = match (illum, m.specular) {
-            (0 | 1, _) => (0.0, Vec3::ONE),
-            (_, Some(ks)) if Vec3::from(ks).max_element() <= 0.0 => (0.0, Vec3::ONE),
-            (_, Some(ks)) => (1.0, Vec3::from(ks).max(Vec3::ZERO) / 0.04),
-            (_, None) => (1.0, Vec3::ONE),
-        };
-        if !matches!(illum, 0..=2 | 4 | 6 | 7 | 9) {
-            scene.load_warnings.push(format!("{field}: illum {illum} is read as illum 2 (diffuse + specular)"));
-        }
-        let mut material = Material {
-            name: if m.name.is_empty() { format!("material{i}") } else { m.name.clone() },
-            base_color: kd,
-            base_color_texture,
-            // glTF roughness is sqrt(alpha).
-            roughness: alpha.sqrt().clamp(0.0, 1.0),
-            roughness_texture: None,
-            specular,
-            specular_color,
-            emission: m.emissive.map(Vec3::from).unwrap_or(Vec3::ZERO),
-            ..Material::diffuse("", kd)
-        };
-        if glass {
-            material.base_color = unknown("Tf").unwrap_or(Vec3::ONE);
-            material.roughness = if ns >= 1000.0 || m.shininess.is_none() { 0.0 } else { material.roughness };
-            material.transmission =
-                Some(Transmission { weight: if dissolve < 1.0 { 1.0 - dissolve } else { 1.0 }, ior: m.optical_density.unwrap_or(1.5), thin: false });
-        }
+        let material = obj_material(m, i, &folder, &mut scene)?;
         scene.materials.push(material);
     }
     let mut material_names = HashMap::new();
