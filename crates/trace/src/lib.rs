@@ -2,7 +2,7 @@
 //!
 //! It owns everything between a scene instance plus a camera and a linear-RGB radiance
 //! image. Read it top-down: [`Estimator`] (`estimator.rs`) names what traces an image and its
-//! `Default` is the ground truth's; [`render`] (`render.rs`, the image driver) runs the passes
+//! `Default` is the ground truth's; [`render`] (`render/`, the image driver) runs the passes
 //! over tiles; `integrator.rs` is the plain path tracer (next-event estimation, MIS, Russian
 //! roulette) with the hooks through which the caustic estimator (`caustic_paths.rs`, its light
 //! tracer `light_tracing.rs`, opt-in photon merging `photon_merging.rs`) leaves out the paths
