@@ -10,7 +10,8 @@ use std::time::Instant;
 use glassbake_core::layout::{self, GROUND_TRUTH_CHANNELS};
 use glassbake_core::seed::purpose_seed;
 use glassbake_core::{Error, PlanarImage, Result};
-use glassbake_dataset::{DatasetSpec, DatasetStore, Loader, LoaderOptions, SampleRecord, Split};
+use glassbake_dataset::{DatasetInfo, DatasetSpec, DatasetStore, Loader, LoaderOptions, SampleRecord, Split};
+use glassbake_net::burn::prelude::Device;
 use glassbake_net::{select_device, DeviceChoice, FrameRef, ModelKind, TrainedModel, TrainedSuperSampler};
 use glassbake_trace::TraceSettings;
 use rand::seq::SliceRandom;
@@ -179,28 +180,9 @@ fn max_abs_diff(a: &[f32], b: &[f32]) -> f32 {
     a.iter().zip(b).map(|(x, y)| if x.to_bits() == y.to_bits() { 0.0 } else { (x - y).abs().max(f32::MIN_POSITIVE) }).fold(0.0, f32::max)
 }
 
-/// Scores `options.models` on the dataset split, writes `OUT/metrics.*`, `OUT/frames`,
-/// `OUT/grids` and `OUT/report/`. `facts` are extra lines for the report (the bake's stage
-/// times); `progress(done, total)` is called after every frame.
-pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn FnMut(usize, usize)) -> Result<Scored> {
-    let (dataset, model_dirs) = (&options.dataset, &options.models);
-    let split = options.split;
-    let split_name = match split {
-        Split::Train => "train",
-        Split::Val => "val",
-        Split::Test => "test",
-    };
-    if options.path_traced_baseline.is_some() && !crate::denoise::AVAILABLE {
-        return Err(Error::bad_input("--path-traced-baseline", "oidn", crate::denoise::HOW_TO_ENABLE));
-    }
-    if options.path_traced_baseline == Some(0) {
-        return Err(Error::bad_input("--path-traced-baseline", "spp", "must be at least 1"));
-    }
-    if options.frames == Some(0) {
-        return Err(Error::bad_input("--frames", "frames", "must be at least 1 (a run of no frames has no metrics)"));
-    }
-    let store = DatasetStore::open(dataset)?;
-    let info = store.info();
+/// Refuses a split with frames missing or damaged.
+fn check_split_complete(dataset: &Path, info: &DatasetInfo, split: Split) -> Result<()> {
+    let split_name = split_name(split);
     if let Some((_, planned, done)) = info.splits.iter().find(|s| s.0 == split) {
         if done < planned {
             return Err(Error::bad_input(
@@ -213,11 +195,55 @@ pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn
             ));
         }
     }
-    let device = select_device(options.device, 0, false);
+    Ok(())
+}
+
+/// The dataset's scene where it is needed: to rasterize uncached buffers (the loader checks it
+/// then) and to path trace (which must see the scene the dataset was made from).
+fn scene_if_needed(options: &ScoreOptions, store: &DatasetStore) -> Result<Option<glassbake_scene::Scene>> {
+    let scene = if !store.manifest.reads_cached_buffers() || options.path_traced_baseline.is_some() {
+        Some(glassbake_scene::load_scene(&store.manifest.spec.scene)?)
+    } else {
+        None
+    };
+    if let (Some(scene), Some(_)) = (&scene, options.path_traced_baseline) {
+        if scene.content_hash() != store.manifest.scene.hash {
+            return Err(Error::bad_input(
+                &store.manifest.spec.scene,
+                "scene",
+                format!(
+                    "has changed since the dataset {} was made (scene hash {} now, {} then)",
+                    options.dataset.display(),
+                    scene.content_hash(),
+                    store.manifest.scene.hash
+                ),
+            ));
+        }
+    }
+    Ok(scene)
+}
+
+/// The options that can be refused before any file is read.
+fn check_options(options: &ScoreOptions) -> Result<()> {
+    if options.path_traced_baseline.is_some() && !crate::denoise::AVAILABLE {
+        return Err(Error::bad_input("--path-traced-baseline", "oidn", crate::denoise::HOW_TO_ENABLE));
+    }
+    if options.path_traced_baseline == Some(0) {
+        return Err(Error::bad_input("--path-traced-baseline", "spp", "must be at least 1"));
+    }
+    if options.frames == Some(0) {
+        return Err(Error::bad_input("--frames", "frames", "must be at least 1 (a run of no frames has no metrics)"));
+    }
+    Ok(())
+}
+
+/// The models in `model_dirs`, each checked to be of the dataset's scene, and their row names
+/// (a directory's name; repeats numbered).
+fn load_models(model_dirs: &[PathBuf], store: &DatasetStore, device: &Device) -> Result<(Vec<TrainedModel>, Vec<String>)> {
     let mut models = Vec::new();
     let mut names: Vec<String> = Vec::new();
     for dir in model_dirs {
-        let model = TrainedModel::load(dir, &device)?;
+        let model = TrainedModel::load(dir, device)?;
         let data = &model.files.config.data;
         if data.scene_hash != store.manifest.scene.hash {
             return Err(Error::bad_input(
@@ -236,31 +262,85 @@ pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn
         names.push(name);
         models.push(model);
     }
+    Ok((models, names))
+}
+
+fn split_name(split: Split) -> &'static str {
+    match split {
+        Split::Train => "train",
+        Split::Val => "val",
+        Split::Test => "test",
+    }
+}
+
+/// The evaluation's own report (`OUT/report/`): the dataset, the noise floor's meaning and
+/// `facts`, then the metrics and the models' training curves.
+fn write_evaluation_report(
+    options: &ScoreOptions,
+    store: &DatasetStore,
+    info: &DatasetInfo,
+    names: &[String],
+    noise_floor: Option<&str>,
+    facts: &[String],
+) -> Result<PathBuf> {
+    let (dataset, split) = (&options.dataset, options.split);
+    let split_name = split_name(split);
+    let training_logs = options.models.iter().zip(names).map(|(dir, name)| TrainingLog { name: name.clone(), path: dir.join("train_log.csv") }).collect();
+    let spec = &store.manifest.spec;
+    let glass_spp = spec.glass_spp_of(split);
+    let truth_spp = if glass_spp != spec.spp_of(split) {
+        format!("{} spp, {glass_spp} on pixels showing glass", spec.spp_of(split))
+    } else {
+        format!("{} spp", spec.spp_of(split))
+    };
+    let mut report_facts = vec![format!(
+        "dataset {} ({} transparent objects, {} px, {} spp; the {} split's ground truth at {truth_spp})",
+        dataset.display(),
+        info.transparent_objects,
+        info.resolution,
+        info.spp,
+        split_name,
+    )];
+    if let Some(row) = noise_floor {
+        report_facts.push(format!(
+            "noise floor: row {row} is the ground truth traced again at the training spp ({}) with other random numbers, scored against the ground truth ({truth_spp}): how far the frames the models learned from are from converged",
+            info.spp,
+        ));
+    }
+    report_facts.extend(facts.iter().cloned());
+    write_report(
+        &options.out.join("report"),
+        &ReportInputs {
+            title: format!("glassbake: {}", store.manifest.scene.name),
+            facts: report_facts,
+            eval_dir: Some(options.out.clone()),
+            training_logs,
+            bench: None,
+        },
+    )
+}
+
+/// Scores `options.models` on the dataset split, writes `OUT/metrics.*`, `OUT/frames`,
+/// `OUT/grids` and `OUT/report/`. `facts` are extra lines for the report (the bake's stage
+/// times); `progress(done, total)` is called after every frame.
+pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn FnMut(usize, usize)) -> Result<Scored> {
+    let (dataset, model_dirs) = (&options.dataset, &options.models);
+    let split = options.split;
+    let split_name = split_name(split);
+    check_options(options)?;
+    let store = DatasetStore::open(dataset)?;
+    let info = store.info();
+    check_split_complete(dataset, &info, split)?;
+    let device = select_device(options.device, 0, false);
+    let (models, mut names) = load_models(model_dirs, &store, &device)?;
     let half = half_resolution(options, &models, &store.manifest.scene.hash, store.manifest.spec.resolution)?;
     if let Some(half) = &half {
         names.extend(half_resolution_rows(&names[half.model]));
     }
     let lpips = options.lpips_weights.as_deref().map(Lpips::load).transpose()?;
     let needs_naive = options.path_traced_baseline.is_some() || models.iter().any(|m| m.kind().reads_naive_gbuffer());
-    // The scene: to rasterize uncached buffers (the loader checks it then) and to path trace.
-    let scene = if !store.manifest.reads_cached_buffers() || options.path_traced_baseline.is_some() {
-        Some(glassbake_scene::load_scene(&store.manifest.spec.scene)?)
-    } else {
-        None
-    };
-    if let (Some(scene), Some(spp)) = (&scene, options.path_traced_baseline) {
-        if scene.content_hash() != store.manifest.scene.hash {
-            return Err(Error::bad_input(
-                &store.manifest.spec.scene,
-                "scene",
-                format!(
-                    "has changed since the dataset {} was made (scene hash {} now, {} then)",
-                    dataset.display(),
-                    scene.content_hash(),
-                    store.manifest.scene.hash
-                ),
-            ));
-        }
+    let scene = scene_if_needed(options, &store)?;
+    if let Some(spp) = options.path_traced_baseline {
         names.extend(path_traced_rows(spp));
     }
     let noise_floor = noise_floor_row(&store.manifest.spec, split);
@@ -352,38 +432,6 @@ pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn
         evaluation.set_order_test(order);
     }
     let summary = evaluation.finish()?;
-    let training_logs = model_dirs.iter().zip(&names).map(|(dir, name)| TrainingLog { name: name.clone(), path: dir.join("train_log.csv") }).collect();
-    let spec = &store.manifest.spec;
-    let glass_spp = spec.glass_spp_of(split);
-    let truth_spp = if glass_spp != spec.spp_of(split) {
-        format!("{} spp, {glass_spp} on pixels showing glass", spec.spp_of(split))
-    } else {
-        format!("{} spp", spec.spp_of(split))
-    };
-    let mut report_facts = vec![format!(
-        "dataset {} ({} transparent objects, {} px, {} spp; the {} split's ground truth at {truth_spp})",
-        dataset.display(),
-        info.transparent_objects,
-        info.resolution,
-        info.spp,
-        split_name,
-    )];
-    if let Some(row) = &noise_floor {
-        report_facts.push(format!(
-            "noise floor: row {row} is the ground truth traced again at the training spp ({}) with other random numbers, scored against the ground truth ({truth_spp}): how far the frames the models learned from are from converged",
-            info.spp,
-        ));
-    }
-    report_facts.extend(facts.iter().cloned());
-    let index = write_report(
-        &options.out.join("report"),
-        &ReportInputs {
-            title: format!("glassbake: {}", store.manifest.scene.name),
-            facts: report_facts,
-            eval_dir: Some(options.out.clone()),
-            training_logs,
-            bench: None,
-        },
-    )?;
+    let index = write_evaluation_report(options, &store, &info, &names, noise_floor.as_deref(), facts)?;
     Ok(Scored { summary, report: index })
 }
