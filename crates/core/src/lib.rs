@@ -2,9 +2,9 @@
 //!
 //! It owns the camera convention (docs/design.md §2), the planar float image type with named
 //! channels and its EXR/PNG I/O, the buffer channel layout of docs/design.md §3 (the one place
-//! where channel names are spelled), per-sample seed derivation, tone mapping, the one-writer lock and the ownership rule of an output folder, SHA-256
-//! checksums of files read back later, and the error
-//! type whose "bad input" variant the CLI turns into exit code 2.
+//! where channel names are spelled), per-sample seed derivation, tone mapping, the one-writer
+//! lock and the ownership rule of an output folder, SHA-256 checksums of files read back
+//! later, and the error type whose "bad input" variant the CLI turns into exit code 2.
 
 pub mod camera;
 pub mod checksum;
