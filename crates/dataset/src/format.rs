@@ -455,12 +455,9 @@ impl DatasetManifest {
 mod tests {
     use super::*;
 
-    /// A manifest from before frames were labelled reads back with the flag off and is written
-    /// back without it, byte for byte as before, so its recorded checksum still holds; a new
-    /// one carries it.
-    #[test]
-    fn the_frame_label_flag_is_absent_from_manifests_that_predate_it() {
-        let spec = DatasetSpec {
+    /// One training frame of cornellbox at 8 px.
+    fn one_frame_spec() -> DatasetSpec {
+        DatasetSpec {
             scene: "cornellbox".into(),
             resolution: 8,
             spp: 2,
@@ -474,7 +471,15 @@ mod tests {
             cache_buffers: false,
             device: TraceDevice::Cpu,
             estimator: Estimator::default(),
-        };
+        }
+    }
+
+    /// A manifest from before frames were labelled reads back with the flag off and is written
+    /// back without it, byte for byte as before, so its recorded checksum still holds; a new
+    /// one carries it.
+    #[test]
+    fn the_frame_label_flag_is_absent_from_manifests_that_predate_it() {
+        let spec = one_frame_spec();
         let scene = glassbake_scene::builtin::builtin("cornellbox").unwrap();
         let planned = DatasetManifest::plan(&spec, &scene);
         assert!(planned.frames_labelled && serde_json::to_string(&planned).unwrap().contains("\"frames_labelled\":true"));
@@ -490,21 +495,7 @@ mod tests {
     /// traced by the plain path tracer and must be continued with it.
     #[test]
     fn a_spec_without_an_estimator_was_traced_plain() {
-        let spec = DatasetSpec {
-            scene: "cornellbox".into(),
-            resolution: 8,
-            spp: 2,
-            glass_spp: None,
-            test_spp: None,
-            test_glass_spp: None,
-            seed: 0,
-            train: 1,
-            val: 0,
-            test: 0,
-            cache_buffers: false,
-            device: TraceDevice::Cpu,
-            estimator: Estimator::default(),
-        };
+        let spec = one_frame_spec();
         let mut json = serde_json::to_value(&spec).unwrap();
         // The names manifests recorded before the estimator's options were spelled with `+`
         // read back and are written back as they were (the manifest's checksum covers them).

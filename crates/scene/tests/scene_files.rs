@@ -36,6 +36,12 @@ fn gltf_referring_to(dir: &Path, buffer: &str, image: &str) -> PathBuf {
     path
 }
 
+/// The 2x1 test poster written under the name `path`.
+fn poster_at(path: &Path) {
+    write_poster(path.parent().unwrap());
+    std::fs::rename(path.parent().unwrap().join("poster.png"), path).unwrap();
+}
+
 const OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl wood\nf 1/1 2/2 3/3\n";
 
 const REFERENCES: [Reference; 5] = [
@@ -55,10 +61,7 @@ const REFERENCES: [Reference; 5] = [
             write(&dir.join("quad.bin"), quad_buffer());
             gltf_referring_to(dir, "quad.bin", name)
         },
-        write_referred: |path| {
-            write_poster(path.parent().unwrap());
-            std::fs::rename(path.parent().unwrap().join("poster.png"), path).unwrap();
-        },
+        write_referred: poster_at,
     },
     Reference {
         kind: "manifest geometry",
@@ -94,10 +97,7 @@ const REFERENCES: [Reference; 5] = [
             write(&path, format!("mtllib scene.mtl\n{OBJ}"));
             path
         },
-        write_referred: |path| {
-            write_poster(path.parent().unwrap());
-            std::fs::rename(path.parent().unwrap().join("poster.png"), path).unwrap();
-        },
+        write_referred: poster_at,
     },
 ];
 

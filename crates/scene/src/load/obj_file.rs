@@ -126,11 +126,12 @@ pub fn load_obj(path: &Path) -> Result<Scene> {
             // The name tobj 4.0.5 asks for: the rest of the line after the first space.
             let name = line.split_once(' ').unwrap_or_default().1.trim();
             // A library that is not there is tobj's to report.
-            if path.with_file_name(name).symlink_metadata().is_err() {
+            let library = path.with_file_name(name);
+            if library.symlink_metadata().is_err() {
                 continue;
             }
             let bytes = folder.read(&field, name)?;
-            check_material_colours(&path.with_file_name(name), &bytes)?;
+            check_material_colours(&library, &bytes)?;
             libraries.insert(PathBuf::from(name), bytes);
         }
     }
