@@ -7,7 +7,7 @@ set -eu
 cd "$(dirname "$0")/../.."
 python=${PYTHON:-python3}
 batch=${1:-4} crop=${2:-32} objects=${3:-4}
-burn=$(cargo run -q --release -p glassbake-net --example train_step -- "$batch" "$crop" "$objects")
+burn=$(cargo run -q --release -p glassbake-bake --example train_step -- "$batch" "$crop" "$objects")
 echo "$burn"
 for model in glassnet naive; do
     torch=$("$python" tools/torch-compare/glassnet_step.py --model "$model" --batch "$batch" --crop "$crop" --objects "$objects")

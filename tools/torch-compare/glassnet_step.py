@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """GlassNet's `quick` network re-built in PyTorch, to time one training step on the same CPU as
 glassbake's burn/flex training. Only speed is compared: the weights are
-random and the data synthetic, as in `cargo run --release -p glassbake-net --example train_step`.
+random and the data synthetic, as in `cargo run --release -p glassbake-bake --example train_step`.
 
 The layer list mirrors crates/net/src/{blocks,model,config}.rs (quick preset): a 1x1 stem then
 3x3 convolutions with leaky ReLU (0.1), stride-2 3x3 down-sampling, 2x2 stride-2 transposed

@@ -158,7 +158,51 @@ pub struct DatasetSpec {
     pub estimator: Estimator,
 }
 
+/// The test split's ground truth is traced at this many times the training spp by default:
+/// its own noise is then well below the error being measured (at least 8x).
+pub const DEFAULT_TEST_SPP_FACTOR: u32 = 8;
+
+/// The test split's glass pixels get this many times its spp by default: the
+/// transparent-pixel metrics are then measured against a reference whose own noise is a
+/// third of the uniform one's (in variance), at about +50% of the test split's trace time on
+/// cornellbox and +120% on bathroom, whose partition fills most of the view (docs/trace.md).
+pub const DEFAULT_TEST_GLASS_SPP_FACTOR: u32 = 3;
+
 impl DatasetSpec {
+    /// A dataset of `scene` (a built-in name or a path) of `resolution` px frames traced at
+    /// `spp`, `frames` = [train, validation, test], with the default test split (traced at
+    /// [`DEFAULT_TEST_SPP_FACTOR`] x `spp`, its glass pixels at
+    /// [`DEFAULT_TEST_GLASS_SPP_FACTOR`] x that), seed 0, on the CPU with its default
+    /// estimator, buffers rasterized again when read.
+    pub fn new(scene: impl Into<String>, resolution: u32, spp: u32, frames: [u64; 3]) -> DatasetSpec {
+        let test_spp = DatasetSpec::default_test_spp(spp);
+        DatasetSpec {
+            scene: scene.into(),
+            resolution,
+            spp,
+            glass_spp: None,
+            test_spp: Some(test_spp),
+            test_glass_spp: Some(DatasetSpec::default_test_glass_spp(test_spp)),
+            seed: 0,
+            train: frames[0],
+            val: frames[1],
+            test: frames[2],
+            cache_buffers: false,
+            device: TraceDevice::Cpu,
+            estimator: TraceDevice::Cpu.default_estimator(),
+        }
+    }
+
+    /// The test split's spp for a dataset traced at `spp`, unless chosen.
+    pub fn default_test_spp(spp: u32) -> u32 {
+        spp.saturating_mul(DEFAULT_TEST_SPP_FACTOR)
+    }
+
+    /// The test split's spp on glass pixels for a test split traced at `test_spp`, unless chosen.
+    pub fn default_test_glass_spp(test_spp: u32) -> u32 {
+        test_spp.saturating_mul(DEFAULT_TEST_GLASS_SPP_FACTOR)
+    }
+
     /// Frames in all splits (saturating: `validate` refuses more than [`MAX_FRAMES`]).
     pub fn total(&self) -> u64 {
         self.train.saturating_add(self.val).saturating_add(self.test)

@@ -79,6 +79,59 @@ pub struct DatasetInfo {
     pub disk_bytes: u64,
 }
 
+/// The lines of `glassbake dataset info` after the dataset's path.
+impl std::fmt::Display for DatasetInfo {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "  scene {} (hash {})", self.scene_name, self.scene_hash)?;
+        writeln!(
+            f,
+            "  {}x{} px, {} spp{}{} (traced on {}, {} estimator, {}), seed {}, {} transparent objects",
+            self.resolution,
+            self.resolution,
+            self.spp,
+            if self.glass_spp != self.spp { format!(" ({} on glass pixels)", self.glass_spp) } else { String::new() },
+            match (self.test_spp != self.spp, self.test_glass_spp != self.test_spp) {
+                (_, true) => format!(", test split {} spp ({} on glass pixels)", self.test_spp, self.test_glass_spp),
+                (true, false) => format!(", test split {} spp", self.test_spp),
+                (false, false) => String::new(),
+            },
+            self.device.name(),
+            self.estimator,
+            match (self.tracer_revision, &self.ray_caster) {
+                (None, _) => "tracer revision not recorded".to_string(),
+                (Some(r), None) => format!("tracer revision {r}"),
+                (Some(r), Some(caster)) => format!("tracer revision {r}, rays cast by {caster}"),
+            },
+            self.seed,
+            self.transparent_objects
+        )?;
+        writeln!(f, "  buffers {}", if self.cache_buffers { "cached (f16 EXR)" } else { "rasterized on demand" })?;
+        for (split, planned, done) in &self.splits {
+            writeln!(f, "  {:<6} {done}/{planned} frames complete", format!("{split:?}").to_lowercase())?;
+        }
+        for damaged in &self.damaged {
+            writeln!(f, "  damaged {damaged}")?;
+        }
+        if self.without_checksum > 0 {
+            writeln!(f, "  {} frame(s) written before checksums were recorded: checked by decoding alone", self.without_checksum)?;
+        }
+        writeln!(f, "  disk {}", human_bytes(self.disk_bytes))?;
+        Ok(())
+    }
+}
+
+/// `bytes` in B, KiB, MiB, GiB or TiB with one decimal.
+pub fn human_bytes(bytes: u64) -> String {
+    let mut value = bytes as f64;
+    for unit in ["B", "KiB", "MiB", "GiB"] {
+        if value < 1024.0 {
+            return format!("{value:.1} {unit}");
+        }
+        value /= 1024.0;
+    }
+    format!("{value:.1} TiB")
+}
+
 impl DatasetInfo {
     /// "; damaged: frame 3: ..., frame 9: ..." naming the first few damaged frames, or "".
     pub fn damaged_summary(&self) -> String {

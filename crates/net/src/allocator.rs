@@ -2,7 +2,7 @@
 //! hundreds of tensors of a few hundred KiB. glibc's malloc maps each block over its mmap
 //! threshold from the kernel and unmaps it when freed, and trims the heap top, so every
 //! step page-faults its memory in again: 20-25% of a CPU training step's wall time
-//! (`cargo run --release -p glassbake-net --example train_step`, 2 cores).
+//! (`cargo run --release -p glassbake-bake --example train_step`, 2 cores).
 
 /// Has the allocator serve tensors from its heap and keep what is freed for the next step.
 /// Call it once, first thing in `main`, before any thread starts. A no-op off glibc.

@@ -21,7 +21,7 @@ fn conv(in_channels: usize, out_channels: usize, kernel: usize, device: &Device)
 /// convolution's weight gradient as another convolution whose kernel is the whole image, which
 /// made the backward pass of the wide 1x1 input projections (156 channels into h, 157 into F)
 /// ~75x slower than their forward pass, and of the 3x3 layers ~9x
-/// (`cargo run --release -p glassbake-net --example train_step`). So a 1x1 convolution is
+/// (`cargo run --release -p glassbake-bake --example train_step`). So a 1x1 convolution is
 /// computed as the matrix product over channels it is, and a stride-1 k x k convolution with
 /// "same" padding, when training on flex, as one product over the k*k shifted copies of the
 /// input (im2col); the backward passes are then matrix products too. Without gradients flex's

@@ -1,6 +1,6 @@
-//! Network and training configuration: every width, depth and frequency in one serde struct,
-//! with named presets (`tiny` for tests, `quick` for a CPU bake at 64-128 px, `paper` for a
-//! GPU at 256 px).
+//! Network and training configuration: every width, depth and frequency in one serde struct.
+//! The named sizes a user picks (`tiny`, `quick`, `paper`) are values of the bake's `Preset`
+//! (glassbake-bake); a [`NetShape`] is the part of one that does not depend on the scene.
 
 use serde::{Deserialize, Serialize};
 
@@ -183,48 +183,32 @@ pub struct NetConfig {
 /// The most transparency buffers GlassNet sums exactly (see `sum.rs`).
 pub const MAX_EXACT_OBJECTS: usize = 16;
 
-impl NetConfig {
-    pub const PRESETS: [&'static str; 3] = ["tiny", "quick", "paper"];
+/// The sizes of a network that do not depend on the scene: what a preset chooses.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NetShape {
+    pub encoding_frequencies: usize,
+    pub scene_encoder: UNetConfig,
+    pub transparency_encoder: CnnConfig,
+    pub blending: UNetConfig,
+    pub renderer: RendererConfig,
+    /// Used by the `pixelgen` baseline only.
+    pub pixel_generator: PixelGeneratorConfig,
+}
 
-    /// A named preset for `model` in a scene with `variables` variables and
-    /// `transparent_objects` transparent objects.
-    pub fn preset(name: &str, model: ModelKind, variables: usize, transparent_objects: usize) -> Result<NetConfig> {
-        let (frequencies, f, h, b, r, pixel) = match name {
-            "tiny" => (
-                2,
-                UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
-                CnnConfig { width: 4, layers: 1, out_channels: 4 },
-                UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
-                RendererConfig { width: 4, large_kernel: 5, layers: 1, pointwise_layers: 1 },
-                PixelGeneratorConfig { width: 8, layers: 3, skip_at: 2 },
-            ),
-            "quick" => (
-                4,
-                UNetConfig { base_width: 12, levels: 3, out_channels: 12 },
-                CnnConfig { width: 12, layers: 3, out_channels: 12 },
-                UNetConfig { base_width: 12, levels: 3, out_channels: 12 },
-                RendererConfig { width: 16, large_kernel: 5, layers: 1, pointwise_layers: 1 },
-                PixelGeneratorConfig { width: 64, layers: 6, skip_at: 3 },
-            ),
-            "paper" => (
-                6,
-                UNetConfig { base_width: 32, levels: 4, out_channels: 32 },
-                CnnConfig { width: 32, layers: 3, out_channels: 32 },
-                UNetConfig { base_width: 32, levels: 4, out_channels: 32 },
-                RendererConfig { width: 48, large_kernel: 7, layers: 2, pointwise_layers: 2 },
-                // Active Exploration's PixelGenerator: 8 layers of 512, input re-fed midway.
-                PixelGeneratorConfig { width: 512, layers: 8, skip_at: 4 },
-            ),
-            other => return Err(Error::bad_input("--preset", "preset", format!("unknown preset {other:?}; the presets are {}", Self::PRESETS.join(", ")))),
-        };
+impl NetConfig {
+    /// `model` of `shape` (a preset's, named `preset_name`) for a scene with `variables`
+    /// variables and `transparent_objects` transparent objects.
+    pub fn new(shape: &NetShape, preset_name: &str, model: ModelKind, variables: usize, transparent_objects: usize) -> Result<NetConfig> {
+        let NetShape { encoding_frequencies, scene_encoder, transparency_encoder, blending, renderer, pixel_generator } = shape.clone();
         let config = NetConfig {
             model,
-            preset: name.to_string(),
-            encoding_frequencies: frequencies,
+            preset: preset_name.to_string(),
+            encoding_frequencies,
             variables,
             transparent_objects,
-            scene_encoder: f,
-            transparency_encoder: h,
+            scene_encoder,
+            transparency_encoder,
             terms_masked_by_coverage: true,
             position_grid: None,
             // Demodulated lost 0.4 dB against RGB on the default cornellbox bake, with or
@@ -235,9 +219,9 @@ impl NetConfig {
             saturate_direct_light: false,
             light_coverage: model != ModelKind::Pixelgen,
             through: model == ModelKind::Glassnet,
-            blending: b,
-            renderer: r,
-            pixel_generator: (model == ModelKind::Pixelgen).then_some(pixel),
+            blending,
+            renderer,
+            pixel_generator: (model == ModelKind::Pixelgen).then_some(pixel_generator),
         };
         config.check("preset")?;
         Ok(config)
@@ -388,7 +372,7 @@ impl NetConfig {
     }
 }
 
-/// Optimisation settings, with presets matching the network presets.
+/// Optimisation settings.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrainConfig {
@@ -412,59 +396,6 @@ pub struct TrainConfig {
 }
 
 impl TrainConfig {
-    pub fn preset(name: &str) -> Result<TrainConfig> {
-        // quick: batch 4 of 32 px crops, ~0.27 s a GlassNet step on a slow 2-core box with 4 objects
-        // (docs/benchmarks.md, `--example train_step`). 3,000 steps of GlassNet and naive: the
-        // default cornellbox bake took 32.7 min on that box (about 29 with 2,000). At 2,000
-        // GlassNet on cornellbox8 was still improving, one seed 1.0 dB T.PSNR behind the other;
-        // at 3,000 the two gained 1.0 and 1.3 dB (docs/benchmarks.md, 2026-11-27). Learning rate 1e-3, not
-        // 2e-3: at 2e-3 the naive baseline on the default cornellbox dataset stalled at
-        // validation loss 0.18 with seed 0 (drawing glass as flat dark blocks) and reached
-        // 0.118 with seed 1; at 1e-3 seed 0 trains normally (docs/history/benchmarks-2026-11.md, 2026-11-24).
-        let base = TrainConfig {
-            steps: 3000,
-            batch_size: 4,
-            crop: Some(32),
-            learning_rate: 1e-3,
-            weight_decay: 1e-4,
-            warmup_steps: 50,
-            final_lr_fraction: 0.05,
-            ssim_weight: 1.0,
-            validate_every: 100,
-            checkpoint_every: 100,
-            validation_frames: Some(16),
-            seed: 0,
-        };
-        Ok(match name {
-            "tiny" => TrainConfig {
-                steps: 40,
-                batch_size: 2,
-                crop: None,
-                warmup_steps: 5,
-                validate_every: 10,
-                checkpoint_every: 10,
-                validation_frames: Some(2),
-                ..base
-            },
-            "quick" => base,
-            // The paper: Adam, lr 1e-4, weight decay 1e-4 (Appendix table), 256x256.
-            "paper" => TrainConfig {
-                steps: 100_000,
-                batch_size: 8,
-                crop: None,
-                learning_rate: 1e-4,
-                warmup_steps: 500,
-                validate_every: 1000,
-                checkpoint_every: 1000,
-                validation_frames: None,
-                ..base
-            },
-            other => {
-                return Err(Error::bad_input("--preset", "preset", format!("unknown preset {other:?}; the presets are {}", NetConfig::PRESETS.join(", "))))
-            }
-        })
-    }
-
     /// Learning rate at `step`: linear warm-up, then cosine decay.
     pub fn learning_rate_at(&self, step: u64) -> f64 {
         if step < self.warmup_steps {
@@ -510,29 +441,50 @@ impl TrainConfig {
 mod tests {
     use super::*;
 
-    #[test]
-    fn presets_are_valid_and_unknown_presets_are_refused() {
-        for name in NetConfig::PRESETS {
-            for kind in ModelKind::ALL {
-                let config = NetConfig::preset(name, kind, 3, 4).unwrap();
-                assert_eq!(config.pixel_generator.is_some(), kind == ModelKind::Pixelgen);
-                assert_eq!(ModelKind::parse(kind.name()), Some(kind));
-            }
-            TrainConfig::preset(name).unwrap().check("preset").unwrap();
+    /// A small network (the bake's presets are tested where they are defined).
+    fn shape() -> NetShape {
+        NetShape {
+            encoding_frequencies: 2,
+            scene_encoder: UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
+            transparency_encoder: CnnConfig { width: 4, layers: 1, out_channels: 4 },
+            blending: UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
+            renderer: RendererConfig { width: 4, large_kernel: 5, layers: 1, pointwise_layers: 1 },
+            pixel_generator: PixelGeneratorConfig { width: 8, layers: 3, skip_at: 2 },
         }
-        let err = NetConfig::preset("huge", ModelKind::Glassnet, 1, 1).unwrap_err();
-        assert!(err.to_string().contains("huge"), "{err}");
+    }
+
+    #[test]
+    fn every_model_of_a_shape_is_valid_and_only_pixelgen_has_its_mlp() {
+        for kind in ModelKind::ALL {
+            let config = NetConfig::new(&shape(), "small", kind, 3, 4).unwrap();
+            assert_eq!(config.pixel_generator.is_some(), kind == ModelKind::Pixelgen);
+            assert_eq!(config.through, kind == ModelKind::Glassnet);
+            assert_eq!(ModelKind::parse(kind.name()), Some(kind));
+        }
     }
 
     #[test]
     fn too_many_objects_for_exact_sums_are_refused() {
-        let err = NetConfig::preset("tiny", ModelKind::Glassnet, 0, MAX_EXACT_OBJECTS + 1).unwrap_err();
+        let err = NetConfig::new(&shape(), "small", ModelKind::Glassnet, 0, MAX_EXACT_OBJECTS + 1).unwrap_err();
         assert!(err.to_string().contains("transparent_objects"), "{err}");
     }
 
     #[test]
     fn learning_rate_warms_up_then_decays_to_the_floor() {
-        let c = TrainConfig { steps: 100, warmup_steps: 10, learning_rate: 1.0, final_lr_fraction: 0.1, ..TrainConfig::preset("quick").unwrap() };
+        let c = TrainConfig {
+            steps: 100,
+            batch_size: 1,
+            crop: None,
+            learning_rate: 1.0,
+            weight_decay: 0.0,
+            warmup_steps: 10,
+            final_lr_fraction: 0.1,
+            ssim_weight: 1.0,
+            validate_every: 10,
+            checkpoint_every: 10,
+            validation_frames: None,
+            seed: 0,
+        };
         assert!((c.learning_rate_at(0) - 0.1).abs() < 1e-12);
         assert!((c.learning_rate_at(9) - 1.0).abs() < 1e-12);
         assert!((c.learning_rate_at(10) - 1.0).abs() < 1e-12);
@@ -544,7 +496,7 @@ mod tests {
 
     #[test]
     fn config_round_trips_through_json() {
-        let c = NetConfig::preset("quick", ModelKind::Concat, 4, 4).unwrap();
+        let c = NetConfig::new(&shape(), "small", ModelKind::Concat, 4, 4).unwrap();
         let json = serde_json::to_string(&c).unwrap();
         assert_eq!(serde_json::from_str::<NetConfig>(&json).unwrap(), c);
         assert!(json.contains("\"model\":\"concat\""));
@@ -595,20 +547,5 @@ impl SuperSamplerConfig {
             return Err(Error::bad_input(origin, "encoding_frequencies", format!("{} is more than 12", self.encoding_frequencies)));
         }
         Ok(())
-    }
-
-    pub fn preset(name: &str) -> Result<SuperSamplerConfig> {
-        let (frequencies, width, layers) = match name {
-            "tiny" => (1, 4, 1),
-            "quick" => (2, 16, 3),
-            "paper" => (4, 32, 4),
-            other => return Err(Error::bad_input("--preset", "preset", format!("unknown preset {other:?}; the presets are tiny, quick, paper"))),
-        };
-        Ok(SuperSamplerConfig {
-            preset: name.into(),
-            encoding_frequencies: frequencies,
-            network: CnnConfig { width, layers, out_channels: 3 },
-            light_coverage: true,
-        })
     }
 }

@@ -44,7 +44,7 @@ pub fn shift_stack(x: Tensor<4>, kernel: usize) -> Tensor<4> {
 /// The leaky ReLU of `x`: x where x >= 0, `slope` x elsewhere. One pass each way when training
 /// on flex (f32 or f64); burn's own otherwise, which without gradients is faster on flex (it
 /// masks in place: 15-17 vs 19-21 ms for the quick GlassNet's forward pass, `cargo run
-/// --release -p glassbake-net --example train_step`).
+/// --release -p glassbake-bake --example train_step`).
 pub fn leaky_relu(x: Tensor<4>, slope: f64) -> Tensor<4> {
     let device = x.device();
     let training_on_flex = device.is_autodiff() && device.inner() == Device::flex();

@@ -25,7 +25,7 @@ pub mod train;
 
 pub use allocator::keep_freed_memory;
 pub use batch::{FrameRef, HostBatch};
-pub use config::{ModelKind, NetConfig, TrainConfig};
+pub use config::{ModelKind, NetConfig, NetShape, TrainConfig};
 pub use device::{select_device, DeviceChoice};
 pub use infer::{TrainedModel, TrainedSuperSampler};
 pub use model::{GlassNet, NetInputs};

@@ -7,14 +7,14 @@ mod common;
 use burn::prelude::*;
 use glassbake_net::config::{MAX_KERNEL, MAX_NETWORK_SIZE};
 use glassbake_net::model_dir::{read_weights, write_weights, ModelConfig, ModelFiles, Network, FORMAT_VERSION};
-use glassbake_net::{burn, GlassNet, ModelKind, NetConfig, SuperSamplerConfig, TrainConfig};
+use glassbake_net::{burn, GlassNet, ModelKind, NetConfig, TrainConfig};
 
 fn model_config(network: Network, train: TrainConfig) -> ModelConfig {
     ModelConfig { format_version: FORMAT_VERSION, network, train, data: common::synthetic_source() }
 }
 
 fn tiny() -> NetConfig {
-    NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap()
+    common::small_net(ModelKind::Glassnet, 1, 2)
 }
 
 /// Every size of every network, one past its bound, and training settings that cannot run:
@@ -38,16 +38,16 @@ fn configs_that_cannot_be_built_are_refused_before_anything_is_written() {
     for (field, edit) in glassnet_edits {
         let mut net = tiny();
         edit(&mut net, too_wide);
-        cases.push((field.into(), model_config(Network::Glassnet(net), TrainConfig::preset("tiny").unwrap())));
+        cases.push((field.into(), model_config(Network::Glassnet(net), common::small_training())));
     }
-    let mut sampler = SuperSamplerConfig::preset("tiny").unwrap();
+    let mut sampler = common::small_super_sampler();
     sampler.network.width = too_wide;
-    cases.push(("network.width".into(), model_config(Network::SuperSampler(sampler), TrainConfig::preset("tiny").unwrap())));
+    cases.push(("network.width".into(), model_config(Network::SuperSampler(sampler), common::small_training())));
     for (field, train) in [
-        ("crop", TrainConfig { crop: Some(8), ..TrainConfig::preset("tiny").unwrap() }),
-        ("crop", TrainConfig { crop: Some(0), ..TrainConfig::preset("tiny").unwrap() }),
-        ("steps", TrainConfig { steps: 0, ..TrainConfig::preset("tiny").unwrap() }),
-        ("learning_rate", TrainConfig { learning_rate: f64::NAN, ..TrainConfig::preset("tiny").unwrap() }),
+        ("crop", TrainConfig { crop: Some(8), ..common::small_training() }),
+        ("crop", TrainConfig { crop: Some(0), ..common::small_training() }),
+        ("steps", TrainConfig { steps: 0, ..common::small_training() }),
+        ("learning_rate", TrainConfig { learning_rate: f64::NAN, ..common::small_training() }),
     ] {
         cases.push((field.into(), model_config(Network::Glassnet(tiny()), train)));
     }
@@ -62,7 +62,7 @@ fn configs_that_cannot_be_built_are_refused_before_anything_is_written() {
     let mut net = tiny();
     net.renderer.large_kernel = MAX_KERNEL;
     let root = tempfile::tempdir().unwrap();
-    let train = TrainConfig { crop: Some(glassbake_net::loss::SSIM_WINDOW as u32), ..TrainConfig::preset("tiny").unwrap() };
+    let train = TrainConfig { crop: Some(glassbake_net::loss::SSIM_WINDOW as u32), ..common::small_training() };
     ModelFiles::prepare(&root.path().join("model"), model_config(Network::Glassnet(net), train)).unwrap();
 }
 
@@ -71,7 +71,7 @@ fn configs_that_cannot_be_built_are_refused_before_anything_is_written() {
 fn a_folder_of_the_users_files_is_refused_as_a_model_directory() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("train_log.csv"), b"my own log").unwrap();
-    let err = ModelFiles::prepare(dir.path(), model_config(Network::Glassnet(tiny()), TrainConfig::preset("tiny").unwrap())).unwrap_err();
+    let err = ModelFiles::prepare(dir.path(), model_config(Network::Glassnet(tiny()), common::small_training())).unwrap_err();
     assert!(err.is_user_error() && err.to_string().contains("did not write"), "{err}");
     assert_eq!(std::fs::read(dir.path().join("train_log.csv")).unwrap(), b"my own log");
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "nothing was written");
@@ -83,7 +83,7 @@ fn a_folder_of_the_users_files_is_refused_as_a_model_directory() {
 fn weights_that_are_not_finite_are_refused() {
     let net = tiny();
     let dir = tempfile::tempdir().unwrap();
-    let files = ModelFiles::prepare(dir.path(), model_config(Network::Glassnet(net.clone()), TrainConfig::preset("tiny").unwrap())).unwrap();
+    let files = ModelFiles::prepare(dir.path(), model_config(Network::Glassnet(net.clone()), common::small_training())).unwrap();
     let device = Device::flex();
     let model = GlassNet::new(&net, 1, &device).unwrap();
     write_weights(&model, &files, 1).unwrap();
@@ -109,7 +109,7 @@ fn weights_that_are_not_finite_are_refused() {
 fn a_run_names_its_dataset_by_content_not_by_path() {
     let source =
         |path: &str, sha: Option<&str>| glassbake_net::DataSource { dataset: path.into(), dataset_sha256: sha.map(String::from), ..common::synthetic_source() };
-    let config = |data| ModelConfig { data, ..model_config(Network::Glassnet(tiny()), TrainConfig::preset("tiny").unwrap()) };
+    let config = |data| ModelConfig { data, ..model_config(Network::Glassnet(tiny()), common::small_training()) };
     let dir = tempfile::tempdir().unwrap();
     ModelFiles::prepare(dir.path(), config(source("/data/a", Some("aaaa")))).unwrap();
     let moved = ModelFiles::prepare(dir.path(), config(source("/elsewhere/a", Some("aaaa")))).expect("the same dataset, moved");

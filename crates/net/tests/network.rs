@@ -6,7 +6,7 @@ use burn::prelude::*;
 use burn::tensor::TensorData;
 use glassbake_net::model_dir::{read_weights, write_weights, ModelConfig, ModelFiles, Network, FORMAT_VERSION};
 use glassbake_net::sum::{snap_to_grid, TERM_BOUND};
-use glassbake_net::{burn, GlassNet, ModelKind, NetConfig, NetInputs, TrainConfig};
+use glassbake_net::{burn, GlassNet, ModelKind, NetConfig, NetInputs};
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 
@@ -25,13 +25,15 @@ fn every_model_kind_maps_a_batch_to_an_rgb_image_of_its_size() {
     let frames: Vec<_> = (0..2).map(|i| common::frame(i, 16, 3, 2)).collect();
     let batch = common::batch(&frames);
     for kind in ModelKind::ALL {
-        let net = GlassNet::new(&NetConfig::preset("tiny", kind, 2, 3).unwrap(), 3, &device).unwrap();
+        let net = GlassNet::new(&common::small_net(kind, 2, 3), 3, &device).unwrap();
         let out = net.forward(&batch.inputs(&device));
         assert_eq!(out.dims(), [2, 3, 16, 16], "{kind:?}");
         assert!(values(out).iter().all(|v| v.is_finite()));
     }
     // A U-Net of 3 levels needs multiples of 4.
-    let net = GlassNet::new(&NetConfig::preset("quick", ModelKind::Glassnet, 2, 3).unwrap(), 3, &device).unwrap();
+    let three_levels = glassbake_net::config::UNetConfig { base_width: 4, levels: 3, out_channels: 4 };
+    let shape = glassbake_net::NetShape { scene_encoder: three_levels.clone(), blending: three_levels, ..common::small_shape() };
+    let net = GlassNet::new(&NetConfig::new(&shape, "small", ModelKind::Glassnet, 2, 3).unwrap(), 3, &device).unwrap();
     assert!(net.check_inputs(64, 64, 3).is_ok());
     assert!(net.check_inputs(66, 64, 3).unwrap_err().to_string().contains("multiple of 4"));
 }
@@ -39,7 +41,7 @@ fn every_model_kind_maps_a_batch_to_an_rgb_image_of_its_size() {
 #[test]
 fn pixelgen_is_a_per_pixel_mlp_with_the_input_fed_again_midway() {
     let device = Device::flex();
-    let config = NetConfig::preset("tiny", ModelKind::Pixelgen, 2, 3).unwrap();
+    let config = common::small_net(ModelKind::Pixelgen, 2, 3);
     let net = GlassNet::new(&config, 3, &device).unwrap();
     assert!(net.scene_encoder.is_none() && net.blending.is_none() && net.renderer.is_none() && net.transparency_encoder.is_none());
     let pixel = net.pixel_generator.as_ref().unwrap();
@@ -107,11 +109,11 @@ fn a_new_glassnet_starts_as_the_naive_network_on_the_opaque_gbuffer_and_learns_t
     let inputs = batch.inputs(&device);
     let mut no_glass = inputs.clone();
     no_glass.transparent.clear();
-    let net = GlassNet::new(&NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap(), 4, &device).unwrap();
+    let net = GlassNet::new(&common::small_net(ModelKind::Glassnet, 1, 2), 4, &device).unwrap();
     assert_eq!(bits(net.forward(&inputs)), bits(net.forward(&no_glass)), "tau must start at zero");
     // ... but not stay there: the head of T gets a gradient.
     let train_device = Device::flex().autodiff();
-    let net = GlassNet::new(&NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap(), 4, &train_device).unwrap();
+    let net = GlassNet::new(&common::small_net(ModelKind::Glassnet, 1, 2), 4, &train_device).unwrap();
     let grads = net.forward(&batch.inputs(&train_device)).sum().backward();
     let head = &net.transparency_encoder.as_ref().unwrap().head.weight;
     let gradient: Vec<f32> = head.grad(&grads).expect("T's head has a gradient").into_data().try_to_vec::<f32>().unwrap();
@@ -145,7 +147,7 @@ fn the_transmitted_outputs_are_multiplied_by_the_product_of_the_tints_in_front()
     let batch = common::batch(&frames);
     let inputs = batch.inputs(&device);
     // R predicting RGB directly (the demodulated path is tested by its own test below).
-    let config = NetConfig { demodulated: false, saturate_direct_light: false, ..NetConfig::preset("tiny", ModelKind::Glassnet, 1, objects).unwrap() };
+    let config = NetConfig { demodulated: false, saturate_direct_light: false, ..common::small_net(ModelKind::Glassnet, 1, objects) };
     let mut net = random_net(&config, 7, &device);
     for (power, bias) in [(1, [0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0]), (2, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0])] {
         let head = &mut net.renderer.as_mut().unwrap().head;
@@ -186,7 +188,7 @@ fn permutation_exactness(device: &Device, sizes: &[usize]) {
     for (&objects, grid) in sizes.iter().flat_map(|s| [(s, None), (s, Some(test_grid()))]) {
         let frames = vec![common::frame(100 + objects as u64, 16, objects, 1)];
         let batch = common::batch(&frames);
-        let config = NetConfig { position_grid: grid, ..NetConfig::preset("tiny", ModelKind::Glassnet, 1, objects).unwrap() };
+        let config = NetConfig { position_grid: grid, ..common::small_net(ModelKind::Glassnet, 1, objects) };
         let net = random_net(&config, 5, device);
         if config.position_grid.is_some() {
             assert!(net.scene_grid.is_some() && net.object_grid.is_some());
@@ -219,7 +221,7 @@ fn an_object_that_covers_no_pixel_adds_nothing_when_terms_are_masked() {
     without.transparent.truncate(2);
     assert_eq!(c, glassbake_core::layout::TRANSPARENT_CHANNELS + glassbake_core::layout::THROUGH_CHANNELS);
     for masked in [true, false] {
-        let config = NetConfig { terms_masked_by_coverage: masked, ..NetConfig::preset("tiny", ModelKind::Glassnet, 1, 3).unwrap() };
+        let config = NetConfig { terms_masked_by_coverage: masked, ..common::small_net(ModelKind::Glassnet, 1, 3) };
         let net = random_net(&config, 6, &device);
         let same = bits(net.forward(&inputs)) == bits(net.forward(&without));
         // Unmasked, h of the empty buffer still adds a term that depends on sigma.
@@ -270,7 +272,7 @@ fn the_concat_baseline_depends_on_object_order() {
     let device = Device::flex();
     device.seed(5);
     let batch = common::batch(&[common::frame(7, 16, 3, 1)]);
-    let net = random_net(&NetConfig::preset("tiny", ModelKind::Concat, 1, 3).unwrap(), 5, &device);
+    let net = random_net(&common::small_net(ModelKind::Concat, 1, 3), 5, &device);
     let mut inputs = batch.inputs(&device);
     let reference = bits(net.forward(&inputs));
     inputs.transparent.reverse();
@@ -280,7 +282,7 @@ fn the_concat_baseline_depends_on_object_order() {
 #[test]
 fn weights_round_trip_through_safetensors_with_pytorch_names() {
     let device = Device::flex();
-    let config = NetConfig::preset("tiny", ModelKind::Glassnet, 2, 2).unwrap();
+    let config = common::small_net(ModelKind::Glassnet, 2, 2);
     device.seed(1);
     let net = GlassNet::new(&config, 1, &device).unwrap();
     let dir = tempfile::tempdir().unwrap();
@@ -289,7 +291,7 @@ fn weights_round_trip_through_safetensors_with_pytorch_names() {
         ModelConfig {
             format_version: FORMAT_VERSION,
             network: Network::Glassnet(config.clone()),
-            train: TrainConfig::preset("tiny").unwrap(),
+            train: common::small_training(),
             data: common::synthetic_source(),
         },
     )
@@ -315,7 +317,7 @@ fn weights_round_trip_through_safetensors_with_pytorch_names() {
     assert!(tensors.names().iter().all(|n| !n.contains("config")));
 
     // A model directory for a different network is refused with the file named.
-    let wrong = GlassNet::new(&NetConfig::preset("tiny", ModelKind::Naive, 2, 2).unwrap(), 1, &device).unwrap();
+    let wrong = GlassNet::new(&common::small_net(ModelKind::Naive, 2, 2), 1, &device).unwrap();
     let mut wrong = wrong;
     let err = read_weights(&mut wrong, &files.weights_path()).unwrap_err();
     assert!(err.to_string().contains("glassnet.safetensors"), "{err}");
@@ -331,8 +333,8 @@ fn a_model_of_the_previous_format_opens_only_if_it_reads_no_transparency_buffers
         let dir = tempfile::tempdir().unwrap();
         let config = ModelConfig {
             format_version: version,
-            network: Network::Glassnet(NetConfig::preset("tiny", kind, 1, 2).unwrap()),
-            train: TrainConfig::preset("tiny").unwrap(),
+            network: Network::Glassnet(common::small_net(kind, 1, 2)),
+            train: common::small_training(),
             data: common::synthetic_source(),
         };
         std::fs::write(dir.path().join("config.json"), serde_json::to_vec(&config).unwrap()).unwrap();
@@ -360,7 +362,7 @@ fn demodulated_renderer_output_is_affine_in_the_albedo() {
     let inputs = batch.inputs(&device);
     for kind in [ModelKind::Glassnet, ModelKind::Naive] {
         for demodulated in [true, false] {
-            let config = NetConfig { demodulated, ..NetConfig::preset("tiny", kind, 2, 2).unwrap() };
+            let config = NetConfig { demodulated, ..common::small_net(kind, 2, 2) };
             assert_eq!(config.renderer_outputs(), if kind == ModelKind::Glassnet { 9 } else { 3 } * if demodulated { 2 } else { 1 });
             let mut net = GlassNet::new(&config, 9, &device).unwrap();
             // Wake the transmitted terms, which start at zero, so they are tested too.
@@ -400,8 +402,8 @@ fn a_format_4_model_opens_with_the_direct_rgb_renderer_it_was_trained_with() {
     let dir = tempfile::tempdir().unwrap();
     let config = ModelConfig {
         format_version: 4,
-        network: Network::Glassnet(NetConfig { demodulated: true, ..NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap() }),
-        train: TrainConfig::preset("tiny").unwrap(),
+        network: Network::Glassnet(NetConfig { demodulated: true, ..common::small_net(ModelKind::Glassnet, 1, 2) }),
+        train: common::small_training(),
         data: common::synthetic_source(),
     };
     let mut json: serde_json::Value = serde_json::to_value(&config).unwrap();
@@ -422,7 +424,7 @@ fn position_grids_replace_the_positions_fourier_features_and_learn() {
     device.seed(6);
     let frames = vec![common::frame(70, 16, 2, 1)];
     let batch = common::batch(&frames);
-    let fourier = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap();
+    let fourier = common::small_net(ModelKind::Glassnet, 1, 2);
     let config = NetConfig { position_grid: Some(test_grid()), ..fourier.clone() };
     // F's input: 14 Fourier-encoded channels, the raw position, the grid's 6 features, 1 variable.
     assert_eq!(config.encoded_buffer_width(glassbake_core::layout::OPAQUE_CHANNELS), 14 * fourier.encoded_width() + 3 + 6);
@@ -434,12 +436,11 @@ fn position_grids_replace_the_positions_fourier_features_and_learn() {
         assert!(gradient.iter().filter(|g| g.abs() > 1e-7).count() >= 8, "{name} grid: too few entries get a gradient");
     }
     // The naive network has F's grid only; pixelgen refuses one.
-    let naive =
-        GlassNet::new(&NetConfig { position_grid: Some(test_grid()), ..NetConfig::preset("tiny", ModelKind::Naive, 1, 2).unwrap() }, 2, &device).unwrap();
+    let naive = GlassNet::new(&NetConfig { position_grid: Some(test_grid()), ..common::small_net(ModelKind::Naive, 1, 2) }, 2, &device).unwrap();
     assert!(naive.scene_grid.is_some() && naive.object_grid.is_none());
-    let pixelgen = NetConfig { position_grid: Some(test_grid()), ..NetConfig::preset("tiny", ModelKind::Pixelgen, 1, 2).unwrap() };
+    let pixelgen = NetConfig { position_grid: Some(test_grid()), ..common::small_net(ModelKind::Pixelgen, 1, 2) };
     assert!(pixelgen.check("test").unwrap_err().to_string().contains("position_grid"));
-    let both = NetConfig { saturate_direct_light: true, ..NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap() };
+    let both = NetConfig { saturate_direct_light: true, ..common::small_net(ModelKind::Glassnet, 1, 2) };
     assert!(both.light_coverage && both.check("test").unwrap_err().to_string().contains("light_coverage"));
 }
 
@@ -472,7 +473,7 @@ fn pixels_whose_direct_light_saturates_are_white_and_the_rest_untouched() {
             let [n, _, h, _] = buffer.dims();
             *buffer = buffer.clone().slice_assign([0..n, COVERAGE..COVERAGE + 1, 0..h, 6..10], Tensor::zeros([n, 1, h, 4], &device));
         }
-        let plain_config = NetConfig { saturate_direct_light: false, light_coverage: false, ..NetConfig::preset("tiny", kind, 1, 2).unwrap() };
+        let plain_config = NetConfig { saturate_direct_light: false, light_coverage: false, ..common::small_net(kind, 1, 2) };
         let plain = values(random_net(&plain_config, 4, &device).forward(&inputs));
         let saturating = values(random_net(&NetConfig { saturate_direct_light: true, ..plain_config }, 4, &device).forward(&inputs));
         for c in 0..3 {
@@ -520,7 +521,7 @@ fn the_light_coverage_is_composited_over_the_image() {
             }
         }
         inputs.light_coverage = Some(Tensor::from_data(TensorData::new(coverage, [1, 4, size, size]), &device));
-        let plain_config = NetConfig { light_coverage: false, saturate_direct_light: false, ..NetConfig::preset("tiny", kind, 1, 2).unwrap() };
+        let plain_config = NetConfig { light_coverage: false, saturate_direct_light: false, ..common::small_net(kind, 1, 2) };
         let plain = values(random_net(&plain_config, 5, &device).forward(&inputs));
         let composited = values(random_net(&NetConfig { light_coverage: true, ..plain_config }, 5, &device).forward(&inputs));
         let transmittance = |c: usize, i: usize| -> f64 {
@@ -573,7 +574,7 @@ fn the_super_sampler_composites_the_light_coverage_at_full_resolution() {
         }
     }
     let coverage = Tensor::<4>::from_data(TensorData::new(coverage, [1, 4, size, size]), &device);
-    let plain_config = SuperSamplerConfig { light_coverage: false, ..SuperSamplerConfig::preset("tiny").unwrap() };
+    let plain_config = SuperSamplerConfig { light_coverage: false, ..common::small_super_sampler() };
     let plain = values(SuperSampler::new(&plain_config, 3, &device).forward(low.clone(), gbuffer.clone(), None));
     let composited_config = SuperSamplerConfig { light_coverage: true, ..plain_config };
     let composited = values(SuperSampler::new(&composited_config, 3, &device).forward(low, gbuffer, Some(coverage)));
@@ -612,7 +613,7 @@ fn with_the_light_coverage_direct_light_above_one_reads_as_one() {
         NetInputs { gbuffer: Tensor::from_data(TensorData::new(gbuffer, inputs.gbuffer.dims()), &device), ..inputs.clone() }
     };
     for kind in [ModelKind::Glassnet, ModelKind::Naive] {
-        let config = NetConfig::preset("tiny", kind, 1, 2).unwrap();
+        let config = common::small_net(kind, 1, 2);
         assert!(config.light_coverage);
         let net = random_net(&config, 6, &device);
         assert_eq!(bits(net.forward(&with_emitter(5.0))), bits(net.forward(&with_emitter(50.0))), "{kind:?}");
@@ -647,7 +648,7 @@ fn through_buffers_reach_glassnet_only_when_it_reads_them() {
     let with_through = |scale: f32| through_scaled(&inputs, scale);
     let without_through =
         NetInputs { transparent: inputs.transparent.iter().map(|b| b.clone().narrow(1, 0, TRANSPARENT_CHANNELS)).collect(), ..inputs.clone() };
-    let config = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap();
+    let config = common::small_net(ModelKind::Glassnet, 1, 2);
     assert!(config.through, "GlassNet's presets read the through buffers");
     // Trained weights: at initialisation h's head and R's glass inputs are zero.
     let mut net = random_net(&config, 6, &device);
@@ -657,15 +658,15 @@ fn through_buffers_reach_glassnet_only_when_it_reads_them() {
     r.large.conv.weight = r.large.conv.weight.clone().map(|w| w.clone() + w.ones_like() * 0.01);
     assert_ne!(bits(net.forward(&with_through(1.0))), bits(net.forward(&with_through(0.5))));
     for kind in [ModelKind::Glassnet, ModelKind::Naive, ModelKind::Concat] {
-        let config = NetConfig { through: false, ..NetConfig::preset("tiny", kind, 1, 2).unwrap() };
+        let config = NetConfig { through: false, ..common::small_net(kind, 1, 2) };
         let net = random_net(&config, 6, &device);
         let image = bits(net.forward(&with_through(1.0)));
         assert_eq!(image, bits(net.forward(&with_through(0.5))), "{kind:?}");
         assert_eq!(image, bits(net.forward(&without_through)), "{kind:?}");
     }
     // GlassNet and the naive baseline (its front-through ablation) read them, no other model.
-    assert!(NetConfig { through: true, ..NetConfig::preset("tiny", ModelKind::Naive, 1, 2).unwrap() }.check("test").is_ok());
-    assert!(NetConfig { through: true, ..NetConfig::preset("tiny", ModelKind::Concat, 1, 2).unwrap() }.check("test").is_err());
+    assert!(NetConfig { through: true, ..common::small_net(ModelKind::Naive, 1, 2) }.check("test").is_ok());
+    assert!(NetConfig { through: true, ..common::small_net(ModelKind::Concat, 1, 2) }.check("test").is_err());
 }
 
 /// The front-most through buffer is, at each pixel, that of the covering object of least
@@ -719,7 +720,7 @@ fn the_front_through_ablation_reads_the_front_objects_through_buffer() {
     let frames = vec![common::frame(93, 16, 3, 1)];
     let inputs = common::batch(&frames).inputs(&device);
     let scaled = |scale: f32| through_scaled(&inputs, scale);
-    let config = NetConfig { through: true, ..NetConfig::preset("tiny", ModelKind::Naive, 1, 3).unwrap() };
+    let config = NetConfig { through: true, ..common::small_net(ModelKind::Naive, 1, 3) };
     let net = random_net(&config, 7, &device);
     let image = bits(net.forward(&scaled(1.0)));
     assert_ne!(image, bits(net.forward(&scaled(0.5))));

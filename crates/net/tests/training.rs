@@ -25,7 +25,7 @@ fn model(net: &NetConfig, seed: u64) -> (GlassNet, Device) {
 /// Trains a tiny `kind` (reading through buffers or not) for 500 steps on one frame; returns
 /// the first loss and the mean of the last ten.
 fn overfit_one_frame(kind: ModelKind, objects: usize, through: bool) -> (f64, f64) {
-    let net = NetConfig { through, ..NetConfig::preset("tiny", kind, 1, objects).unwrap() };
+    let net = NetConfig { through, ..common::small_net(kind, 1, objects) };
     let config = TrainConfig {
         steps: 500,
         batch_size: 1,
@@ -33,7 +33,7 @@ fn overfit_one_frame(kind: ModelKind, objects: usize, through: bool) -> (f64, f6
         warmup_steps: 10,
         validate_every: 500,
         checkpoint_every: 500,
-        ..TrainConfig::preset("tiny").unwrap()
+        ..common::small_training()
     };
     let mut data = common::SyntheticData { frames: vec![common::frame(42, 16, objects, 1)], batch_size: 1, seed: 0, poison_from_epoch: None };
     let dir = tempfile::tempdir().unwrap();
@@ -67,8 +67,8 @@ fn a_tiny_pixelgen_overfits_one_frame() {
 
 #[test]
 fn a_killed_run_resumes_to_the_weights_of_an_uninterrupted_one() {
-    let net = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap();
-    let config = TrainConfig { steps: 12, batch_size: 2, checkpoint_every: 4, validate_every: 3, ..TrainConfig::preset("tiny").unwrap() };
+    let net = common::small_net(ModelKind::Glassnet, 1, 2);
+    let config = TrainConfig { steps: 12, batch_size: 2, checkpoint_every: 4, validate_every: 3, ..common::small_training() };
     let data = || common::SyntheticData { frames: (0..5).map(|i| common::frame(i, 16, 2, 1)).collect(), batch_size: 2, seed: 3, poison_from_epoch: None };
 
     let straight = tempfile::tempdir().unwrap();
@@ -105,8 +105,8 @@ fn a_killed_run_resumes_to_the_weights_of_an_uninterrupted_one() {
 
 #[test]
 fn a_nan_loss_stops_with_a_clear_message_and_keeps_the_last_checkpoint() {
-    let net = NetConfig::preset("tiny", ModelKind::Naive, 1, 1).unwrap();
-    let config = TrainConfig { steps: 20, batch_size: 1, checkpoint_every: 2, validate_every: 2, ..TrainConfig::preset("tiny").unwrap() };
+    let net = common::small_net(ModelKind::Naive, 1, 1);
+    let config = TrainConfig { steps: 20, batch_size: 1, checkpoint_every: 2, validate_every: 2, ..common::small_training() };
     let mut data = common::SyntheticData { frames: (0..3).map(|i| common::frame(i, 16, 1, 1)).collect(), batch_size: 1, seed: 0, poison_from_epoch: Some(1) };
     let dir = tempfile::tempdir().unwrap();
     let f = files(dir.path(), &net, &config);
@@ -121,8 +121,8 @@ fn a_nan_loss_stops_with_a_clear_message_and_keeps_the_last_checkpoint() {
 
 #[test]
 fn a_damaged_checkpoint_is_named_not_trained_on() {
-    let net = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap();
-    let config = TrainConfig { steps: 8, batch_size: 2, checkpoint_every: 4, validate_every: 4, ..TrainConfig::preset("tiny").unwrap() };
+    let net = common::small_net(ModelKind::Glassnet, 1, 2);
+    let config = TrainConfig { steps: 8, batch_size: 2, checkpoint_every: 4, validate_every: 4, ..common::small_training() };
     let data = || common::SyntheticData { frames: (0..4).map(|i| common::frame(i, 16, 2, 1)).collect(), batch_size: 2, seed: 3, poison_from_epoch: None };
     let dir = tempfile::tempdir().unwrap();
     let f = files(dir.path(), &net, &config);
@@ -155,8 +155,8 @@ fn a_damaged_checkpoint_is_named_not_trained_on() {
 
 #[test]
 fn a_directory_holding_a_different_run_is_refused() {
-    let net = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap();
-    let config = TrainConfig::preset("tiny").unwrap();
+    let net = common::small_net(ModelKind::Glassnet, 1, 2);
+    let config = common::small_training();
     let dir = tempfile::tempdir().unwrap();
     files(dir.path(), &net, &config);
     let other = TrainConfig { learning_rate: 0.5, ..config };
@@ -171,7 +171,7 @@ fn a_directory_holding_a_different_run_is_refused() {
 #[test]
 fn validation_psnr_is_that_of_the_clamped_prediction_over_all_pixels() {
     use glassbake_net::train::{validate, Trainable};
-    let net = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 2).unwrap();
+    let net = common::small_net(ModelKind::Glassnet, 1, 2);
     let (model, device) = model(&net, 3);
     let frames: Vec<_> = (0..3).map(|i| common::frame(i, 16, 2, 1)).collect();
     let batches = vec![common::batch(&frames[..2]), common::batch(&frames[2..])];
@@ -198,8 +198,8 @@ fn validation_psnr_is_that_of_the_clamped_prediction_over_all_pixels() {
 /// eval and render on stale weights for good.
 #[test]
 fn a_finished_run_repairs_weights_that_are_not_its_final_steps() {
-    let net = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 1).unwrap();
-    let config = TrainConfig { steps: 8, batch_size: 1, checkpoint_every: 4, validate_every: 4, ..TrainConfig::preset("tiny").unwrap() };
+    let net = common::small_net(ModelKind::Glassnet, 1, 1);
+    let config = TrainConfig { steps: 8, batch_size: 1, checkpoint_every: 4, validate_every: 4, ..common::small_training() };
     let data = || common::SyntheticData { frames: (0..3).map(|i| common::frame(i, 16, 1, 1)).collect(), batch_size: 1, seed: 0, poison_from_epoch: None };
     let finished = tempfile::tempdir().unwrap();
     let f = files(finished.path(), &net, &config);
@@ -237,8 +237,8 @@ fn a_finished_run_repairs_weights_that_are_not_its_final_steps() {
 /// dataset's samples (another sample seed) is refused as a different run.
 #[test]
 fn a_model_directory_has_one_writer_and_one_dataset() {
-    let net = NetConfig::preset("tiny", ModelKind::Glassnet, 1, 1).unwrap();
-    let config = TrainConfig { steps: 2, batch_size: 1, checkpoint_every: 2, validate_every: 2, ..TrainConfig::preset("tiny").unwrap() };
+    let net = common::small_net(ModelKind::Glassnet, 1, 1);
+    let config = TrainConfig { steps: 2, batch_size: 1, checkpoint_every: 2, validate_every: 2, ..common::small_training() };
     let data = || common::SyntheticData { frames: (0..2).map(|i| common::frame(i, 16, 1, 1)).collect(), batch_size: 1, seed: 0, poison_from_epoch: None };
     let dir = tempfile::tempdir().unwrap();
     let f = files(dir.path(), &net, &config);

@@ -9,13 +9,15 @@
 //! [`ltc`]) with shadow maps, plus emission; Vulkan adapter selection (lavapipe on CPU-only
 //! machines); [`composition`], the share of glass pixels with textured detail behind them;
 //! [`light_coverage`], the share of each pixel that sees a light, from a finer rasterization;
-//! [`display`], a network's image into a texture a window shows.
+//! [`display`], a network's image into a texture a window shows; [`headless`], the
+//! environment a process without a display gives the Vulkan driver.
 //! Buffer semantics are documented on [`Rasterizer`] and in `shaders/gbuffer.wgsl`.
 
 pub mod composition;
 pub mod device;
 pub mod display;
 mod frame_data;
+pub mod headless;
 pub mod light_coverage;
 pub mod ltc;
 mod rasterizer;

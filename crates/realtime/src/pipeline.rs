@@ -19,7 +19,7 @@ use glassbake_net::burn::tensor::TensorData;
 use glassbake_net::super_sampler::downsample_box2_tensor;
 use glassbake_net::{TrainedModel, TrainedSuperSampler};
 use glassbake_raster::light_coverage::{coverage_factor, light_coverage_into, light_coverage_of, LIGHT_COVERAGE_FACTOR};
-use glassbake_raster::{wgpu, Rasterizer, RasterizerOptions};
+use glassbake_raster::{wgpu, Frame, Rasterizer, RasterizerOptions};
 use glassbake_rays::through::{through_buffer, ThroughScene};
 use glassbake_rays::through_gpu::{GpuThroughPass, GpuThroughScene, PlanesAt};
 use glassbake_scene::Scene;
@@ -36,6 +36,23 @@ pub enum Output {
     Buffer { layer: String, attribute: String },
 }
 
+impl Output {
+    /// `glassnet`, `naive`, or a buffer attribute `LAYER.ATTRIBUTE` (`opaque.albedo`,
+    /// `transparent.0.coverage`).
+    pub fn parse(text: &str) -> Result<Output> {
+        Ok(match text {
+            "glassnet" => Output::GlassNet,
+            "naive" => Output::Naive,
+            other => {
+                let (layer, attribute) = other
+                    .rsplit_once('.')
+                    .ok_or_else(|| Error::bad_input("--output", "output", format!("{other:?} is not glassnet, naive or LAYER.ATTRIBUTE")))?;
+                Output::Buffer { layer: layer.into(), attribute: attribute.into() }
+            }
+        })
+    }
+}
+
 /// Where a frame's through rays are cast, for a model that reads through buffers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ThroughRays {
@@ -46,6 +63,16 @@ pub enum ThroughRays {
 }
 
 impl ThroughRays {
+    /// `auto` (`None`: the pipeline chooses for its adapter), `cpu` or `gpu`.
+    pub fn parse(text: &str) -> Result<Option<ThroughRays>> {
+        match text {
+            "auto" => Ok(None),
+            "cpu" => Ok(Some(ThroughRays::Cpu)),
+            "gpu" => Ok(Some(ThroughRays::Gpu)),
+            other => Err(Error::bad_input("--through-rays", "through_rays", format!("{other:?} is not auto, cpu or gpu"))),
+        }
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             ThroughRays::Cpu => "cpu",
@@ -292,16 +319,7 @@ impl FramePipeline {
         let coverage: Option<Tensor<4>> = if model.config().light_coverage || sampler_coverage {
             let (cw, ch) = if sr { (width, height) } else { (lw, lh) };
             let factor = coverage_factor(&self.coverage_rasterizer, cw, ch).min(self.light_coverage_factor.max(1));
-            Some(if zero_copy {
-                let channels = layout::LIGHT_COVERAGE_CHANNELS;
-                crate::gpu_handover::input_tensor(&device, channels, ch as usize, cw as usize, |buffer, offset| {
-                    light_coverage_into(&mut self.coverage_rasterizer, &instance, camera, cw, ch, factor, naive, buffer, offset)
-                })?
-            } else {
-                let image = light_coverage_of(&mut self.coverage_rasterizer, &instance, camera, cw, ch, factor, naive)?;
-                let shape = [1, layout::LIGHT_COVERAGE_CHANNELS, ch as usize, cw as usize];
-                Tensor::<4>::from_data(TensorData::new(image.data().to_vec(), shape), &device)
-            })
+            Some(light_coverage_tensor(&mut self.coverage_rasterizer, &instance, camera, (cw, ch), factor, naive, zero_copy, &device)?)
         } else {
             None
         };
@@ -312,21 +330,7 @@ impl FramePipeline {
         let mut frame = self.rasterizer.begin_frame(&instance, camera, lw, lh)?;
         let (h, w) = (lh as usize, lw as usize);
         let to_tensor = |data: Vec<f32>, channels: usize| Tensor::<4>::from_data(TensorData::new(data, [1, channels, h, w]), &device);
-        // The opaque G-buffer, kept for the through rays' direct light.
-        let mut opaque_image = None;
-        let gbuffer = if zero_copy {
-            crate::gpu_handover::input_tensor(&device, layout::OPAQUE_CHANNELS, h, w, |buffer, offset| frame.opaque_to_buffer(buffer, offset))?
-        } else if naive {
-            if through {
-                opaque_image = Some(frame.opaque()?);
-            }
-            to_tensor(frame.naive()?.data().to_vec(), layout::OPAQUE_CHANNELS)
-        } else {
-            let image = frame.opaque()?;
-            let tensor = to_tensor(image.data().to_vec(), layout::OPAQUE_CHANNELS);
-            opaque_image = Some(image);
-            tensor
-        };
+        let (gbuffer, opaque_image) = gbuffer_tensor(&mut frame, zero_copy, naive, through, &device)?;
         let objects = if reads_objects { frame.transparent_count() } else { 0 };
         // The GPU pass reads the opaque G-buffer's L_d from the network's input tensor.
         let gbuffer_on_gpu = (zero_copy && through).then(|| gbuffer.clone());
@@ -338,25 +342,8 @@ impl FramePipeline {
         }
         let build_start = Instant::now();
         let gpu_through = self.gpu_through.as_ref();
-        let caster = if through {
-            let on_gpu = self.through_rays == ThroughRays::Gpu && gpu_through.is_some();
-            Some(self.through_geometry.get_or_build(
-                values,
-                |caster| matches!(caster, ThroughCaster::Gpu(_)) == on_gpu,
-                |previous| {
-                    // Moved objects and lights refit the last BVHs; on the GPU they
-                    // are written into the last upload's buffers.
-                    Ok(match (gpu_through, previous) {
-                        (Some(pass), Some(ThroughCaster::Gpu(uploaded))) if on_gpu => ThroughCaster::Gpu(pass.upload_reusing(&instance, Some(uploaded))?),
-                        (Some(pass), _) if on_gpu => ThroughCaster::Gpu(pass.upload(&instance)?),
-                        (_, Some(ThroughCaster::Cpu(geometry))) => ThroughCaster::Cpu(geometry.refit_or_build(&instance)),
-                        _ => ThroughCaster::Cpu(ThroughScene::build(&instance)),
-                    })
-                },
-            )?)
-        } else {
-            None
-        };
+        let on_gpu = self.through_rays == ThroughRays::Gpu && gpu_through.is_some();
+        let caster = if through { Some(through_caster(&mut self.through_geometry, gpu_through.filter(|_| on_gpu), &instance, values)?) } else { None };
         let build_ms = ms(build_start);
         let mut cast_ms = 0.0;
         let mut failure = None;
@@ -383,16 +370,12 @@ impl FramePipeline {
             } else {
                 frame.transparent_into(k, planes).and_then(|()| match (&caster, &opaque_image) {
                     (Some(caster), Some(opaque)) => {
-                        let coverage = &planes[layout::transparent::COVERAGE * w * h..(layout::transparent::COVERAGE + 1) * w * h];
                         let cast = Instant::now();
-                        let through = match caster {
-                            ThroughCaster::Cpu(geometry) => through_buffer(&instance, geometry, k, camera, opaque, coverage),
-                            ThroughCaster::Gpu(uploaded) => gpu_through.expect("compiled above").through_buffer(uploaded, k, camera, opaque, coverage)?,
-                        };
+                        let through = cast_on_host(&instance, caster, gpu_through, k, camera, opaque, planes);
                         cast_ms += ms(cast);
                         let mut data = Vec::with_capacity((TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS) * w * h);
                         data.extend_from_slice(planes);
-                        data.extend_from_slice(through.data());
+                        data.extend_from_slice(through?.data());
                         Ok(to_tensor(data, TRANSPARENT_CHANNELS + layout::THROUGH_CHANNELS))
                     }
                     _ => Ok(to_tensor(planes.clone(), TRANSPARENT_CHANNELS)),
@@ -415,24 +398,42 @@ impl FramePipeline {
         times.through_ms = build_ms + cast_ms;
         times.raster_ms += raster_ms - cast_ms;
         let mut prediction = prediction.clamp(0.0, 1.0);
-        if let Some(sampler) = &self.super_sampler {
-            let t = Instant::now();
-            let mut full = self.rasterizer.begin_frame(&instance, camera, width, height)?;
-            let (fh, fw) = (height as usize, width as usize);
-            let gbuffer = if self.zero_copy {
-                crate::gpu_handover::input_tensor(&sampler.device, layout::OPAQUE_CHANNELS, fh, fw, |buffer, offset| full.opaque_to_buffer(buffer, offset))?
-            } else {
-                Tensor::<4>::from_data(TensorData::new(full.opaque()?.data().to_vec(), [1, layout::OPAQUE_CHANNELS, fh, fw]), &sampler.device)
-            };
-            drop(full);
-            times.raster_ms += ms(t);
-            let low = prediction.to_device(&sampler.device);
-            let light_coverage = coverage.filter(|_| sampler_coverage).map(|full| full.to_device(&sampler.device));
-            prediction = sampler.net.forward(low, gbuffer, light_coverage).clamp(0.0, 1.0);
+        if self.super_sampler.is_some() {
+            let (image, raster_ms) = self.super_sample(prediction, &instance, camera, width, height, coverage.filter(|_| sampler_coverage))?;
+            prediction = image;
+            times.raster_ms += raster_ms;
         }
         times.total_ms = ms(start);
         times.network_ms = (times.total_ms - times.raster_ms - times.through_ms).max(0.0);
         Ok((prediction, times))
+    }
+
+    /// `low`, the network's half-resolution image, brought up to `width` x `height` by the
+    /// super-sampler with the full-resolution G-buffer (and the lights' coverage, when the
+    /// super-sampler reads it). Returns the image and the milliseconds its G-buffer took.
+    fn super_sample(
+        &mut self,
+        low: Tensor<4>,
+        instance: &Scene,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+        coverage: Option<Tensor<4>>,
+    ) -> Result<(Tensor<4>, f64)> {
+        let sampler = self.super_sampler.as_ref().expect("called with a super-sampler");
+        let t = Instant::now();
+        let mut full = self.rasterizer.begin_frame(instance, camera, width, height)?;
+        let (h, w) = (height as usize, width as usize);
+        let gbuffer = if self.zero_copy {
+            crate::gpu_handover::input_tensor(&sampler.device, layout::OPAQUE_CHANNELS, h, w, |buffer, offset| full.opaque_to_buffer(buffer, offset))?
+        } else {
+            Tensor::<4>::from_data(TensorData::new(full.opaque()?.data().to_vec(), [1, layout::OPAQUE_CHANNELS, h, w]), &sampler.device)
+        };
+        drop(full);
+        let raster_ms = ms(t);
+        let low = low.to_device(&sampler.device);
+        let light_coverage = coverage.map(|full| full.to_device(&sampler.device));
+        Ok((sampler.net.forward(low, gbuffer, light_coverage).clamp(0.0, 1.0), raster_ms))
     }
 
     /// One attribute of one buffer as an RGB image (scalars grey; normals and directions
@@ -482,6 +483,90 @@ impl FramePipeline {
         }
         PlanarImage::from_planes(width, height, layout::GROUND_TRUTH_CHANNELS.iter().map(|s| s.to_string()).collect(), data)
     }
+}
+
+/// The lights' coverage of each pixel of a `size` frame, `factor` x `factor` samples a pixel,
+/// as a network input on `device`: reduced straight into the tensor's buffer when
+/// `zero_copy`, else through host memory.
+#[allow(clippy::too_many_arguments)]
+fn light_coverage_tensor(
+    rasterizer: &mut Rasterizer,
+    instance: &Scene,
+    camera: &Camera,
+    (width, height): (u32, u32),
+    factor: u32,
+    naive: bool,
+    zero_copy: bool,
+    device: &Device,
+) -> Result<Tensor<4>> {
+    let (channels, h, w) = (layout::LIGHT_COVERAGE_CHANNELS, height as usize, width as usize);
+    if zero_copy {
+        crate::gpu_handover::input_tensor(device, channels, h, w, |buffer, offset| {
+            light_coverage_into(rasterizer, instance, camera, width, height, factor, naive, buffer, offset)
+        })
+    } else {
+        let image = light_coverage_of(rasterizer, instance, camera, width, height, factor, naive)?;
+        Ok(Tensor::<4>::from_data(TensorData::new(image.data().to_vec(), [1, channels, h, w]), device))
+    }
+}
+
+/// Object `k`'s through buffer from its transparency buffer `planes` read back to the host
+/// and the opaque G-buffer `opaque` (for the direct light where the rays land).
+fn cast_on_host(
+    instance: &Scene,
+    caster: &ThroughCaster,
+    gpu: Option<&GpuThroughPass>,
+    k: usize,
+    camera: &Camera,
+    opaque: &PlanarImage,
+    planes: &[f32],
+) -> Result<PlanarImage> {
+    let pixels = opaque.width() as usize * opaque.height() as usize;
+    let coverage = &planes[layout::transparent::COVERAGE * pixels..(layout::transparent::COVERAGE + 1) * pixels];
+    Ok(match caster {
+        ThroughCaster::Cpu(geometry) => through_buffer(instance, geometry, k, camera, opaque, coverage),
+        ThroughCaster::Gpu(uploaded) => gpu.expect("a GPU caster is made by the GPU pass").through_buffer(uploaded, k, camera, opaque, coverage)?,
+    })
+}
+
+/// The network's G-buffer input (the naive one with `naive`) and, on the host path, the opaque
+/// G-buffer kept for the through rays' direct light (`through`).
+fn gbuffer_tensor(frame: &mut Frame<'_>, zero_copy: bool, naive: bool, through: bool, device: &Device) -> Result<(Tensor<4>, Option<PlanarImage>)> {
+    let (h, w) = (frame.height() as usize, frame.width() as usize);
+    let to_tensor = |image: &PlanarImage| Tensor::<4>::from_data(TensorData::new(image.data().to_vec(), [1, layout::OPAQUE_CHANNELS, h, w]), device);
+    if zero_copy {
+        let tensor = crate::gpu_handover::input_tensor(device, layout::OPAQUE_CHANNELS, h, w, |buffer, offset| frame.opaque_to_buffer(buffer, offset))?;
+        Ok((tensor, None))
+    } else if naive {
+        let opaque = if through { Some(frame.opaque()?) } else { None };
+        Ok((to_tensor(&frame.naive()?), opaque))
+    } else {
+        let opaque = frame.opaque()?;
+        Ok((to_tensor(&opaque), Some(opaque)))
+    }
+}
+
+/// The through rays' geometry for `instance` (its variable `values`): kept while the values
+/// stay, refit when objects or lights moved (on the GPU written into the last upload's
+/// buffers), built anew otherwise; uploaded to `gpu` when given, else on the CPU.
+fn through_caster<'a>(
+    geometry: &'a mut BuiltForValues<ThroughCaster>,
+    gpu: Option<&GpuThroughPass>,
+    instance: &Scene,
+    values: &[f32],
+) -> Result<&'a ThroughCaster> {
+    geometry.get_or_build(
+        values,
+        |caster| matches!(caster, ThroughCaster::Gpu(_)) == gpu.is_some(),
+        |previous| {
+            Ok(match (gpu, previous) {
+                (Some(pass), Some(ThroughCaster::Gpu(uploaded))) => ThroughCaster::Gpu(pass.upload_reusing(instance, Some(uploaded))?),
+                (Some(pass), _) => ThroughCaster::Gpu(pass.upload(instance)?),
+                (None, Some(ThroughCaster::Cpu(cpu))) => ThroughCaster::Cpu(cpu.refit_or_build(instance)),
+                (None, _) => ThroughCaster::Cpu(ThroughScene::build(instance)),
+            })
+        },
+    )
 }
 
 #[cfg(test)]

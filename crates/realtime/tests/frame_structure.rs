@@ -14,9 +14,7 @@ use std::path::Path;
 
 use glassbake_net::init::initialize;
 use glassbake_net::model_dir::write_weights;
-use glassbake_net::{
-    select_device, DeviceChoice, GlassNet, ModelFiles, ModelKind, NetConfig, Network, SuperSampler, SuperSamplerConfig, TrainedModel, TrainedSuperSampler,
-};
+use glassbake_net::{select_device, DeviceChoice, GlassNet, ModelFiles, Network, SuperSampler, TrainedModel, TrainedSuperSampler};
 use glassbake_raster::display::DisplayTexture;
 use glassbake_raster::RasterizerOptions;
 use glassbake_rays::gpu_stats::GpuStats;
@@ -28,15 +26,15 @@ use glassbake_scene::Scene;
 
 const RES: u32 = 32;
 
-/// A `tiny` GlassNet (through buffers and light coverage) and a super-sampler, every weight
+/// A small GlassNet (through buffers and light coverage) and a super-sampler, every weight
 /// drawn at random so that each input shows in the image.
 fn write_models(scene: &Scene, glassnet_dir: &Path, sampler_dir: &Path) {
     let device = select_device(DeviceChoice::Cpu, 0, false);
-    let config = NetConfig::preset("tiny", ModelKind::Glassnet, scene.variables.len(), scene.transparent_objects().len()).unwrap();
-    assert!(config.through && config.light_coverage, "the tiny GlassNet reads through buffers and the light coverage");
+    let config = common::small_glassnet(scene);
+    assert!(config.through && config.light_coverage, "the small GlassNet reads through buffers and the light coverage");
     let files = ModelFiles::prepare(glassnet_dir, common::untrained(scene, Network::Glassnet(config.clone()), RES)).unwrap();
     write_weights(&initialize(GlassNet::new(&config, 0, &device).unwrap(), 1), &files, 0).unwrap();
-    let sampler = SuperSamplerConfig::preset("tiny").unwrap();
+    let sampler = common::small_super_sampler();
     let files = ModelFiles::prepare(sampler_dir, common::untrained(scene, Network::SuperSampler(sampler.clone()), RES)).unwrap();
     write_weights(&initialize(SuperSampler::new(&sampler, 0, &device), 2), &files, 0).unwrap();
 }

@@ -6,7 +6,7 @@ mod common;
 
 use glassbake_net::init::initialize;
 use glassbake_net::model_dir::write_weights;
-use glassbake_net::{select_device, DeviceChoice, GlassNet, ModelFiles, ModelKind, NetConfig, Network, TrainedModel};
+use glassbake_net::{select_device, DeviceChoice, GlassNet, ModelFiles, Network, TrainedModel};
 use glassbake_raster::RasterizerOptions;
 use glassbake_realtime::{FramePipeline, Output};
 use glassbake_scene::builtin::builtin;
@@ -19,7 +19,7 @@ fn a_moved_object_is_drawn_as_a_fresh_pipeline_draws_it() {
     let device = select_device(DeviceChoice::Cpu, 0, false);
     // A GlassNet that reads through buffers, every weight drawn at random: a new one starts with
     // its glass terms at zero (the naive network), and would not show what its buffers hold.
-    let config = NetConfig::preset("tiny", ModelKind::Glassnet, scene.variables.len(), scene.transparent_objects().len()).unwrap();
+    let config = common::small_glassnet(&scene);
     assert!(config.through);
     let dir = tempfile::tempdir().unwrap();
     let files = ModelFiles::prepare(dir.path(), common::untrained(&scene, Network::Glassnet(config.clone()), RES)).unwrap();

@@ -1,7 +1,7 @@
 //! Camera ranges: where cameras are drawn from when sampling training frames.
 
 use glam::Vec3;
-use glassbake_core::Camera;
+use glassbake_core::{Camera, Error, Result};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
@@ -83,6 +83,35 @@ pub struct CameraSpec {
 }
 
 impl CameraSpec {
+    /// The camera `px,py,pz,tx,ty,tz[,fov]`: at (px, py, pz) looking at (tx, ty, tz) with the
+    /// horizontal field of view `fov` in degrees (default: the middle of this range); up, near
+    /// and far are this spec's. Refused unless usable (`Camera::check`).
+    pub fn camera_from_text(&self, text: &str) -> Result<Camera> {
+        let values: Vec<f32> = text
+            .split(',')
+            .map(|v| v.trim().parse::<f32>())
+            .collect::<std::result::Result<_, _>>()
+            .map_err(|_| Error::bad_input("--camera", text, "expected numbers px,py,pz,tx,ty,tz[,fov]"))?;
+        if values.len() != 6 && values.len() != 7 {
+            return Err(Error::bad_input("--camera", text, format!("expected 6 or 7 numbers, got {}", values.len())));
+        }
+        let camera = Camera {
+            position: Vec3::new(values[0], values[1], values[2]),
+            target: Vec3::new(values[3], values[4], values[5]),
+            fov_x_deg: values.get(6).copied().unwrap_or(self.fov_x_deg.mid()),
+            ..self.middle()
+        };
+        // Finite, a look direction not parallel to up, 0 < fov < 180.
+        camera.check().map_err(|_| {
+            Error::bad_input(
+                "--camera",
+                text,
+                "not a usable camera: non-finite values, position = target, looking along the up vector, or fov outside (0, 180)",
+            )
+        })?;
+        Ok(camera)
+    }
+
     pub fn sample(&self, rng: &mut impl Rng) -> Camera {
         let position = self.position.sample(rng);
         let j = self.target_jitter;
@@ -113,6 +142,22 @@ impl CameraSpec {
             fov_x_deg: Interval::fixed(45.0),
             near: distance * 0.01,
             far: distance * 10.0,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glassbake_core::Error;
+
+    #[test]
+    fn a_camera_is_read_from_text_and_unusable_ones_are_refused() {
+        let spec = crate::builtin::builtin("cornell-glass").unwrap().camera;
+        let c = spec.camera_from_text("0, 1, 4, 0, 1, 0, 50").unwrap();
+        assert_eq!((c.position, c.target, c.fov_x_deg), (glam::Vec3::new(0.0, 1.0, 4.0), glam::Vec3::new(0.0, 1.0, 0.0), 50.0));
+        assert_eq!(spec.camera_from_text("0,1,4,0,1,0").unwrap().fov_x_deg, spec.fov_x_deg.mid());
+        for bad in ["0,1,4", "0,1,4,0,1,0,50,1", "a,1,4,0,1,0", "0,1,4,0,1,4", "0,5,0,0,0,0", "0,1,4,0,1,0,180", "0,1,inf,0,1,0"] {
+            assert!(matches!(spec.camera_from_text(bad), Err(Error::BadInput { .. })), "{bad}");
         }
     }
 }

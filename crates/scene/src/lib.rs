@@ -17,6 +17,7 @@ pub mod manifest;
 pub mod mitsuba;
 pub mod model;
 pub mod shapes;
+pub mod summary;
 pub mod textures;
 pub mod variables;
 

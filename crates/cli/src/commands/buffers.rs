@@ -1,13 +1,13 @@
 //! `glassbake buffers`: rasterize one frame's buffers (opaque, naive, one transparency buffer
 //! per transparent object) into a multi-layer EXR, with optional PNG previews.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use super::camera_arg::parse_camera;
 use anyhow::Result;
 use clap::{ArgGroup, Args};
 use glassbake_core::image::ExrPrecision;
-use glassbake_core::{Error, PlanarImage};
+use glassbake_core::preview::{attribute_channels, write_attribute_preview};
+use glassbake_core::Error;
 use glassbake_raster::{Rasterizer, RasterizerOptions};
 use glassbake_scene::load_scene;
 
@@ -56,7 +56,7 @@ pub fn run(args: BuffersArgs) -> Result<()> {
             let drawn = scene.sample(args.seed, i);
             (drawn.camera, drawn.values)
         }
-        (None, Some(text)) => (parse_camera(text, &scene)?, scene.values_from_assignments(&args.set)?),
+        (None, Some(text)) => (scene.camera.camera_from_text(text)?, scene.values_from_assignments(&args.set)?),
         (None, None) => unreachable!("clap requires --sample or --camera"),
     };
     let instance = scene.instantiate(&values)?;
@@ -68,7 +68,7 @@ pub fn run(args: BuffersArgs) -> Result<()> {
     let image = buffers.combined()?;
     // Every --png name is checked before anything is written.
     for name in &args.png {
-        preview_channels(&image, name.trim())?;
+        attribute_channels(&image, name.trim())?;
     }
     let precision = if args.half { ExrPrecision::F16 } else { ExrPrecision::F32 };
     image.write_exr(&args.out, precision)?;
@@ -82,61 +82,8 @@ pub fn run(args: BuffersArgs) -> Result<()> {
         rasterizer.adapter_info().name
     );
     for name in &args.png {
-        let path = preview(&image, name.trim(), &args.out)?;
+        let path = write_attribute_preview(&image, name.trim(), &args.out)?;
         println!("wrote {}", path.display());
     }
     Ok(())
-}
-
-/// The channels of the layer attribute `name` (e.g. `opaque.albedo`): 1 or 3 of them.
-fn preview_channels(image: &PlanarImage, name: &str) -> Result<Vec<usize>> {
-    let prefix = format!("{name}.");
-    let channels: Vec<usize> = (0..image.channels().len()).filter(|&c| image.channels()[c].starts_with(&prefix)).collect();
-    if channels.is_empty() {
-        return Err(Error::bad_input("--png", name, "no such layer attribute (e.g. opaque.albedo, transparent.0.coverage)").into());
-    }
-    if !matches!(channels.len(), 1 | 3) {
-        return Err(Error::bad_input("--png", name, "expected an attribute with 1 or 3 channels").into());
-    }
-    Ok(channels)
-}
-
-/// Write a PNG preview of one attribute: colours (albedo, L_d) with the clamp tone map and
-/// sRGB; directions mapped from [-1, 1]; positions, depths and other scalars stretched over
-/// their range in the image.
-fn preview(image: &PlanarImage, name: &str, out: &Path) -> Result<PathBuf> {
-    let channels = preview_channels(image, name)?;
-    let stem = out.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_else(|| "frame".into());
-    let path = out.with_file_name(format!("{stem}.{name}.png"));
-    let attribute = name.rsplit('.').next().unwrap_or(name);
-    let range = |c: usize| {
-        let p = image.plane(c);
-        let lo = p.iter().copied().fold(f32::INFINITY, f32::min);
-        let hi = p.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-        (lo, hi)
-    };
-    match (channels.len(), attribute) {
-        (3, "albedo" | "Ld") => image.write_png_rgb(&path, [channels[0], channels[1], channels[2]])?,
-        (3, _) => {
-            // Map each channel linearly to [0, 1] (directions from [-1, 1]) and undo the sRGB
-            // curve so the PNG stores the mapped value itself.
-            let direction = matches!(attribute, "normal" | "wo");
-            let mut mapped = image.select(&channels.iter().map(|&c| image.channels()[c].clone()).collect::<Vec<_>>())?;
-            for (k, &c) in channels.iter().enumerate() {
-                let (lo, hi) = if direction { (-1.0, 1.0) } else { range(c) };
-                let scale = if hi > lo { 1.0 / (hi - lo) } else { 0.0 };
-                for v in mapped.plane_mut(k) {
-                    *v = glassbake_core::color::srgb_to_linear(((*v - lo) * scale).clamp(0.0, 1.0));
-                }
-            }
-            mapped.write_png_rgb(&path, [0, 1, 2])?
-        }
-        (1, "coverage" | "roughness") => image.write_png_gray(&path, channels[0], 0.0, 1.0)?,
-        (1, _) => {
-            let (_, hi) = range(channels[0]);
-            image.write_png_gray(&path, channels[0], 0.0, hi)?
-        }
-        _ => return Err(Error::bad_input("--png", name, "expected an attribute with 1 or 3 channels").into()),
-    }
-    Ok(path)
 }

@@ -2,12 +2,12 @@
 //! format's dataset in place, describe one.
 
 use std::path::PathBuf;
-use std::time::Duration;
 
 use anyhow::Result;
 use clap::{Args, Subcommand};
+use glassbake_bake::{make_dataset, DatasetRequest, Progress};
 use glassbake_core::Error;
-use glassbake_dataset::{generate, merge, upgrade, DatasetSpec, DatasetStore, GenerateOptions, GenerateProgress, ShardSpec, TraceDevice, FORMAT_VERSION};
+use glassbake_dataset::{merge, upgrade, DatasetSpec, DatasetStore, ShardSpec, Split, TraceDevice, FORMAT_VERSION};
 use glassbake_scene::load_scene;
 use glassbake_trace::Estimator;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -110,26 +110,6 @@ pub struct MakeArgs {
     pub estimator: Option<Estimator>,
 }
 
-/// The test split's ground truth is traced at this many times the training spp by default:
-/// its own noise is then well below the error being measured (at least 8x).
-const DEFAULT_TEST_SPP_FACTOR: u32 = 8;
-
-/// The test split's spp when `--test-spp` is not given.
-pub fn default_test_spp(spp: u32) -> u32 {
-    spp.saturating_mul(DEFAULT_TEST_SPP_FACTOR)
-}
-
-/// The test split's glass pixels get this many times its spp by default: the
-/// transparent-pixel metrics are then measured against a reference whose own noise is a
-/// third of the uniform one's (in variance), at about +50% of the test split's trace time on
-/// cornellbox and +120% on bathroom, whose partition fills most of the view (docs/trace.md).
-const DEFAULT_TEST_GLASS_SPP_FACTOR: u32 = 3;
-
-/// The test split's spp on glass pixels when `--test-glass-spp` is not given.
-pub fn default_test_glass_spp(test_spp: u32) -> u32 {
-    test_spp.saturating_mul(DEFAULT_TEST_GLASS_SPP_FACTOR)
-}
-
 /// `--estimator` of `trace`, `dataset` and `bake`: one vocabulary (`glassbake_trace::estimator`).
 pub(super) fn parse_estimator(name: &str) -> std::result::Result<Estimator, String> {
     Estimator::parse(name)
@@ -140,55 +120,12 @@ pub fn parse_trace_device(name: &str) -> std::result::Result<TraceDevice, String
     TraceDevice::parse(name).map_err(|_| format!("unknown device {name:?}: expected cpu or wgpu"))
 }
 
-fn human_bytes(bytes: u64) -> String {
-    let mut value = bytes as f64;
-    for unit in ["B", "KiB", "MiB", "GiB"] {
-        if value < 1024.0 {
-            return format!("{value:.1} {unit}");
-        }
-        value /= 1024.0;
-    }
-    format!("{value:.1} TiB")
-}
-
 pub fn run(args: DatasetArgs) -> Result<()> {
     match (args.command, args.make) {
         (Some(DatasetCommand::Info { dir }), _) => {
             let info = DatasetStore::open(&dir)?.info();
             println!("dataset {}", dir.display());
-            println!("  scene {} (hash {})", info.scene_name, info.scene_hash);
-            println!(
-                "  {}x{} px, {} spp{}{} (traced on {}, {} estimator, {}), seed {}, {} transparent objects",
-                info.resolution,
-                info.resolution,
-                info.spp,
-                if info.glass_spp != info.spp { format!(" ({} on glass pixels)", info.glass_spp) } else { String::new() },
-                match (info.test_spp != info.spp, info.test_glass_spp != info.test_spp) {
-                    (_, true) => format!(", test split {} spp ({} on glass pixels)", info.test_spp, info.test_glass_spp),
-                    (true, false) => format!(", test split {} spp", info.test_spp),
-                    (false, false) => String::new(),
-                },
-                info.device.name(),
-                info.estimator,
-                match (info.tracer_revision, &info.ray_caster) {
-                    (None, _) => "tracer revision not recorded".to_string(),
-                    (Some(r), None) => format!("tracer revision {r}"),
-                    (Some(r), Some(caster)) => format!("tracer revision {r}, rays cast by {caster}"),
-                },
-                info.seed,
-                info.transparent_objects
-            );
-            println!("  buffers {}", if info.cache_buffers { "cached (f16 EXR)" } else { "rasterized on demand" });
-            for (split, planned, done) in &info.splits {
-                println!("  {:<6} {done}/{planned} frames complete", format!("{split:?}").to_lowercase());
-            }
-            for damaged in &info.damaged {
-                println!("  damaged {damaged}");
-            }
-            if info.without_checksum > 0 {
-                println!("  {} frame(s) written before checksums were recorded: checked by decoding alone", info.without_checksum);
-            }
-            println!("  disk {}", human_bytes(info.disk_bytes));
+            print!("{info}");
             if !info.damaged.is_empty() {
                 return Err(Error::bad_input(
                     dir.display(),
@@ -233,9 +170,10 @@ pub fn run(args: DatasetArgs) -> Result<()> {
             println!("merged {} shard(s) into {} ({copied} frames copied)", shards.len(), out.display());
         }
         (None, Some(make)) => {
-            let bar = ProgressBar::new(0);
-            let result = make_dataset(&make, &bar);
-            bar.finish_and_clear();
+            let request = make.request()?;
+            let progress = Progress::printing();
+            let result = make_dataset(&request, &progress);
+            progress.finish();
             result?;
         }
         (None, None) => {
@@ -250,70 +188,25 @@ pub fn run(args: DatasetArgs) -> Result<()> {
     Ok(())
 }
 
-/// Makes (or completes) a dataset as `glassbake dataset` does, showing progress on `bar`.
-/// Returns whether any frame was made.
-pub fn make_dataset(args: &MakeArgs, bar: &ProgressBar) -> Result<bool> {
-    let scene = load_scene(&args.scene)?;
-    let shard = match &args.shard {
-        Some(text) => ShardSpec::parse(text)?,
-        None => ShardSpec::ALL,
-    };
-    let test_spp = args.test_spp.unwrap_or_else(|| default_test_spp(args.spp));
-    let spec = DatasetSpec {
-        scene: args.scene.clone(),
-        resolution: args.res,
-        spp: args.spp,
-        glass_spp: args.glass_spp,
-        test_spp: Some(test_spp),
-        test_glass_spp: Some(args.test_glass_spp.unwrap_or_else(|| default_test_glass_spp(test_spp))),
-        seed: args.seed,
-        train: args.train,
-        val: args.val,
-        test: args.test,
-        cache_buffers: args.cache_buffers,
-        device: args.device,
-        // A dataset being continued keeps its estimator; a new one gets the device's default.
-        estimator: args.estimator.unwrap_or_else(|| match DatasetStore::open(&args.out) {
-            Ok(existing) => existing.manifest.spec.estimator,
-            Err(_) => args.device.default_estimator(),
-        }),
-    };
-    let options = GenerateOptions { shard, threads: args.threads, ..Default::default() };
-    bar.set_length(0);
-    bar.set_position(0);
-    // The bar counts samples per pixel traced (test frames cost more), the message frames.
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} frames {msg} [{elapsed_precise}] {wide_bar} ETA {eta}").expect("static template").progress_chars("=> "),
-    );
-    bar.enable_steady_tick(Duration::from_millis(250));
-    let progress = |p: GenerateProgress| {
-        bar.set_length(p.work_total);
-        bar.set_message(format!("{}/{}", p.frames_done, p.frames_total));
-        if bar.position() == 0 && p.work_done > 0 {
-            // Frames already complete do not count towards the ETA.
-            bar.reset_eta();
-        }
-        bar.set_position(p.work_done);
-    };
-    let summary = generate(&scene, &spec, &args.out, &options, &progress)?;
-    bar.suspend(|| {
-        let secs = summary.elapsed.as_secs_f64();
-        println!(
-            "dataset {}: {} frame(s) made, {} already complete{}, in {:.1} s{}",
-            args.out.display(),
-            summary.generated,
-            summary.skipped,
-            if summary.redone > 0 { format!(" ({} corrupt, redone)", summary.redone) } else { String::new() },
-            secs,
-            if summary.generated > 0 { format!(" ({:.0} frames/hour)", summary.generated as f64 * 3600.0 / secs) } else { String::new() },
-        );
-        if shard != ShardSpec::ALL {
-            println!("  shard {}/{}: {} frame(s) of this shard", shard.index, shard.count, summary.frames_in_shard);
-        }
-        if summary.discarded_samples > 0 {
-            println!("  {} NaN/inf path sample(s) discarded", summary.discarded_samples);
-        }
-        println!("  disk {} ({} per frame)", human_bytes(summary.disk_bytes), human_bytes(summary.disk_bytes / summary.frames_in_shard.max(1)));
-    });
-    Ok(summary.generated > 0)
+impl MakeArgs {
+    fn request(&self) -> Result<DatasetRequest> {
+        let spec = DatasetSpec::new(self.scene.clone(), self.res, self.spp, [self.train, self.val, self.test]);
+        let test_spp = self.test_spp.unwrap_or(spec.spp_of(Split::Test));
+        let spec = DatasetSpec {
+            glass_spp: self.glass_spp,
+            test_spp: Some(test_spp),
+            test_glass_spp: Some(self.test_glass_spp.unwrap_or_else(|| DatasetSpec::default_test_glass_spp(test_spp))),
+            seed: self.seed,
+            cache_buffers: self.cache_buffers,
+            device: self.device,
+            estimator: self.device.default_estimator(),
+            ..spec
+        };
+        Ok(DatasetRequest {
+            estimator: self.estimator,
+            shard: self.shard.as_deref().map(ShardSpec::parse).transpose()?.unwrap_or(ShardSpec::ALL),
+            threads: self.threads,
+            ..DatasetRequest::new(spec, self.out.clone())
+        })
+    }
 }

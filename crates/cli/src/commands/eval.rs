@@ -2,17 +2,15 @@
 //! progress bar and a summary on the terminal.
 
 use std::path::PathBuf;
-use std::time::Duration;
 
 use anyhow::Result;
 use clap::Args;
+use glassbake_bake::{evaluate, Progress};
 use glassbake_dataset::Split;
-use glassbake_eval::score::{score_models, ScoreOptions};
-use glassbake_eval::EvaluationSummary;
+use glassbake_eval::score::ScoreOptions;
 use glassbake_net::DeviceChoice;
-use indicatif::{ProgressBar, ProgressStyle};
 
-#[derive(Args, Clone)]
+#[derive(Args)]
 pub struct EvalArgs {
     /// One or more model directories (from `glassbake train`), then the dataset directory.
     #[arg(required = true, num_args = 2.., value_name = "MODEL_DIR... DATASET")]
@@ -29,8 +27,8 @@ pub struct EvalArgs {
     #[arg(long)]
     pub lpips_weights: Option<PathBuf>,
     /// cpu (burn's flex backend), wgpu (Vulkan) or, in a build with the `cuda` feature, cuda.
-    #[arg(long, default_value = "cpu")]
-    pub device: String,
+    #[arg(long, default_value = "cpu", value_parser = super::parse_device)]
+    pub device: DeviceChoice,
     /// Frame-reading/rasterizing worker threads.
     #[arg(long, default_value_t = 2)]
     pub workers: usize,
@@ -47,20 +45,6 @@ pub struct EvalArgs {
 }
 
 pub fn run(args: EvalArgs) -> Result<()> {
-    let bar = ProgressBar::new(0);
-    let summary = evaluate(&args, &bar, &[])?;
-    bar.finish_and_clear();
-    println!("{}", summary.text_table());
-    Ok(())
-}
-
-fn frame_style() -> ProgressStyle {
-    ProgressStyle::with_template("{spinner} frames {pos}/{len} [{elapsed_precise}] {wide_bar} ETA {eta}").expect("static template").progress_chars("=> ")
-}
-
-/// Scores the models of `args` with `bar` as the frame counter; `facts` are extra lines for
-/// the report (the bake's stage times).
-pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<EvaluationSummary> {
     let (dataset, models) = args.paths.split_last().expect("clap requires two paths");
     let options = ScoreOptions {
         models: models.to_vec(),
@@ -69,33 +53,14 @@ pub fn evaluate(args: &EvalArgs, bar: &ProgressBar, facts: &[String]) -> Result<
         split: Split::parse(&args.split)?,
         frames: args.frames,
         lpips_weights: args.lpips_weights.clone(),
-        device: DeviceChoice::parse(&args.device)?,
+        device: args.device,
         workers: args.workers,
         path_traced_baseline: args.path_traced_baseline,
         super_sampler: args.super_sampler.clone(),
     };
-    bar.set_style(frame_style());
-    bar.set_position(0);
-    bar.enable_steady_tick(Duration::from_millis(250));
-    let scored = score_models(&options, facts, &mut |done, total| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64);
-    })?;
-    let summary = scored.summary;
-    bar.suspend(|| {
-        println!("evaluated {} frame(s) of {}: {}", summary.frames.len(), dataset.display(), args.out.join("metrics.json").display());
-        if let Some(o) = &summary.order_test {
-            println!(
-                "  order test ({}, {} frames): max |difference| reversed {}, shuffled {}{}",
-                o.model,
-                o.frames,
-                o.reversed_max_abs_diff,
-                o.shuffled_max_abs_diff,
-                if o.passed() { " (bit-identical)" } else { " — NOT identical" }
-            );
-        }
-        println!("  LPIPS {}", summary.lpips);
-        println!("  report {}", scored.report.display());
-    });
-    Ok(summary)
+    let progress = Progress::printing();
+    let summary = evaluate(&options, &[], &progress);
+    progress.finish();
+    println!("{}", summary?.text_table());
+    Ok(())
 }

@@ -8,16 +8,12 @@ use anyhow::Result;
 use clap::{ArgGroup, Args};
 use glassbake_core::Error;
 use glassbake_eval::plot::{line_chart, Series};
-use glassbake_net::{select_device, DeviceChoice, TrainedModel, TrainedSuperSampler};
-use glassbake_raster::RasterizerOptions;
+use glassbake_net::DeviceChoice;
 use glassbake_realtime::bench::{marginal_ms_per_object, table};
-use glassbake_realtime::gpu_handover::open_shared;
 #[cfg(feature = "viewer")]
 use glassbake_realtime::viewer::{check_display, run_viewer, ViewerOptions};
-use glassbake_realtime::{run_bench, scene_of_model, BenchOptions, FramePipeline, Output, ThroughRays};
+use glassbake_realtime::{open_pipeline, run_bench, BenchOptions, OpenedPipeline, Output, PipelineRequest, ThroughRays};
 use indicatif::{ProgressBar, ProgressStyle};
-
-use super::camera_arg::parse_camera;
 
 /// The model (and optional companions) a real-time command runs.
 #[derive(Args, Clone)]
@@ -36,8 +32,8 @@ pub struct PipelineArgs {
     pub scene: Option<String>,
     /// cpu (burn's flex backend), wgpu (Vulkan) or cuda (a build with the `cuda` feature) for the networks. With wgpu the rasterizer
     /// and the networks share one device and buffers never leave the GPU.
-    #[arg(long, default_value = "cpu")]
-    pub device: String,
+    #[arg(long, default_value = "cpu", value_parser = super::parse_device)]
+    pub device: DeviceChoice,
     /// With --device wgpu: keep separate devices and pass buffers through host memory (for
     /// comparison).
     #[arg(long)]
@@ -54,38 +50,19 @@ pub struct PipelineArgs {
     pub through_rays: String,
 }
 
-struct Opened {
-    pipeline: FramePipeline,
-    dataset_seed: u64,
-    device: String,
-}
-
-fn open(args: &PipelineArgs) -> Result<Opened> {
-    let choice = DeviceChoice::parse(&args.device)?;
-    let shared = if choice == DeviceChoice::Wgpu && !args.host_copy { Some(open_shared(RasterizerOptions::default())?) } else { None };
-    let device = match &shared {
-        Some(s) => s.device.clone(),
-        None => select_device(choice, 0, false),
-    };
-    let glassnet = TrainedModel::load(&args.model, &device)?;
-    let scene = scene_of_model(&glassnet, args.scene.as_deref())?;
-    let naive = args.naive.as_deref().map(|d| TrainedModel::load(d, &device)).transpose()?;
-    let sr = args.sr.as_deref().map(|d| TrainedSuperSampler::load(d, &device)).transpose()?;
-    let (mut pipeline, name) = match shared {
-        Some(s) => (FramePipeline::with_rasterizer(scene.scene, glassnet, naive, sr, s.rasterizer, true)?, "wgpu, shared with the rasterizer (no host copies)"),
-        None => (
-            FramePipeline::new(scene.scene, glassnet, naive, sr, RasterizerOptions::default())?,
-            if choice == DeviceChoice::Wgpu { "wgpu, buffers through host memory" } else { choice.name() },
-        ),
-    };
-    pipeline.light_coverage_factor = args.light_coverage_samples;
-    match args.through_rays.as_str() {
-        "auto" => {}
-        "cpu" => pipeline.set_through_rays(ThroughRays::Cpu),
-        "gpu" => pipeline.set_through_rays(ThroughRays::Gpu),
-        other => return Err(Error::bad_input("--through-rays", "through_rays", format!("{other:?} is not auto, cpu or gpu")).into()),
+impl PipelineArgs {
+    fn open(&self) -> Result<OpenedPipeline> {
+        let request = PipelineRequest {
+            naive: self.naive.clone(),
+            super_sampler: self.sr.clone(),
+            scene: self.scene.clone(),
+            host_copy: self.host_copy,
+            light_coverage_samples: self.light_coverage_samples,
+            through_rays: ThroughRays::parse(&self.through_rays)?,
+            ..PipelineRequest::new(&self.model, self.device)
+        };
+        Ok(open_pipeline(&request)?)
     }
-    Ok(Opened { pipeline, dataset_seed: scene.dataset_seed, device: name.to_string() })
 }
 
 #[derive(Args)]
@@ -112,31 +89,19 @@ pub struct RenderArgs {
     pub out: PathBuf,
 }
 
-fn parse_output(text: &str) -> glassbake_core::Result<Output> {
-    Ok(match text {
-        "glassnet" => Output::GlassNet,
-        "naive" => Output::Naive,
-        other => {
-            let (layer, attribute) =
-                other.rsplit_once('.').ok_or_else(|| Error::bad_input("--output", "output", format!("{other:?} is not glassnet, naive or LAYER.ATTRIBUTE")))?;
-            Output::Buffer { layer: layer.into(), attribute: attribute.into() }
-        }
-    })
-}
-
 pub fn render(args: RenderArgs) -> Result<()> {
-    let output = parse_output(&args.output)?;
+    let output = Output::parse(&args.output)?;
     if args.out.extension().and_then(|e| e.to_str()) != Some("png") {
         return Err(Error::bad_input(args.out.display(), "--out", "write a .png file").into());
     }
-    let mut opened = open(&args.pipeline)?;
+    let mut opened = args.pipeline.open()?;
     let scene = &opened.pipeline.scene;
     let (camera, values) = match (args.sample, &args.camera) {
         (Some(i), _) => {
             let drawn = scene.sample(opened.dataset_seed, i);
             (drawn.camera, drawn.values)
         }
-        (None, Some(text)) => (parse_camera(text, scene)?, scene.values_from_assignments(&args.set)?),
+        (None, Some(text)) => (scene.camera.camera_from_text(text)?, scene.values_from_assignments(&args.set)?),
         (None, None) => unreachable!("clap requires --sample or --camera"),
     };
     let (image, times) = opened.pipeline.render(&camera, &values, args.res, args.res, &output)?;
@@ -189,7 +154,7 @@ pub fn bench(args: BenchArgs) -> Result<()> {
         );
     }
     let out = args.out.clone().unwrap_or_else(|| args.pipeline.model.parent().unwrap_or(Path::new(".")).join("bench.json"));
-    let mut opened = open(&args.pipeline)?;
+    let mut opened = args.pipeline.open()?;
     let options = BenchOptions {
         resolutions: args.res.clone(),
         objects: args.objects.clone(),
@@ -279,7 +244,7 @@ pub fn view(_args: ViewArgs) -> Result<()> {
 #[cfg(feature = "viewer")]
 pub fn view(args: ViewArgs) -> Result<()> {
     check_display()?;
-    let opened = open(&args.pipeline)?;
+    let opened = args.pipeline.open()?;
     let title = format!("glassbake view: {}", opened.pipeline.scene.name);
     let options = ViewerOptions { resolution: args.res, screenshot: args.screenshot.clone(), screenshot_after: args.screenshot_after, title };
     if let Some(path) = run_viewer(opened.pipeline, options)? {

@@ -3,7 +3,6 @@
 
 use std::path::PathBuf;
 
-use super::camera_arg::parse_camera;
 use super::dataset::{parse_estimator, parse_trace_device};
 use anyhow::{Context, Result};
 use clap::Args;
@@ -99,7 +98,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
         None => {
             let default_camera = scene.camera.middle();
             let camera = match &args.camera {
-                Some(text) => parse_camera(text, &scene)?,
+                Some(text) => scene.camera.camera_from_text(text)?,
                 None => default_camera,
             };
             (camera, scene.values_from_assignments(&args.set)?, purpose_seed(args.seed, "trace"))
@@ -162,23 +161,8 @@ pub fn run(args: TraceArgs) -> Result<()> {
         output.samples_per_second(),
         output.discarded_samples
     );
-    if output.light_paths > 0 {
-        println!(
-            "light tracing: {} light paths ({:.3} per camera sample, balanced against the camera's noise; a pilot of {} set aside)",
-            output.light_paths,
-            output.light_paths as f64 / (output.samples - output.pilot_samples).max(1) as f64,
-            output.light_pilot_paths
-        );
-    }
-    if output.photon_paths > 0 {
-        let global = match output.global_photon_paths {
-            0 => "no global ones (the background lights the scene too)".to_string(),
-            paths => format!("{paths} global"),
-        };
-        println!(
-            "photon merging: {} photons of {} caustic light paths and {global}, radius {:.3e} (biased: a blur of about a pixel)",
-            output.photons, output.photon_paths, output.merge_radius
-        );
+    for line in output.light_transport_summary() {
+        println!("{line}");
     }
     Ok(())
 }

@@ -134,3 +134,48 @@ pub fn synthetic_source() -> glassbake_net::DataSource {
         dataset_sha256: None,
     }
 }
+
+/// A network small enough to train in a test: U-Nets of 2 levels, widths of 4.
+pub fn small_shape() -> glassbake_net::NetShape {
+    use glassbake_net::config::{CnnConfig, PixelGeneratorConfig, RendererConfig, UNetConfig};
+    glassbake_net::NetShape {
+        encoding_frequencies: 2,
+        scene_encoder: UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
+        transparency_encoder: CnnConfig { width: 4, layers: 1, out_channels: 4 },
+        blending: UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
+        renderer: RendererConfig { width: 4, large_kernel: 5, layers: 1, pointwise_layers: 1 },
+        pixel_generator: PixelGeneratorConfig { width: 8, layers: 3, skip_at: 2 },
+    }
+}
+
+/// `kind` of [`small_shape`] for `variables` variables and `objects` transparent objects.
+pub fn small_net(kind: glassbake_net::ModelKind, variables: usize, objects: usize) -> glassbake_net::NetConfig {
+    glassbake_net::NetConfig::new(&small_shape(), "small", kind, variables, objects).unwrap()
+}
+
+/// A few steps of whole frames, two at a time, validated and checkpointed every 10 steps.
+pub fn small_training() -> glassbake_net::TrainConfig {
+    glassbake_net::TrainConfig {
+        steps: 40,
+        batch_size: 2,
+        crop: None,
+        learning_rate: 1e-3,
+        weight_decay: 1e-4,
+        warmup_steps: 5,
+        final_lr_fraction: 0.05,
+        ssim_weight: 1.0,
+        validate_every: 10,
+        checkpoint_every: 10,
+        validation_frames: Some(2),
+        seed: 0,
+    }
+}
+
+pub fn small_super_sampler() -> glassbake_net::SuperSamplerConfig {
+    glassbake_net::SuperSamplerConfig {
+        preset: "small".into(),
+        encoding_frequencies: 1,
+        network: glassbake_net::config::CnnConfig { width: 4, layers: 1, out_channels: 3 },
+        light_coverage: true,
+    }
+}

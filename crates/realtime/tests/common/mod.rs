@@ -1,7 +1,11 @@
-//! What the real-time tests share: the configuration of a model nobody trained.
+//! What the real-time tests share: small networks and the configuration of a model nobody
+//! trained.
 
+#![allow(dead_code)]
+
+use glassbake_net::config::{CnnConfig, PixelGeneratorConfig, RendererConfig, UNetConfig};
 use glassbake_net::model_dir::FORMAT_VERSION;
-use glassbake_net::{DataSource, ModelConfig, Network, TrainConfig};
+use glassbake_net::{DataSource, ModelConfig, ModelKind, NetConfig, NetShape, Network, SuperSamplerConfig, TrainConfig};
 use glassbake_scene::Scene;
 
 /// `network` as a model of the built-in `scene` (by that name) at `resolution`, trained on no
@@ -10,7 +14,20 @@ pub fn untrained(scene: &Scene, network: Network, resolution: u32) -> ModelConfi
     ModelConfig {
         format_version: FORMAT_VERSION,
         network,
-        train: TrainConfig::preset("tiny").unwrap(),
+        train: TrainConfig {
+            steps: 1,
+            batch_size: 1,
+            crop: None,
+            learning_rate: 1e-3,
+            weight_decay: 0.0,
+            warmup_steps: 0,
+            final_lr_fraction: 1.0,
+            ssim_weight: 1.0,
+            validate_every: 1,
+            checkpoint_every: 1,
+            validation_frames: None,
+            seed: 0,
+        },
         data: DataSource {
             dataset: "untrained".into(),
             scene: scene.name.clone(),
@@ -21,4 +38,22 @@ pub fn untrained(scene: &Scene, network: Network, resolution: u32) -> ModelConfi
             dataset_sha256: None,
         },
     }
+}
+
+/// GlassNet with U-Nets of 2 levels and widths of 4, for `scene`'s variables and transparent
+/// objects: it reads the through buffers and the light coverage, as a baked one does.
+pub fn small_glassnet(scene: &Scene) -> NetConfig {
+    let shape = NetShape {
+        encoding_frequencies: 2,
+        scene_encoder: UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
+        transparency_encoder: CnnConfig { width: 4, layers: 1, out_channels: 4 },
+        blending: UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
+        renderer: RendererConfig { width: 4, large_kernel: 5, layers: 1, pointwise_layers: 1 },
+        pixel_generator: PixelGeneratorConfig { width: 8, layers: 3, skip_at: 2 },
+    };
+    NetConfig::new(&shape, "small", ModelKind::Glassnet, scene.variables.len(), scene.transparent_objects().len()).unwrap()
+}
+
+pub fn small_super_sampler() -> SuperSamplerConfig {
+    SuperSamplerConfig { preset: "small".into(), encoding_frequencies: 1, network: CnnConfig { width: 4, layers: 1, out_channels: 3 }, light_coverage: true }
 }

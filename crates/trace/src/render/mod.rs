@@ -171,6 +171,31 @@ impl TraceOutput {
     pub fn samples_per_second(&self) -> f64 {
         self.samples as f64 / self.elapsed.as_secs_f64().max(1e-9)
     }
+
+    /// What the light tracer and photon merging did, a line each, for the estimators that
+    /// ran them.
+    pub fn light_transport_summary(&self) -> Vec<String> {
+        let mut lines = Vec::new();
+        if self.light_paths > 0 {
+            lines.push(format!(
+                "light tracing: {} light paths ({:.3} per camera sample, balanced against the camera's noise; a pilot of {} set aside)",
+                self.light_paths,
+                self.light_paths as f64 / (self.samples - self.pilot_samples).max(1) as f64,
+                self.light_pilot_paths
+            ));
+        }
+        if self.photon_paths > 0 {
+            let global = match self.global_photon_paths {
+                0 => "no global ones (the background lights the scene too)".to_string(),
+                paths => format!("{paths} global"),
+            };
+            lines.push(format!(
+                "photon merging: {} photons of {} caustic light paths and {global}, radius {:.3e} (biased: a blur of about a pixel)",
+                self.photons, self.photon_paths, self.merge_radius
+            ));
+        }
+        lines
+    }
 }
 
 /// The image seed of a dataset sample: `glassbake dataset` and `glassbake trace --sample`

@@ -4,7 +4,7 @@
 //! are random and the data synthetic, so only time is measured; `tools/torch-compare` times the
 //! same network in PyTorch on the same CPU.
 //!
-//!     cargo run --release -p glassbake-net --example train_step -- [batch] [crop] [objects]
+//!     cargo run --release -p glassbake-bake --example train_step -- [batch] [crop] [objects]
 
 use std::time::Instant;
 
@@ -66,12 +66,13 @@ fn main() {
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     println!("burn 0.22 flex, {threads} hardware threads; batch {n} x {side} px, {objects} transparency buffers, quick preset");
     let runs = 15;
+    let quick = glassbake_bake::Preset::quick();
 
     for kind in [ModelKind::Glassnet, ModelKind::Naive] {
         let device = Device::flex().autodiff();
         device.seed(1);
         // tools/torch-compare builds the network without the through buffers.
-        let config = NetConfig { through: false, ..NetConfig::preset("quick", kind, VARIABLES, objects).unwrap() };
+        let config = NetConfig { through: false, ..NetConfig::new(&quick.network, &quick.name, kind, VARIABLES, objects).unwrap() };
         let mut model = GlassNet::new(&config, 1, &device).unwrap();
         let params = model.num_params();
         let batch = inputs(n, side, objects, &device);

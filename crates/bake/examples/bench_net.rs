@@ -2,7 +2,7 @@
 //! transparent-object count, median over repeats after a warm-up, plus the peak heap the
 //! streaming inference allocates beyond its inputs (constant in t is the point of T).
 //!
-//! cargo run --release -p glassbake-net --example bench_net -- [--device cpu|wgpu]
+//! cargo run --release -p glassbake-bake --example bench_net -- [--device cpu|wgpu]
 //!     [--preset quick] [--res 128,256] [--objects 1,2,4,8] [--repeats 5]
 
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -61,17 +61,20 @@ fn mib(bytes: usize) -> f64 {
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let choice = DeviceChoice::parse(arg(&args, "--device", "cpu")).unwrap();
-    let preset = arg(&args, "--preset", "quick");
+    let preset = match args.iter().position(|a| a == "--preset").and_then(|i| args.get(i + 1)) {
+        Some(name) => glassbake_bake::Preset::named(name).unwrap(),
+        None => glassbake_bake::Preset::quick(),
+    };
     let resolutions = list(arg(&args, "--res", "128,256"));
     let objects = list(arg(&args, "--objects", "1,2,4,8"));
     let repeats: usize = arg(&args, "--repeats", "5").parse().unwrap();
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    println!("GlassNet ({preset} preset) on {} ({threads} hardware threads), median of {repeats} after 1 warm-up", choice.name());
+    println!("GlassNet ({} preset) on {} ({threads} hardware threads), median of {repeats} after 1 warm-up", preset.name, choice.name());
     println!("| res | t | train step (ms, batch 1) | inference (ms/frame) | inference FPS | inference peak heap above inputs (MiB) |");
     println!("|---|---|---|---|---|---|");
     for &res in &resolutions {
         for &t in &objects {
-            let config = NetConfig::preset(preset, ModelKind::Glassnet, 4, t).unwrap();
+            let config = NetConfig::new(&preset.network, &preset.name, ModelKind::Glassnet, 4, t).unwrap();
             let train_device = select_device(choice, 0, true);
             let net = GlassNet::new(&config, 0, &train_device).unwrap();
             let inputs = |device: &Device| NetInputs {

@@ -1,0 +1,62 @@
+//! A program that bakes through the library gets what `glassbake bake` makes with the same
+//! arguments: the same dataset byte for byte, the same weights tensor for tensor, the same
+//! scores on every frame.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use glassbake_bake::{bake, BakeRequest, Preset, Progress};
+use glassbake_eval::EvaluationSummary;
+
+/// Every file under `dir` by its path relative to `dir`, with its bytes.
+fn files(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    let mut found = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap() {
+            let p = entry.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                found.insert(p.strip_prefix(dir).unwrap().to_path_buf(), std::fs::read(&p).unwrap());
+            }
+        }
+    }
+    found
+}
+
+/// A safetensors file as (its header, its tensor bytes): the header's metadata is a map whose
+/// order is not fixed, so it is compared as JSON.
+fn tensors(file: &Path) -> (serde_json::Value, Vec<u8>) {
+    let bytes = std::fs::read(file).unwrap();
+    let header_len = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
+    let header = serde_json::from_slice(&bytes[8..8 + header_len]).unwrap();
+    (header, bytes[8 + header_len..].to_vec())
+}
+
+#[test]
+fn a_library_bake_makes_what_the_command_makes() {
+    let dir = tempfile::tempdir().unwrap();
+    let (cli, library) = (dir.path().join("cli"), dir.path().join("library"));
+    let out =
+        Command::new(env!("CARGO_BIN_EXE_glassbake")).args(["bake", "cornell-glass", "--preset", "tiny", "--out", cli.to_str().unwrap()]).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+
+    let result = bake(&BakeRequest::new("cornell-glass", Preset::tiny(), &library), &Progress::silent()).unwrap();
+
+    let dataset = files(&cli.join("dataset"));
+    assert!(dataset.keys().any(|p| p.starts_with("gt-train-spp")), "the test split has its noise-floor copy");
+    assert_eq!(dataset, files(&library.join("dataset")), "the datasets differ");
+    for model in ["glassnet", "naive"] {
+        let weights = |bake: &Path| tensors(&bake.join(model).join("glassnet.safetensors"));
+        assert_eq!(weights(&cli), weights(&library), "{model}'s weights differ");
+    }
+    let from_cli = EvaluationSummary::read(&cli.join("eval").join("metrics.json")).unwrap();
+    let scores = |s: &EvaluationSummary| {
+        s.frames.iter().map(|f| (f.index, f.metrics.iter().map(|m| (m.psnr, m.t_psnr, m.dssim)).collect::<Vec<_>>())).collect::<Vec<_>>()
+    };
+    assert_eq!(from_cli.models.iter().map(|m| &m.model).collect::<Vec<_>>(), result.summary.models.iter().map(|m| &m.model).collect::<Vec<_>>());
+    assert_eq!(scores(&from_cli), scores(&result.summary));
+    assert!(result.report.exists() && result.noise_floor.is_some());
+}
