@@ -177,38 +177,17 @@ where
             let mut validation_loss = None;
             if state.step.is_multiple_of(config.validate_every) || state.step == config.steps {
                 let scores = validate(&model, &validation, device, config.ssim_weight)?;
-                let v = scores.map(|s| s.loss);
-                state.last_validation_loss = v;
-                validation_loss = v;
+                validation_loss = scores.map(|s| s.loss);
+                state.last_validation_loss = validation_loss;
                 let train_loss = losses_since_log.iter().sum::<f64>() / losses_since_log.len().max(1) as f64;
                 losses_since_log.clear();
-                append_log(
-                    &files.dir.join(LOG),
-                    &format!(
-                        "{},{},{:.6e},{:.6},{},{:.1},{}",
-                        state.step,
-                        epoch,
-                        learning_rate,
-                        train_loss,
-                        v.map(|v| format!("{v:.6}")).unwrap_or_default(),
-                        elapsed_before + started.elapsed().as_secs_f64(),
-                        scores.map(|s| format!("{:.3}", s.psnr)).unwrap_or_default(),
-                    ),
-                )?;
+                let seconds = elapsed_before + started.elapsed().as_secs_f64();
+                append_log(&files.dir.join(LOG), &log_line(&state, learning_rate, train_loss, scores, seconds))?;
             }
             let checkpointed = state.step.is_multiple_of(config.checkpoint_every) || state.step == config.steps;
             if checkpointed {
-                // A checkpoint taken at the end of an epoch resumes at the next one.
-                let mut saved = state.clone();
-                if saved.batch_in_epoch >= batches_per_epoch {
-                    saved.epoch += 1;
-                    saved.batch_in_epoch = 0;
-                }
-                saved.elapsed_seconds = elapsed_before + started.elapsed().as_secs_f64();
-                // The weights first: a checkpoint must never claim a step the weights file
-                // has not reached (a kill between the two then only repeats the last steps).
-                model_dir::write_weights(&model.valid(), files, state.step)?;
-                save_checkpoint(&model, &optimizer, &saved, &files.dir)?;
+                let seconds = elapsed_before + started.elapsed().as_secs_f64();
+                save_step(&model, &optimizer, &state, batches_per_epoch, seconds, files)?;
             }
             on_event(&TrainEvent { step: state.step, steps: config.steps, loss: loss_value, learning_rate, validation_loss, checkpointed });
         }
@@ -226,6 +205,42 @@ where
         elapsed_seconds: elapsed_before + started.elapsed().as_secs_f64(),
         already_done: false,
     })
+}
+
+/// The log line of `state.step` (`step,epoch,learning_rate,train_loss,validation_loss,elapsed_s,validation_psnr`).
+fn log_line(state: &TrainState, learning_rate: f64, train_loss: f64, scores: Option<ValidationScores>, seconds: f64) -> String {
+    format!(
+        "{},{},{:.6e},{:.6},{},{:.1},{}",
+        state.step,
+        state.epoch,
+        learning_rate,
+        train_loss,
+        scores.map(|s| format!("{:.6}", s.loss)).unwrap_or_default(),
+        seconds,
+        scores.map(|s| format!("{:.3}", s.psnr)).unwrap_or_default(),
+    )
+}
+
+/// Writes the weights after `state.step`, then the checkpoint to resume from.
+fn save_step<M: Trainable>(
+    model: &M,
+    optimizer: &ModuleOptimizer,
+    state: &TrainState,
+    batches_per_epoch: usize,
+    seconds: f64,
+    files: &ModelFiles,
+) -> Result<()> {
+    // A checkpoint taken at the end of an epoch resumes at the next one.
+    let mut saved = state.clone();
+    if saved.batch_in_epoch >= batches_per_epoch {
+        saved.epoch += 1;
+        saved.batch_in_epoch = 0;
+    }
+    saved.elapsed_seconds = seconds;
+    // The weights first: a checkpoint must never claim a step the weights file has not
+    // reached (a kill between the two then only repeats the last steps).
+    model_dir::write_weights(&model.valid(), files, state.step)?;
+    save_checkpoint(model, optimizer, &saved, &files.dir)
 }
 
 /// How a network does on the validation frames.

@@ -16,7 +16,7 @@ use glassbake_scene::model::SMOOTH_ROUGHNESS;
 use glassbake_scene::Scene;
 use wgpu::util::DeviceExt;
 
-use crate::geometry::scene_triangles;
+use crate::geometry::{scene_triangles, TriangleAttributes};
 use crate::gpu_bvh::{GpuBvhs, GpuTriangle, COMMON_WGSL, OPTICS_WGSL};
 use crate::gpu_cache::Recent;
 use crate::gpu_stats::{created, GpuObject};
@@ -217,25 +217,7 @@ impl GpuThroughPass {
             }
             None => (None, None),
         };
-        let mut attributes: Vec<[f32; 4]> = Vec::new();
-        let mut firsts = Vec::with_capacity(sets.len());
-        for (triangles, _) in &sets {
-            firsts.push((attributes.len() / ATTRIBUTE_VEC4S) as u32);
-            for t in triangles {
-                let (material_or_light, mut flags) = match t.owner {
-                    Owner::Object { material, .. } => (material, 0),
-                    Owner::RectLight { light } => (light, ATTR_RECT_LIGHT),
-                };
-                if t.normals.is_some() {
-                    flags |= ATTR_HAS_NORMALS;
-                }
-                let [p0, p1, p2] = t.positions;
-                attributes.extend([v4(p0, bits(material_or_light)), v4(p1, bits(flags)), v4(p2, 0.0)]);
-                attributes.extend(t.normals.unwrap_or([Vec3::ZERO; 3]).map(|n| v4(n, 0.0)));
-                let [t0, t1, t2] = t.uvs;
-                attributes.extend([[t0.x, t0.y, t1.x, t1.y], [t2.x, t2.y, 0.0, 0.0]]);
-            }
-        }
+        let (attributes, firsts) = triangle_attributes(&sets);
         let geometry = match refittable {
             Some(mut geometry) => {
                 let corners = |attribute: u32| {
@@ -271,18 +253,7 @@ impl GpuThroughPass {
             });
         }
 
-        let mut materials = Vec::with_capacity(scene.materials.len() * MATERIAL_VEC4S + scene.textures.len());
-        for m in &scene.materials {
-            let texture = m.base_color_texture.filter(|&t| t < scene.textures.len()).map_or(NONE, |t| t as u32);
-            materials.extend([v4(m.base_color, bits(texture)), v4(m.emission, 0.0)]);
-        }
-        let texture_table = materials.len() as u32;
-        let mut texels = Vec::new();
-        for t in &scene.textures {
-            materials.push([bits(texels.len() as u32), bits(t.width), bits(t.height), 0.0]);
-            texels.extend(t.texels.iter().map(|c| c.to_array()));
-        }
-        let lights: Vec<[f32; 4]> = scene.rect_lights.iter().flat_map(|l| [v4(l.normal(), if l.two_sided { 1.0 } else { 0.0 }), v4(l.radiance, 0.0)]).collect();
+        let PackedMaterials { materials, texture_table, texels, lights } = pack_materials(scene);
 
         let limit = self.device.limits().max_storage_buffer_binding_size.min(self.device.limits().max_buffer_size);
         for (what, data) in [
@@ -528,4 +499,55 @@ impl<'a> PlanesAt<'a> {
         }
         Ok((wgpu::BufferBinding { buffer: self.buffer, offset: start, size: std::num::NonZeroU64::new(size) }, skip / 4))
     }
+}
+
+/// Each triangle's attributes (corners with the material or light and flags, normals, UVs),
+/// `ATTRIBUTE_VEC4S` vec4s a triangle, set after set; and the first triangle of each set.
+fn triangle_attributes(sets: &[(Vec<TriangleAttributes>, String)]) -> (Vec<[f32; 4]>, Vec<u32>) {
+    let mut attributes: Vec<[f32; 4]> = Vec::new();
+    let mut firsts = Vec::with_capacity(sets.len());
+    for (triangles, _) in sets {
+        firsts.push((attributes.len() / ATTRIBUTE_VEC4S) as u32);
+        for t in triangles {
+            let (material_or_light, mut flags) = match t.owner {
+                Owner::Object { material, .. } => (material, 0),
+                Owner::RectLight { light } => (light, ATTR_RECT_LIGHT),
+            };
+            if t.normals.is_some() {
+                flags |= ATTR_HAS_NORMALS;
+            }
+            let [p0, p1, p2] = t.positions;
+            attributes.extend([v4(p0, bits(material_or_light)), v4(p1, bits(flags)), v4(p2, 0.0)]);
+            attributes.extend(t.normals.unwrap_or([Vec3::ZERO; 3]).map(|n| v4(n, 0.0)));
+            let [t0, t1, t2] = t.uvs;
+            attributes.extend([[t0.x, t0.y, t1.x, t1.y], [t2.x, t2.y, 0.0, 0.0]]);
+        }
+    }
+    (attributes, firsts)
+}
+
+/// The scene's materials (base colour and texture, emission), texture table and texels, and
+/// rectangle lights, as the through kernel reads them.
+struct PackedMaterials {
+    materials: Vec<[f32; 4]>,
+    /// Where the texture table starts in `materials`.
+    texture_table: u32,
+    texels: Vec<[f32; 4]>,
+    lights: Vec<[f32; 4]>,
+}
+
+fn pack_materials(scene: &Scene) -> PackedMaterials {
+    let mut materials = Vec::with_capacity(scene.materials.len() * MATERIAL_VEC4S + scene.textures.len());
+    for m in &scene.materials {
+        let texture = m.base_color_texture.filter(|&t| t < scene.textures.len()).map_or(NONE, |t| t as u32);
+        materials.extend([v4(m.base_color, bits(texture)), v4(m.emission, 0.0)]);
+    }
+    let texture_table = materials.len() as u32;
+    let mut texels = Vec::new();
+    for t in &scene.textures {
+        materials.push([bits(texels.len() as u32), bits(t.width), bits(t.height), 0.0]);
+        texels.extend(t.texels.iter().map(|c| c.to_array()));
+    }
+    let lights: Vec<[f32; 4]> = scene.rect_lights.iter().flat_map(|l| [v4(l.normal(), if l.two_sided { 1.0 } else { 0.0 }), v4(l.radiance, 0.0)]).collect();
+    PackedMaterials { materials, texture_table, texels, lights }
 }

@@ -134,25 +134,8 @@ impl GpuTracer {
     /// GPU runs [`Estimator::PLAIN`] only, and refuses any other.
     pub fn render(&self, scene: &Scene, camera: &Camera, settings: &TraceSettings, progress: Option<Progress>) -> Result<TraceOutput> {
         let start = Instant::now();
-        settings.validate()?;
+        check_settings(settings)?;
         camera.check()?;
-        if settings.estimator != Estimator::PLAIN {
-            return Err(Error::bad_input(
-                "--estimator",
-                settings.estimator.name(),
-                "the GPU tracer runs the plain estimator only (no light tracer, uniform pixels, independent values); the others run on the CPU only",
-            ));
-        }
-        if settings.path_filter != glassbake_trace::PathFilter::All {
-            return Err(Error::bad_input("trace settings", "path_filter", "the GPU tracer renders every path; path filters run on the CPU only"));
-        }
-        if settings.glass_spp.is_some_and(|glass_spp| glass_spp > settings.spp) {
-            return Err(Error::bad_input(
-                "trace settings",
-                "glass_spp",
-                "the GPU tracer renders every pixel at one spp: trace at the glass pixels' spp instead",
-            ));
-        }
         let (width, height) = (settings.width, settings.height);
         let pixels = width as u64 * height as u64;
         let samples = pixels * settings.spp as u64;
@@ -208,34 +191,7 @@ impl GpuTracer {
             entries: &entries,
         });
 
-        let frame = camera.frame();
-        let (tx, ty) = camera.tan_half_fov(width, height);
-        let mut flags = 0;
-        if settings.material_model == MaterialModel::Lambertian {
-            flags |= FLAG_LAMBERTIAN;
-        }
-        let v4 = |v: Vec3| [v.x, v.y, v.z, 0.0];
-        let mut params = Params {
-            camera_position: v4(camera.position),
-            camera_forward: v4(frame.forward),
-            camera_right: v4(frame.right * tx),
-            camera_up: v4(frame.up * ty),
-            background: v4(scene.background),
-            width,
-            height,
-            sample_start: 0,
-            sample_count: 0,
-            seed_lo: settings.seed as u32,
-            seed_hi: (settings.seed >> 32) as u32,
-            max_depth: settings.max_depth,
-            rr_depth: settings.rr_depth,
-            flags,
-            emitter_count: buffers.emitter_count,
-            texture_table: buffers.texture_table,
-            has_panes: buffers.has_panes as u32,
-            slots: slots as u32,
-            _pad: [0; 3],
-        };
+        let mut params = trace_params(scene, camera, settings, &buffers, slots as u32);
 
         let per_pass = (slots as u32 * self.samples_per_thread).min(settings.spp);
         let mut done = 0u32;
@@ -260,25 +216,7 @@ impl GpuTracer {
 
         let sums: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&self.read(&accumulation, &accumulation_readback, accumulation_bytes)?);
         let not_finite: Vec<u32> = bytemuck::pod_collect_to_vec(&self.read(&discarded, &discarded_readback, discarded_bytes)?);
-        let (mut finite_samples, mut discarded_samples) = (0u64, 0u64);
-        for y in 0..height {
-            for x in 0..width {
-                let pixel = (y as u64 * width as u64 + x as u64) as usize;
-                // Slots in order, in f64: the mean does not depend on how the GPU scheduled them.
-                let (mut sum, mut count) = ([0.0f64; 3], 0.0f64);
-                for slot in 0..slots as usize {
-                    let [r, g, b, n] = sums[slot * pixels as usize + pixel];
-                    sum = [sum[0] + r as f64, sum[1] + g as f64, sum[2] + b as f64];
-                    count += n as f64;
-                    discarded_samples += not_finite[slot * pixels as usize + pixel] as u64;
-                }
-                finite_samples += count as u64;
-                let mean = if count > 0.0 { sum.map(|c| (c / count) as f32) } else { [0.0; 3] };
-                for (channel, value) in mean.into_iter().enumerate() {
-                    image.set(channel, x, y, value);
-                }
-            }
-        }
+        let (finite_samples, discarded_samples) = mean_of_slots(&mut image, &sums, &not_finite, slots as usize);
         if finite_samples + discarded_samples != samples {
             return Err(Error::Internal(format!(
                 "the GPU ({}) traced {} of {samples} samples: the driver ended shader loops early \
@@ -361,6 +299,86 @@ fn check_sizes(scene: &str, buffers: &SceneBuffers, pixel_slots: u64, binding_li
         ));
     }
     Ok(())
+}
+
+/// Refuses what the GPU tracer does not do: any estimator but [`Estimator::PLAIN`], path
+/// filters, more samples on glass pixels.
+fn check_settings(settings: &TraceSettings) -> Result<()> {
+    settings.validate()?;
+    if settings.estimator != Estimator::PLAIN {
+        return Err(Error::bad_input(
+            "--estimator",
+            settings.estimator.name(),
+            "the GPU tracer runs the plain estimator only (no light tracer, uniform pixels, independent values); the others run on the CPU only",
+        ));
+    }
+    if settings.path_filter != glassbake_trace::PathFilter::All {
+        return Err(Error::bad_input("trace settings", "path_filter", "the GPU tracer renders every path; path filters run on the CPU only"));
+    }
+    if settings.glass_spp.is_some_and(|glass_spp| glass_spp > settings.spp) {
+        return Err(Error::bad_input("trace settings", "glass_spp", "the GPU tracer renders every pixel at one spp: trace at the glass pixels' spp instead"));
+    }
+    Ok(())
+}
+
+/// The kernel's parameters for a frame (its sample range is set per pass).
+fn trace_params(scene: &Scene, camera: &Camera, settings: &TraceSettings, buffers: &SceneBuffers, slots: u32) -> Params {
+    let (width, height) = (settings.width, settings.height);
+    let frame = camera.frame();
+    let (tx, ty) = camera.tan_half_fov(width, height);
+    let mut flags = 0;
+    if settings.material_model == MaterialModel::Lambertian {
+        flags |= FLAG_LAMBERTIAN;
+    }
+    let v4 = |v: Vec3| [v.x, v.y, v.z, 0.0];
+    Params {
+        camera_position: v4(camera.position),
+        camera_forward: v4(frame.forward),
+        camera_right: v4(frame.right * tx),
+        camera_up: v4(frame.up * ty),
+        background: v4(scene.background),
+        width,
+        height,
+        sample_start: 0,
+        sample_count: 0,
+        seed_lo: settings.seed as u32,
+        seed_hi: (settings.seed >> 32) as u32,
+        max_depth: settings.max_depth,
+        rr_depth: settings.rr_depth,
+        flags,
+        emitter_count: buffers.emitter_count,
+        texture_table: buffers.texture_table,
+        has_panes: buffers.has_panes as u32,
+        slots,
+        _pad: [0; 3],
+    }
+}
+
+/// Fills `image` with each pixel's mean over the finite samples of every slot, summed in slot
+/// order in f64 so that the mean does not depend on how the GPU scheduled them. Returns the
+/// finite and the discarded samples.
+fn mean_of_slots(image: &mut PlanarImage, sums: &[[f32; 4]], not_finite: &[u32], slots: usize) -> (u64, u64) {
+    let (width, height) = (image.width(), image.height());
+    let pixels = width as u64 * height as u64;
+    let (mut finite_samples, mut discarded_samples) = (0u64, 0u64);
+    for y in 0..height {
+        for x in 0..width {
+            let pixel = (y as u64 * width as u64 + x as u64) as usize;
+            let (mut sum, mut count) = ([0.0f64; 3], 0.0f64);
+            for slot in 0..slots {
+                let [r, g, b, n] = sums[slot * pixels as usize + pixel];
+                sum = [sum[0] + r as f64, sum[1] + g as f64, sum[2] + b as f64];
+                count += n as f64;
+                discarded_samples += not_finite[slot * pixels as usize + pixel] as u64;
+            }
+            finite_samples += count as u64;
+            let mean = if count > 0.0 { sum.map(|c| (c / count) as f32) } else { [0.0; 3] };
+            for (channel, value) in mean.into_iter().enumerate() {
+                image.set(channel, x, y, value);
+            }
+        }
+    }
+    (finite_samples, discarded_samples)
 }
 
 #[cfg(test)]

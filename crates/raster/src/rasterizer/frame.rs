@@ -17,7 +17,67 @@ impl Rasterizer {
         }
         self.ensure_targets(width, height);
 
-        // Lights and their shadow-map layers.
+        let (mut light_data, shadow_views) = self.light_uniforms(scene);
+        let light_count = light_data.len() as u32;
+        if light_data.is_empty() {
+            light_data.push(LightUniform::zeroed_light());
+        }
+        if self.ensure_shadow_maps(shadow_views.len() as u32) {
+            self.frame_data.shadow_content = None;
+        }
+        let mut matrix_data: Vec<[[f32; 4]; 4]> = shadow_views.iter().map(|m| mat4_cols(*m)).collect();
+        if matrix_data.is_empty() {
+            matrix_data.push(mat4_cols(Mat4::IDENTITY));
+        }
+        let drawn = self.frame_draws(scene)?;
+
+        // The frame's data into the buffers kept across frames.
+        let layouts = Layouts {
+            view: &self.view_layout,
+            object: &self.object_layout,
+            shading: &self.shading_layout,
+            material_sampler: &self.material_sampler,
+            shadow_sampler: &self.shadow_sampler,
+            ltc_matrix: &self.ltc_matrix,
+            ltc_amplitude: &self.ltc_amplitude,
+        };
+        let object_groups = self.frame_data.write_objects(&self.device, &self.queue, &layouts, &drawn.uniforms, &drawn.textures);
+        let mut views = vec![ViewUniform {
+            view_proj: mat4_cols(camera.view_projection(width, height)),
+            camera_pos: camera.position.extend(1.0).to_array(),
+            params: [light_count, u32::from(self.options.shadows), 0, 0],
+        }];
+        views.extend(shadow_views.iter().map(|m| ViewUniform { view_proj: mat4_cols(*m), camera_pos: [0.0; 4], params: [0; 4] }));
+        let view_groups = self.frame_data.write_views(&self.device, &self.queue, &layouts, &views).to_vec();
+        let shadows = self.shadows.as_ref().expect("ensured");
+        let targets = self.targets.as_ref().expect("ensured");
+        let inputs =
+            ShadingInputs { shadow_maps: shadows.array_view.clone(), no_opaque: self.no_opaque.clone(), opaque_positions: targets.opaque.views[1].clone() };
+        let (shading_opaque, shading_transparency) = self.frame_data.write_shading(&self.device, &self.queue, &layouts, &light_data, &matrix_data, inputs);
+
+        let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+        self.draw_shadow_maps(&mut encoder, &view_groups[1..], &object_groups, &drawn, &matrix_data);
+        let FrameDraws { draws, transparent_slot, meshes, .. } = drawn;
+        let frame = Frame {
+            width,
+            height,
+            view: view_groups[0].clone(),
+            shading_opaque,
+            shading_transparency,
+            object_groups,
+            meshes,
+            draws,
+            transparent_slot,
+            rasterizer: self,
+        };
+        frame.encode_pass(&mut encoder, PassKind::Opaque);
+        frame.rasterizer.queue.submit([encoder.finish()]);
+        Ok(frame)
+    }
+
+    /// The scene's rectangle lights as the shaders read them, and the view-projection of each
+    /// face of their shadow hemicubes (5 faces a lit side; none without shadows).
+    fn light_uniforms(&self, scene: &Scene) -> (Vec<LightUniform>, Vec<Mat4>) {
         let bounds = scene.bounds().unwrap_or((Vec3::splat(-1.0), Vec3::splat(1.0)));
         let extent = (bounds.1 - bounds.0).length().max(1e-3);
         let mut light_data = Vec::with_capacity(scene.rect_lights.len());
@@ -51,19 +111,11 @@ impl Rasterizer {
                 shadow: [front_layer, back_layer, normal_offset, 0.0],
             });
         }
-        let light_count = light_data.len() as u32;
-        if light_data.is_empty() {
-            light_data.push(LightUniform::zeroed_light());
-        }
-        if self.ensure_shadow_maps(shadow_views.len() as u32) {
-            self.frame_data.shadow_content = None;
-        }
-        let mut matrix_data: Vec<[[f32; 4]; 4]> = shadow_views.iter().map(|m| mat4_cols(*m)).collect();
-        if matrix_data.is_empty() {
-            matrix_data.push(mat4_cols(Mat4::IDENTITY));
-        }
+        (light_data, shadow_views)
+    }
 
-        // Objects (opaque, transparent) and the lights' own quads.
+    /// What a frame draws: the objects (opaque, transparent) and the lights' own quads.
+    fn frame_draws(&mut self, scene: &Scene) -> Result<FrameDraws> {
         let mut uniforms: Vec<ObjectUniform> = Vec::new();
         let mut draws: Vec<Draw> = Vec::new();
         let mut transparent_slot = vec![usize::MAX; scene.transparent_count()];
@@ -118,40 +170,28 @@ impl Rasterizer {
             }
         }
 
-        // The frame's data into the buffers kept across frames.
-        let layouts = Layouts {
-            view: &self.view_layout,
-            object: &self.object_layout,
-            shading: &self.shading_layout,
-            material_sampler: &self.material_sampler,
-            shadow_sampler: &self.shadow_sampler,
-            ltc_matrix: &self.ltc_matrix,
-            ltc_amplitude: &self.ltc_amplitude,
-        };
-        let object_groups = self.frame_data.write_objects(&self.device, &self.queue, &layouts, &uniforms, &textures);
-        let mut views = vec![ViewUniform {
-            view_proj: mat4_cols(camera.view_projection(width, height)),
-            camera_pos: camera.position.extend(1.0).to_array(),
-            params: [light_count, u32::from(self.options.shadows), 0, 0],
-        }];
-        views.extend(shadow_views.iter().map(|m| ViewUniform { view_proj: mat4_cols(*m), camera_pos: [0.0; 4], params: [0; 4] }));
-        let view_groups = self.frame_data.write_views(&self.device, &self.queue, &layouts, &views).to_vec();
-        let shadows = self.shadows.as_ref().expect("ensured");
-        let targets = self.targets.as_ref().expect("ensured");
-        let inputs =
-            ShadingInputs { shadow_maps: shadows.array_view.clone(), no_opaque: self.no_opaque.clone(), opaque_positions: targets.opaque.views[1].clone() };
-        let (shading_opaque, shading_transparency) = self.frame_data.write_shading(&self.device, &self.queue, &layouts, &light_data, &matrix_data, inputs);
+        Ok(FrameDraws { uniforms, draws, transparent_slot, meshes: meshes_to_draw, textures })
+    }
 
-        let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
-        // Shadow maps: opaque geometry only (glass and the lights' quads cast no shadow), drawn
-        // again only when a light or an occluder moved.
+    /// Shadow maps: opaque geometry only (glass and the lights' quads cast no shadow), drawn
+    /// again only when a light or an occluder moved.
+    fn draw_shadow_maps(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        face_groups: &[wgpu::BindGroup],
+        object_groups: &[wgpu::BindGroup],
+        drawn: &FrameDraws,
+        matrix_data: &[[[f32; 4]; 4]],
+    ) {
+        let FrameDraws { uniforms, draws, meshes: meshes_to_draw, .. } = drawn;
+        let shadows = self.shadows.as_ref().expect("ensured");
         let occluders = || draws.iter().filter(|d| d.class == DrawClass::Opaque);
         let content = ShadowContent {
             faces: matrix_data.iter().map(|m| m.map(|c| c.map(f32::to_bits))).collect(),
             occluders: occluders().map(|d| (meshes_to_draw[d.mesh].0.clone(), uniforms[d.slot].model.map(|c| c.map(f32::to_bits)))).collect(),
         };
         if self.frame_data.shadow_content.as_ref() != Some(&content) {
-            for (layer, group) in view_groups[1..].iter().enumerate() {
+            for (layer, group) in face_groups.iter().enumerate() {
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("shadow"),
                     color_attachments: &[],
@@ -176,22 +216,17 @@ impl Rasterizer {
             }
             self.frame_data.shadow_content = Some(content);
         }
-        let frame = Frame {
-            width,
-            height,
-            view: view_groups[0].clone(),
-            shading_opaque,
-            shading_transparency,
-            object_groups,
-            meshes: meshes_to_draw,
-            draws,
-            transparent_slot,
-            rasterizer: self,
-        };
-        frame.encode_pass(&mut encoder, PassKind::Opaque);
-        frame.rasterizer.queue.submit([encoder.finish()]);
-        Ok(frame)
     }
+}
+
+/// What a frame draws, in draw order: each draw's uniform, its mesh's buffers and its textures.
+struct FrameDraws {
+    uniforms: Vec<ObjectUniform>,
+    draws: Vec<Draw>,
+    /// The draw of each transparent object, in the scene's order of transparent objects.
+    transparent_slot: Vec<usize>,
+    meshes: Vec<(wgpu::Buffer, wgpu::Buffer, u32)>,
+    textures: Vec<(wgpu::TextureView, wgpu::TextureView)>,
 }
 
 impl LightUniform {

@@ -234,130 +234,11 @@ impl Rasterizer {
         let adapter_info = adapter.get_info();
         tracing::info!("rasterizer on {} ({:?}, {})", adapter_info.name, adapter_info.device_type, adapter_info.driver);
 
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("gbuffer.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("../../shaders/gbuffer.wgsl").into()),
-        });
-        let both = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
-        let view_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("view"), entries: &[uniform_entry(0, both)] });
-        let float_filterable = wgpu::TextureSampleType::Float { filterable: true };
-        let float_plain = wgpu::TextureSampleType::Float { filterable: false };
-        let d2 = wgpu::TextureViewDimension::D2;
-        let object_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("object"),
-            entries: &[
-                uniform_entry(0, both),
-                texture_entry(1, float_filterable, d2),
-                texture_entry(2, float_filterable, d2),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 3,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
-            ],
-        });
-        let shading_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("shading"),
-            entries: &[
-                storage_entry(0),
-                texture_entry(1, wgpu::TextureSampleType::Depth, wgpu::TextureViewDimension::D2Array),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
-                    count: None,
-                },
-                texture_entry(3, float_plain, d2),
-                texture_entry(4, float_plain, d2),
-                texture_entry(5, float_plain, d2),
-                storage_entry(6),
-            ],
-        });
-        let shading_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("shading"),
-            bind_group_layouts: &[Some(&view_layout), Some(&object_layout), Some(&shading_layout)],
-            immediate_size: 0,
-        });
-        let shadow_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("shadow"),
-            bind_group_layouts: &[Some(&view_layout), Some(&object_layout)],
-            immediate_size: 0,
-        });
-        let primitive = wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::TriangleList, cull_mode: None, ..Default::default() };
-        let depth_state = |compare: wgpu::CompareFunction, bias: wgpu::DepthBiasState| wgpu::DepthStencilState {
-            format: DEPTH_FORMAT,
-            depth_write_enabled: Some(true),
-            depth_compare: Some(compare),
-            stencil: wgpu::StencilState::default(),
-            bias,
-        };
-        let vertex_layouts = [Some(resources::vertex_layout())];
-        let target = Some(wgpu::ColorTargetState { format: TARGET_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL });
-        let gbuffer_targets = vec![target.clone(); GBUFFER_TARGETS as usize];
-        let transparency_targets = vec![target.clone(); TRANSPARENCY_NEAR_TARGETS];
-        let far_targets = vec![target; TRANSPARENCY_TARGETS as usize - TRANSPARENCY_NEAR_TARGETS];
-        let make_pipeline = |label: &str, fragment: &str, targets: &[Option<wgpu::ColorTargetState>], compare: wgpu::CompareFunction| {
-            let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(label),
-                layout: Some(&shading_pipeline_layout),
-                vertex: wgpu::VertexState { module: &module, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &vertex_layouts },
-                primitive,
-                depth_stencil: Some(depth_state(compare, wgpu::DepthBiasState::default())),
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState { module: &module, entry_point: Some(fragment), compilation_options: Default::default(), targets }),
-                multiview_mask: None,
-                cache: None,
-            });
-            created(GpuObject::Pipeline, pipeline)
-        };
-        let less = wgpu::CompareFunction::Less;
-        let gbuffer_pipeline = make_pipeline("gbuffer", "fs_gbuffer", &gbuffer_targets, less);
-        let transparency_pipeline = make_pipeline("transparency", "fs_transparency", &transparency_targets, less);
-        let transparency_far_pipeline = make_pipeline("transparency far", "fs_transparency_far", &far_targets, wgpu::CompareFunction::Greater);
-        let shadow_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("shadow"),
-            layout: Some(&shadow_pipeline_layout),
-            vertex: wgpu::VertexState { module: &module, entry_point: Some("vs_shadow"), compilation_options: Default::default(), buffers: &vertex_layouts },
-            primitive,
-            depth_stencil: Some(depth_state(wgpu::CompareFunction::Less, wgpu::DepthBiasState { constant: 2, slope_scale: 2.0, clamp: 0.0 })),
-            multisample: wgpu::MultisampleState::default(),
-            fragment: None,
-            multiview_mask: None,
-            cache: None,
-        });
-        let shadow_pipeline = created(GpuObject::Pipeline, shadow_pipeline);
-
-        let material_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("material"),
-            address_mode_u: wgpu::AddressMode::Repeat,
-            address_mode_v: wgpu::AddressMode::Repeat,
-            address_mode_w: wgpu::AddressMode::Repeat,
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            mipmap_filter: wgpu::MipmapFilterMode::Linear,
-            // 16x anisotropic where the device supports it (wgpu falls back to trilinear).
-            anisotropy_clamp: 16,
-            ..Default::default()
-        });
-        let shadow_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("shadow"),
-            address_mode_u: wgpu::AddressMode::ClampToEdge,
-            address_mode_v: wgpu::AddressMode::ClampToEdge,
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            compare: Some(wgpu::CompareFunction::LessEqual),
-            ..Default::default()
-        });
-        let one = half::f16::ONE.to_bits();
-        let white = small_texture(&device, &queue, wgpu::TextureFormat::Rgba16Float, 1, bytemuck::cast_slice(&[one; 4]));
-        let no_opaque = small_texture(&device, &queue, TARGET_FORMAT, 1, bytemuck::cast_slice(&[0.0f32; 4]));
-        let table = ltc::table();
-        let size = ltc::LTC_SIZE as u32;
-        let matrix: Vec<f32> = table.iter().flat_map(|c| c.minv).collect();
-        let amplitude: Vec<f32> = table.iter().flat_map(|c| [c.amplitude[0], c.amplitude[1], 0.0, 0.0]).collect();
-        let ltc_matrix = small_texture(&device, &queue, TARGET_FORMAT, size, bytemuck::cast_slice(&matrix));
-        let ltc_amplitude = small_texture(&device, &queue, TARGET_FORMAT, size, bytemuck::cast_slice(&amplitude));
+        let (view_layout, object_layout, shading_layout) = bind_group_layouts(&device);
+        let Pipelines { gbuffer_pipeline, transparency_pipeline, transparency_far_pipeline, shadow_pipeline } =
+            pipelines(&device, &view_layout, &object_layout, &shading_layout);
+        let (material_sampler, shadow_sampler) = samplers(&device);
+        let ConstantTextures { white, no_opaque, ltc_matrix, ltc_amplitude } = constant_textures(&device, &queue);
 
         Ok(Rasterizer {
             options,
@@ -530,6 +411,170 @@ impl Rasterizer {
         self.shadows = Some(ShadowMaps::new(&self.device, size, layers));
         true
     }
+}
+
+/// The bind groups' layouts: the view (camera or shadow face), the object (uniform, textures,
+/// sampler) and the shading inputs (lights, shadow maps, LTC tables, opaque positions).
+fn bind_group_layouts(device: &wgpu::Device) -> (wgpu::BindGroupLayout, wgpu::BindGroupLayout, wgpu::BindGroupLayout) {
+    let both = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+    let view_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("view"), entries: &[uniform_entry(0, both)] });
+    let float_filterable = wgpu::TextureSampleType::Float { filterable: true };
+    let float_plain = wgpu::TextureSampleType::Float { filterable: false };
+    let d2 = wgpu::TextureViewDimension::D2;
+    let object_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("object"),
+        entries: &[
+            uniform_entry(0, both),
+            texture_entry(1, float_filterable, d2),
+            texture_entry(2, float_filterable, d2),
+            wgpu::BindGroupLayoutEntry {
+                binding: 3,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
+        ],
+    });
+    let shading_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("shading"),
+        entries: &[
+            storage_entry(0),
+            texture_entry(1, wgpu::TextureSampleType::Depth, wgpu::TextureViewDimension::D2Array),
+            wgpu::BindGroupLayoutEntry {
+                binding: 2,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
+                count: None,
+            },
+            texture_entry(3, float_plain, d2),
+            texture_entry(4, float_plain, d2),
+            texture_entry(5, float_plain, d2),
+            storage_entry(6),
+        ],
+    });
+    (view_layout, object_layout, shading_layout)
+}
+
+/// The render pipelines of `shaders/gbuffer.wgsl`.
+struct Pipelines {
+    gbuffer_pipeline: wgpu::RenderPipeline,
+    transparency_pipeline: wgpu::RenderPipeline,
+    transparency_far_pipeline: wgpu::RenderPipeline,
+    shadow_pipeline: wgpu::RenderPipeline,
+}
+
+fn pipelines(
+    device: &wgpu::Device,
+    view_layout: &wgpu::BindGroupLayout,
+    object_layout: &wgpu::BindGroupLayout,
+    shading_layout: &wgpu::BindGroupLayout,
+) -> Pipelines {
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("gbuffer.wgsl"),
+        source: wgpu::ShaderSource::Wgsl(include_str!("../../shaders/gbuffer.wgsl").into()),
+    });
+    let shading_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("shading"),
+        bind_group_layouts: &[Some(view_layout), Some(object_layout), Some(shading_layout)],
+        immediate_size: 0,
+    });
+    let shadow_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("shadow"),
+        bind_group_layouts: &[Some(view_layout), Some(object_layout)],
+        immediate_size: 0,
+    });
+    let primitive = wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::TriangleList, cull_mode: None, ..Default::default() };
+    let depth_state = |compare: wgpu::CompareFunction, bias: wgpu::DepthBiasState| wgpu::DepthStencilState {
+        format: DEPTH_FORMAT,
+        depth_write_enabled: Some(true),
+        depth_compare: Some(compare),
+        stencil: wgpu::StencilState::default(),
+        bias,
+    };
+    let vertex_layouts = [Some(resources::vertex_layout())];
+    let target = Some(wgpu::ColorTargetState { format: TARGET_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL });
+    let gbuffer_targets = vec![target.clone(); GBUFFER_TARGETS as usize];
+    let transparency_targets = vec![target.clone(); TRANSPARENCY_NEAR_TARGETS];
+    let far_targets = vec![target; TRANSPARENCY_TARGETS as usize - TRANSPARENCY_NEAR_TARGETS];
+    let make_pipeline = |label: &str, fragment: &str, targets: &[Option<wgpu::ColorTargetState>], compare: wgpu::CompareFunction| {
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(label),
+            layout: Some(&shading_pipeline_layout),
+            vertex: wgpu::VertexState { module: &module, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &vertex_layouts },
+            primitive,
+            depth_stencil: Some(depth_state(compare, wgpu::DepthBiasState::default())),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState { module: &module, entry_point: Some(fragment), compilation_options: Default::default(), targets }),
+            multiview_mask: None,
+            cache: None,
+        });
+        created(GpuObject::Pipeline, pipeline)
+    };
+    let less = wgpu::CompareFunction::Less;
+    let gbuffer_pipeline = make_pipeline("gbuffer", "fs_gbuffer", &gbuffer_targets, less);
+    let transparency_pipeline = make_pipeline("transparency", "fs_transparency", &transparency_targets, less);
+    let transparency_far_pipeline = make_pipeline("transparency far", "fs_transparency_far", &far_targets, wgpu::CompareFunction::Greater);
+    let shadow_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("shadow"),
+        layout: Some(&shadow_pipeline_layout),
+        vertex: wgpu::VertexState { module: &module, entry_point: Some("vs_shadow"), compilation_options: Default::default(), buffers: &vertex_layouts },
+        primitive,
+        depth_stencil: Some(depth_state(wgpu::CompareFunction::Less, wgpu::DepthBiasState { constant: 2, slope_scale: 2.0, clamp: 0.0 })),
+        multisample: wgpu::MultisampleState::default(),
+        fragment: None,
+        multiview_mask: None,
+        cache: None,
+    });
+    let shadow_pipeline = created(GpuObject::Pipeline, shadow_pipeline);
+    Pipelines { gbuffer_pipeline, transparency_pipeline, transparency_far_pipeline, shadow_pipeline }
+}
+
+/// The materials' sampler (trilinear, anisotropic, repeating) and the shadow maps' (comparing).
+fn samplers(device: &wgpu::Device) -> (wgpu::Sampler, wgpu::Sampler) {
+    let material_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+        label: Some("material"),
+        address_mode_u: wgpu::AddressMode::Repeat,
+        address_mode_v: wgpu::AddressMode::Repeat,
+        address_mode_w: wgpu::AddressMode::Repeat,
+        mag_filter: wgpu::FilterMode::Linear,
+        min_filter: wgpu::FilterMode::Linear,
+        mipmap_filter: wgpu::MipmapFilterMode::Linear,
+        // 16x anisotropic where the device supports it (wgpu falls back to trilinear).
+        anisotropy_clamp: 16,
+        ..Default::default()
+    });
+    let shadow_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+        label: Some("shadow"),
+        address_mode_u: wgpu::AddressMode::ClampToEdge,
+        address_mode_v: wgpu::AddressMode::ClampToEdge,
+        mag_filter: wgpu::FilterMode::Linear,
+        min_filter: wgpu::FilterMode::Linear,
+        compare: Some(wgpu::CompareFunction::LessEqual),
+        ..Default::default()
+    });
+    (material_sampler, shadow_sampler)
+}
+
+/// Textures every frame reads: a white texel for untextured materials, a "no opaque surface"
+/// texel, and the LTC tables.
+struct ConstantTextures {
+    white: wgpu::TextureView,
+    no_opaque: wgpu::TextureView,
+    ltc_matrix: wgpu::TextureView,
+    ltc_amplitude: wgpu::TextureView,
+}
+
+fn constant_textures(device: &wgpu::Device, queue: &wgpu::Queue) -> ConstantTextures {
+    let one = half::f16::ONE.to_bits();
+    let white = small_texture(device, queue, wgpu::TextureFormat::Rgba16Float, 1, bytemuck::cast_slice(&[one; 4]));
+    let no_opaque = small_texture(device, queue, TARGET_FORMAT, 1, bytemuck::cast_slice(&[0.0f32; 4]));
+    let table = ltc::table();
+    let size = ltc::LTC_SIZE as u32;
+    let matrix: Vec<f32> = table.iter().flat_map(|c| c.minv).collect();
+    let amplitude: Vec<f32> = table.iter().flat_map(|c| [c.amplitude[0], c.amplitude[1], 0.0, 0.0]).collect();
+    let ltc_matrix = small_texture(device, queue, TARGET_FORMAT, size, bytemuck::cast_slice(&matrix));
+    let ltc_amplitude = small_texture(device, queue, TARGET_FORMAT, size, bytemuck::cast_slice(&amplitude));
+    ConstantTextures { white, no_opaque, ltc_matrix, ltc_amplitude }
 }
 
 #[cfg(test)]
