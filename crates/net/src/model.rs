@@ -50,7 +50,9 @@ pub struct GlassNet {
 pub struct NetInputs {
     /// [N, 17, H, W]: the opaque G-buffer (GlassNet, concat) or the naive one (naive).
     pub gbuffer: Tensor<4>,
-    /// Per transparent object, [N, 16, H, W]; ignored by `naive`.
+    /// Per transparent object, [N, C, H, W]: its transparency buffer
+    /// (`layout::TRANSPARENT_CHANNELS`), then its through buffer (`layout::THROUGH_CHANNELS`)
+    /// for the networks that read it ([`NetConfig::through`]); ignored by `naive`.
     pub transparent: Vec<Tensor<4>>,
     /// [N, variables], normalised to [0, 1].
     pub values: Tensor<2>,

@@ -13,7 +13,8 @@
 // The host unpacks these into the planar channel order of glassbake_core::layout.
 
 const PI: f32 = 3.14159265358979;
-const LTC_SIZE: i32 = 64;
+// LTC_SIZE (the LTC tables' cells per axis) and DIELECTRIC_F0 (glTF's dielectric base, IOR
+// 1.5) are written before this file from Rust (`rasterizer::gbuffer_source`).
 
 struct View {
     view_proj: mat4x4<f32>,
@@ -327,7 +328,7 @@ const FOOTPRINT_MAX_ROUGHNESS: f32 = 0.5;
 fn direct_light(s: Surface, metallic: f32, transmission: f32) -> vec3<f32> {
     let n = s.normal;
     let diffuse_color = s.albedo * (1.0 - metallic) * (1.0 - transmission);
-    let f0 = mix(vec3<f32>(0.04), s.albedo, metallic);
+    let f0 = mix(vec3<f32>(DIELECTRIC_F0), s.albedo, metallic);
     let taps = select(1, 3, s.roughness < FOOTPRINT_MAX_ROUGHNESS);
 
     var total = vec3<f32>(0.0);

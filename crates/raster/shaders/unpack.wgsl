@@ -9,7 +9,8 @@ struct Params {
     base: u32,
     entries: u32,
     // Per entry: first channel in the layout, channel count, target, first component.
-    map: array<vec4<u32>, 10>,
+    // MAX_ENTRIES is written before this file from Rust (`unpack::MAX_ENTRIES`).
+    map: array<vec4<u32>, MAX_ENTRIES>,
 }
 
 @group(0) @binding(0) var target0: texture_2d<f32>;

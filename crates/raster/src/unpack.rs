@@ -7,9 +7,15 @@ use glassbake_core::{Error, Result};
 use glassbake_rays::gpu_cache::Recent;
 use glassbake_rays::gpu_stats::{created, GpuObject};
 
-/// Most entries a channel map has (the transparency buffer's 10 attributes; `map` in
-/// unpack.wgsl has the same length).
+/// Most entries a channel map has (the transparency buffer's 10 attributes; the length of
+/// `map` in unpack.wgsl, which takes it from here).
 const MAX_ENTRIES: usize = 10;
+
+/// `shaders/unpack.wgsl` after the constant it takes from Rust.
+fn unpack_source() -> String {
+    use glassbake_core::wgsl::{constants, Value};
+    constants(&[("MAX_ENTRIES", Value::U32(MAX_ENTRIES as u32))]) + include_str!("../shaders/unpack.wgsl")
+}
 /// Colour targets bound (the transparency pass's 6; sets with fewer bind their first one
 /// again). Bindings 0-4 and 7: 5 and 6 are the output buffer and the parameters.
 const BOUND_TARGETS: usize = 6;
@@ -45,10 +51,8 @@ const KEPT_GROUPS: usize = 8;
 
 impl Unpacker {
     pub fn new(device: &wgpu::Device) -> Unpacker {
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("unpack.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("../shaders/unpack.wgsl").into()),
-        });
+        let module =
+            device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("unpack.wgsl"), source: wgpu::ShaderSource::Wgsl(unpack_source().into()) });
         let mut entries: Vec<wgpu::BindGroupLayoutEntry> = (0..BOUND_TARGETS)
             .map(|target| wgpu::BindGroupLayoutEntry {
                 binding: target_binding(target),

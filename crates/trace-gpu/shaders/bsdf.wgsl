@@ -12,12 +12,9 @@ const TAU: f32 = 6.28318530717959;
 const FRAC_1_PI: f32 = 0.318309886183791;
 const FLT_MAX: f32 = 3.40282e38;
 
-// glTF's dielectric base F0 (IOR 1.5), the opaque lobes' smallest alpha, GGX's smallest
-// alpha and the roughness below which a dielectric is smooth: the CPU tracer's constants.
-const DIELECTRIC_F0: f32 = 0.04;
-const MIN_OPAQUE_ALPHA: f32 = 1e-3;
-const MIN_ALPHA: f32 = 1e-4;
-const SMOOTH_ROUGHNESS: f32 = 1e-3;
+// DIELECTRIC_F0 (glTF's dielectric base, IOR 1.5), MIN_OPAQUE_ALPHA (the opaque lobes'
+// smallest alpha), MIN_ALPHA (GGX's smallest) and SMOOTH_ROUGHNESS (below which a dielectric
+// is smooth) are the CPU tracer's, written before this file from Rust (`shared_constants`).
 
 const DIELECTRIC_NONE: u32 = 0u;
 const DIELECTRIC_SMOOTH: u32 = 1u;

@@ -59,7 +59,9 @@ pub fn probe_bsdf(tracer: &GpuTracer, cases: &[ProbeCase]) -> Result<Vec<ProbeRe
         return Ok(Vec::new());
     }
     let (device, _) = tracer.device();
-    let source = [glassbake_rays::gpu_bvh::OPTICS_WGSL, include_str!("../shaders/bsdf.wgsl"), include_str!("../shaders/probe.wgsl")].join("\n");
+    let constants = crate::tracer::shared_constants();
+    let source =
+        [constants.as_str(), glassbake_rays::gpu_bvh::OPTICS_WGSL, include_str!("../shaders/bsdf.wgsl"), include_str!("../shaders/probe.wgsl")].join("\n");
     let pipeline = compute_pipeline(device, "probe.wgsl", source, "bsdf_probe")?;
     let mut inputs: Vec<[f32; 4]> = Vec::with_capacity(cases.len() * INPUT_VEC4S);
     for c in cases {

@@ -71,18 +71,23 @@ pub struct GpuTracer {
 /// `upload.rs` writes, and the CPU tracer's path-length guard.
 pub(crate) fn shared_constants() -> String {
     use crate::upload::*;
-    let constants: [(&str, u64); 9] = [
-        ("FLAG_LAMBERTIAN", FLAG_LAMBERTIAN as u64),
-        ("ATTRIBUTE_VEC4S", ATTRIBUTE_VEC4S as u64),
-        ("MATERIAL_VEC4S", MATERIAL_VEC4S as u64),
-        ("EMITTER_VEC4S", EMITTER_VEC4S as u64),
-        ("NONE", NONE as u64),
-        ("ATTR_RECT_LIGHT", ATTR_RECT_LIGHT as u64),
-        ("ATTR_HAS_NORMALS", ATTR_HAS_NORMALS as u64),
-        ("ATTR_PASS_THROUGH", ATTR_PASS_THROUGH as u64),
-        ("MAX_VERTICES", glassbake_trace::prepared::MAX_VERTICES as u64),
-    ];
-    constants.iter().map(|(name, value)| format!("const {name}: u32 = {value}u;\n")).collect()
+    use glassbake_core::wgsl::{constants, Value};
+    constants(&[
+        ("FLAG_LAMBERTIAN", Value::U32(FLAG_LAMBERTIAN)),
+        ("ATTRIBUTE_VEC4S", Value::U32(ATTRIBUTE_VEC4S as u32)),
+        ("MATERIAL_VEC4S", Value::U32(MATERIAL_VEC4S as u32)),
+        ("EMITTER_VEC4S", Value::U32(EMITTER_VEC4S as u32)),
+        ("NONE", Value::U32(NONE)),
+        ("ATTR_RECT_LIGHT", Value::U32(ATTR_RECT_LIGHT)),
+        ("ATTR_HAS_NORMALS", Value::U32(ATTR_HAS_NORMALS)),
+        ("ATTR_PASS_THROUGH", Value::U32(ATTR_PASS_THROUGH)),
+        ("MAX_VERTICES", Value::U32(glassbake_trace::prepared::MAX_VERTICES)),
+        // The BSDF's: the CPU tracer's values.
+        ("DIELECTRIC_F0", Value::F32(glassbake_trace::bsdf::DIELECTRIC_F0)),
+        ("MIN_OPAQUE_ALPHA", Value::F32(glassbake_trace::bsdf::MIN_OPAQUE_ALPHA)),
+        ("MIN_ALPHA", Value::F32(glassbake_trace::microfacet::MIN_ALPHA)),
+        ("SMOOTH_ROUGHNESS", Value::F32(glassbake_scene::model::SMOOTH_ROUGHNESS)),
+    ])
 }
 
 /// The WGSL source of the trace kernel: the constants it shares with Rust, the optics and the
@@ -385,6 +390,22 @@ fn mean_of_slots(image: &mut PlanarImage, sums: &[[f32; 4]], not_finite: &[u32],
 mod tests {
     use super::*;
     use glassbake_scene::builtin::builtin;
+
+    #[test]
+    fn the_kernels_take_the_cpu_tracers_constants_from_rust() {
+        use glassbake_core::wgsl::declarations;
+        let source = trace_source();
+        for (name, value) in [
+            ("DIELECTRIC_F0", glassbake_trace::bsdf::DIELECTRIC_F0),
+            ("MIN_OPAQUE_ALPHA", glassbake_trace::bsdf::MIN_OPAQUE_ALPHA),
+            ("MIN_ALPHA", glassbake_trace::microfacet::MIN_ALPHA),
+            ("SMOOTH_ROUGHNESS", glassbake_scene::model::SMOOTH_ROUGHNESS),
+        ] {
+            assert_eq!(declarations(include_str!("../shaders/bsdf.wgsl"), name), 0, "bsdf.wgsl declares {name} itself");
+            assert_eq!(declarations(&source, name), 1, "{name}");
+            assert!(source.contains(&format!("const {name}: f32 = {value:?};")), "{name}");
+        }
+    }
 
     #[test]
     fn scenes_and_images_over_the_buffer_limit_are_refused_by_name() {

@@ -30,10 +30,10 @@ use crate::microfacet::{fresnel_dielectric, reflect, refract, schlick, thin_slab
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf, luminance, Frame};
 
 /// Specular reflectance at normal incidence of glTF's dielectric base (IOR 1.5).
-const DIELECTRIC_F0: f32 = 0.04;
+pub use glassbake_core::wgsl::DIELECTRIC_F0;
 /// Opaque GGX lobes never go below this alpha: a mirror-like opaque surface stays a (very
 /// narrow) microfacet lobe, which NEE and MIS handle, instead of becoming a delta.
-const MIN_OPAQUE_ALPHA: f32 = 1e-3;
+pub const MIN_OPAQUE_ALPHA: f32 = 1e-3;
 
 /// Narrowest specular lobe (GGX alpha; roughness 0.3) of a surface that photon merging
 /// gathers all scattered light at: below, a chrome fitting's lobe (roughness 0.12) turned

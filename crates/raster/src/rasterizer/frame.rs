@@ -447,7 +447,7 @@ impl Frame<'_> {
     }
 
     /// Render transparency buffer `k` into the reused transparency targets, on the GPU only
-    /// (for consumers that read the targets in place; see [`Frame::transparency_textures`]).
+    /// (the readbacks and copies into buffers read them from there).
     pub fn render_transparent(&mut self, k: usize) -> Result<()> {
         if k >= self.transparent_count() {
             return Err(Error::Internal(format!("transparency buffer {k} of {}", self.transparent_count())));
@@ -521,10 +521,5 @@ impl Frame<'_> {
     /// Block until the GPU has finished all submitted work (for timing).
     pub fn wait(&self) -> Result<()> {
         gpu_stats::wait(&self.rasterizer.device).map_err(Error::Internal)
-    }
-
-    /// The reused transparency targets, holding the buffer last rendered.
-    pub fn transparency_textures(&self) -> &[wgpu::Texture] {
-        &self.rasterizer.targets.as_ref().expect("targets").transparency.textures
     }
 }

@@ -455,6 +455,12 @@ fn bind_group_layouts(device: &wgpu::Device) -> (wgpu::BindGroupLayout, wgpu::Bi
     (view_layout, object_layout, shading_layout)
 }
 
+/// `shaders/gbuffer.wgsl` after the constants it takes from Rust.
+pub(crate) fn gbuffer_source() -> String {
+    use glassbake_core::wgsl::{constants, Value, DIELECTRIC_F0};
+    constants(&[("LTC_SIZE", Value::I32(ltc::LTC_SIZE as i32)), ("DIELECTRIC_F0", Value::F32(DIELECTRIC_F0))]) + include_str!("../../shaders/gbuffer.wgsl")
+}
+
 /// The render pipelines of `shaders/gbuffer.wgsl`.
 struct Pipelines {
     gbuffer_pipeline: wgpu::RenderPipeline,
@@ -469,10 +475,8 @@ fn pipelines(
     object_layout: &wgpu::BindGroupLayout,
     shading_layout: &wgpu::BindGroupLayout,
 ) -> Pipelines {
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("gbuffer.wgsl"),
-        source: wgpu::ShaderSource::Wgsl(include_str!("../../shaders/gbuffer.wgsl").into()),
-    });
+    let module =
+        device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("gbuffer.wgsl"), source: wgpu::ShaderSource::Wgsl(gbuffer_source().into()) });
     let shading_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some("shading"),
         bind_group_layouts: &[Some(view_layout), Some(object_layout), Some(shading_layout)],
@@ -580,6 +584,18 @@ fn constant_textures(device: &wgpu::Device, queue: &wgpu::Queue) -> ConstantText
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_gbuffer_shader_takes_its_physics_constants_from_rust() {
+        use glassbake_core::wgsl::{declarations, DIELECTRIC_F0};
+        let (file, source) = (include_str!("../../shaders/gbuffer.wgsl"), gbuffer_source());
+        for name in ["LTC_SIZE", "DIELECTRIC_F0"] {
+            assert_eq!((declarations(file, name), declarations(&source, name)), (0, 1), "{name}");
+        }
+        assert!(source.contains(&format!("const LTC_SIZE: i32 = {};", ltc::LTC_SIZE)));
+        assert!(source.contains(&format!("const DIELECTRIC_F0: f32 = {DIELECTRIC_F0:?};")));
+        assert!(!file.contains("0.04"), "a literal F0 beside the constant");
+    }
 
     fn covers_each_channel_once(map: &ChannelMap, channels: usize, targets: u32) {
         let mut seen = vec![0; channels];
