@@ -10,7 +10,7 @@ use std::time::Instant;
 use glassbake_core::layout::{self, GROUND_TRUTH_CHANNELS};
 use glassbake_core::seed::purpose_seed;
 use glassbake_core::{Error, PlanarImage, Result};
-use glassbake_dataset::{DatasetInfo, DatasetSpec, DatasetStore, Loader, LoaderOptions, SampleRecord, Split};
+use glassbake_dataset::{DatasetInfo, DatasetSpec, DatasetStore, Example, Loader, LoaderOptions, SampleRecord, Split};
 use glassbake_net::burn::prelude::Device;
 use glassbake_net::{select_device, DeviceChoice, FrameRef, ModelKind, TrainedModel, TrainedSuperSampler};
 use glassbake_trace::TraceSettings;
@@ -70,17 +70,16 @@ struct HalfResolution {
     model: usize,
 }
 
-/// One frame at half resolution: super-sampled and bilinearly enlarged, with the seconds
-/// each took (the half-resolution render included in both).
-struct HalfResolutionFrame {
-    super_sampled: RgbImage,
-    super_sampled_seconds: f64,
-    bilinear: RgbImage,
-    bilinear_seconds: f64,
+/// One row's image of a frame and, for a row that renders it, the seconds that took.
+struct Prediction {
+    image: RgbImage,
+    seconds: Option<f64>,
 }
 
 impl HalfResolution {
-    fn render(&self, model: &TrainedModel, frame: FrameRef) -> Result<HalfResolutionFrame> {
+    /// The frame super-sampled and bilinearly enlarged (rows [`half_resolution_rows`]), the
+    /// half-resolution render counted in both times.
+    fn render(&self, model: &TrainedModel, frame: FrameRef) -> Result<[Prediction; 2]> {
         let started = Instant::now();
         let low = model.render_half(frame)?;
         let gbuffer = frame.gbuffer;
@@ -91,7 +90,7 @@ impl HalfResolution {
         let started = Instant::now();
         let bilinear = RgbImage::from_planar(&low)?.bilinear_x2();
         let bilinear_seconds = low_seconds + started.elapsed().as_secs_f64();
-        Ok(HalfResolutionFrame { super_sampled, super_sampled_seconds, bilinear, bilinear_seconds })
+        Ok([Prediction { image: super_sampled, seconds: Some(super_sampled_seconds) }, Prediction { image: bilinear, seconds: Some(bilinear_seconds) }])
     }
 }
 
@@ -139,17 +138,11 @@ fn three_planes(image: &PlanarImage, first: usize) -> [&[f32]; 3] {
     [image.plane(first), image.plane(first + 1), image.plane(first + 2)]
 }
 
-/// The path-traced baseline of one frame: the traced image, and the same denoised.
-struct PathTraced {
-    raw: RgbImage,
-    denoised: RgbImage,
-    trace_seconds: f64,
-    denoise_seconds: f64,
-}
-
-/// Traces `sample` of `scene` at `spp` with the ground truth's default estimator
-/// (`TraceSettings::new`) and a seed of its own (not the ground truth's), then denoises it with the naive G-buffer's first-surface albedo and normals as guides.
-fn path_traced_baseline(scene: &glassbake_scene::Scene, sample: &SampleRecord, naive: &PlanarImage, spp: u32) -> Result<PathTraced> {
+/// The path-traced baseline of one frame (rows [`path_traced_rows`]): `sample` of `scene`
+/// traced at `spp` with the ground truth's default estimator (`TraceSettings::new`) and a
+/// seed of its own (not the ground truth's), then the same denoised with the naive
+/// G-buffer's first-surface albedo and normals as guides.
+fn path_traced_baseline(scene: &glassbake_scene::Scene, sample: &SampleRecord, naive: &PlanarImage, spp: u32) -> Result<[Prediction; 2]> {
     let (w, h) = (naive.width(), naive.height());
     let instance = scene.instantiate(&sample.values)?;
     let settings = TraceSettings::new(w, h, spp, purpose_seed(sample.seed, "path-traced baseline"));
@@ -165,7 +158,10 @@ fn path_traced_baseline(scene: &glassbake_scene::Scene, sample: &SampleRecord, n
     let denoised = denoise(&DenoiseInput { width: w as usize, height: h as usize, color: &color, albedo: &albedo, normal: &normal })?;
     let denoise_seconds = started.elapsed().as_secs_f64();
     let rgb = |v: &[f32]| RgbImage::new(w as usize, h as usize, v.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect());
-    Ok(PathTraced { raw: rgb(&color)?, denoised: rgb(&denoised)?, trace_seconds, denoise_seconds })
+    Ok([
+        Prediction { image: rgb(&color)?, seconds: Some(trace_seconds) },
+        Prediction { image: rgb(&denoised)?, seconds: Some(trace_seconds + denoise_seconds) },
+    ])
 }
 
 fn model_name(dir: &Path) -> String {
@@ -320,6 +316,42 @@ fn write_evaluation_report(
     )
 }
 
+/// Every row's image of frame `e`, in row order: each model's, the half-resolution rows, the
+/// path-traced baseline's (at `path_traced`'s spp, of its scene), the noise floor's.
+fn frame_predictions(
+    e: &Example,
+    models: &[TrainedModel],
+    half: Option<&HalfResolution>,
+    path_traced: Option<(u32, &glassbake_scene::Scene)>,
+    noise_floor: bool,
+    store: &DatasetStore,
+) -> Result<Vec<Prediction>> {
+    let mut predictions = Vec::new();
+    for model in models {
+        let (gbuffer, light_coverage) = e.gbuffer(model.kind().reads_naive_gbuffer());
+        let transparent: &[PlanarImage] = if model.config().reads_object_buffers() { &e.transparent } else { &[] };
+        let started = Instant::now();
+        let image = model.render(FrameRef { gbuffer, light_coverage: Some(light_coverage), transparent, values: &e.values, ground_truth: None })?;
+        predictions.push(Prediction { seconds: Some(started.elapsed().as_secs_f64()), image: RgbImage::from_planar(&image)? });
+    }
+    if let Some(half) = half {
+        let (gbuffer, light_coverage) = e.gbuffer(false);
+        let frame = FrameRef { gbuffer, light_coverage: Some(light_coverage), transparent: &e.transparent, values: &e.values, ground_truth: None };
+        predictions.extend(half.render(&models[half.model], frame)?);
+    }
+    if let Some((spp, scene)) = path_traced {
+        let sample =
+            store.manifest.samples.iter().find(|s| s.index == e.index).ok_or_else(|| Error::Internal(format!("frame {} is not in the manifest", e.index)))?;
+        let naive = e.naive.as_ref().expect("the loader was asked for naive buffers");
+        predictions.extend(path_traced_baseline(scene, sample, naive, spp)?);
+    }
+    if noise_floor {
+        let image = RgbImage::from_planar(&PlanarImage::read_exr(&store.train_spp_gt_path(e.index))?)?;
+        predictions.push(Prediction { image, seconds: None });
+    }
+    Ok(predictions)
+}
+
 /// Scores `options.models` on the dataset split, writes `OUT/metrics.*`, `OUT/frames`,
 /// `OUT/grids` and `OUT/report/`. `facts` are extra lines for the report (the bake's stage
 /// times); `progress(done, total)` is called after every frame.
@@ -366,43 +398,7 @@ pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn
             if done == total {
                 break 'frames;
             }
-            let mut predictions = Vec::new();
-            let mut seconds = Vec::new();
-            for model in &models {
-                let naive = model.kind().reads_naive_gbuffer();
-                let (gbuffer, light_coverage) = e.gbuffer(naive);
-                let transparent: &[PlanarImage] = if model.config().reads_object_buffers() { &e.transparent } else { &[] };
-                let started = Instant::now();
-                let image = model.render(FrameRef { gbuffer, light_coverage: Some(light_coverage), transparent, values: &e.values, ground_truth: None })?;
-                seconds.push(Some(started.elapsed().as_secs_f64()));
-                predictions.push(RgbImage::from_planar(&image)?);
-            }
-            if let Some(half) = &half {
-                let (gbuffer, light_coverage) = e.gbuffer(false);
-                let frame = half.render(
-                    &models[half.model],
-                    FrameRef { gbuffer, light_coverage: Some(light_coverage), transparent: &e.transparent, values: &e.values, ground_truth: None },
-                )?;
-                predictions.extend([frame.super_sampled, frame.bilinear]);
-                seconds.extend([Some(frame.super_sampled_seconds), Some(frame.bilinear_seconds)]);
-            }
-            if let (Some(spp), Some(scene)) = (options.path_traced_baseline, &scene) {
-                let sample = store
-                    .manifest
-                    .samples
-                    .iter()
-                    .find(|s| s.index == e.index)
-                    .ok_or_else(|| Error::Internal(format!("frame {} is not in the manifest", e.index)))?;
-                let naive = e.naive.as_ref().expect("the loader was asked for naive buffers");
-                let pt = path_traced_baseline(scene, sample, naive, spp)?;
-                predictions.extend([pt.raw, pt.denoised]);
-                seconds.extend([Some(pt.trace_seconds), Some(pt.trace_seconds + pt.denoise_seconds)]);
-            }
-            if noise_floor.is_some() {
-                let path = store.train_spp_gt_path(e.index);
-                predictions.push(RgbImage::from_planar(&PlanarImage::read_exr(&path)?)?);
-                seconds.push(None);
-            }
+            let predictions = frame_predictions(&e, &models, half.as_ref(), options.path_traced_baseline.zip(scene.as_ref()), noise_floor.is_some(), &store)?;
             if let Some(i) = order_model {
                 let model = &models[i];
                 let (gbuffer, light_coverage) = e.gbuffer(false);
@@ -418,12 +414,13 @@ pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn
                 order.shuffled_max_abs_diff = order.shuffled_max_abs_diff.max(max_abs_diff(&original, &frame(&shuffled)?));
                 order.frames += 1;
             }
-            evaluation.add_frame(e.index, &RgbImage::from_planar(&e.ground_truth)?, &mask_from_planar(&e.mask), &predictions)?;
-            for (model, s) in seconds.into_iter().enumerate() {
-                if let Some(s) = s {
-                    evaluation.add_render_time(model, s);
+            for (row, seconds) in predictions.iter().enumerate() {
+                if let Some(s) = seconds.seconds {
+                    evaluation.add_render_time(row, s);
                 }
             }
+            let images: Vec<RgbImage> = predictions.into_iter().map(|p| p.image).collect();
+            evaluation.add_frame(e.index, &RgbImage::from_planar(&e.ground_truth)?, &mask_from_planar(&e.mask), &images)?;
             done += 1;
             progress(done, total);
         }
