@@ -12,6 +12,7 @@
 pub mod geometry;
 pub mod gpu_bvh;
 pub mod gpu_cache;
+pub mod gpu_readback;
 pub mod gpu_stats;
 pub mod optics;
 pub mod through;

@@ -335,20 +335,8 @@ impl GpuThroughPass {
         });
         let readback = created(GpuObject::Buffer, readback);
         self.cast_into(scene, k, camera, width, height, PlanesAt { buffer: &light, byte_offset: 0, plane: 0 }, &object, 0, 0, 1)?;
-        let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("through readback") });
-        encoder.copy_buffer_to_buffer(&object, (pixels * 4) as u64, &readback, 0, out_bytes);
-        self.queue.submit([encoder.finish()]);
-        let (tx, rx) = std::sync::mpsc::channel();
-        readback.map_async(wgpu::MapMode::Read, .., move |r| {
-            let _ = tx.send(r);
-        });
-        crate::gpu_stats::wait(&self.device).map_err(Error::Internal)?;
-        rx.recv().map_err(|_| Error::Internal("readback callback dropped".into()))?.map_err(|e| Error::Internal(format!("reading the through buffer: {e}")))?;
-        let data: Vec<f32> = match readback.get_mapped_range(..) {
-            Ok(view) => bytemuck::pod_collect_to_vec(&view),
-            Err(e) => return Err(Error::Internal(format!("reading the through buffer: {e}"))),
-        };
-        readback.unmap();
+        let bytes = crate::gpu_readback::read_back(&self.device, &self.queue, &object, (pixels * 4) as u64, &readback, out_bytes)?;
+        let data: Vec<f32> = bytemuck::pod_collect_to_vec(&bytes);
         PlanarImage::from_planes(width, height, layout::through_channel_names(k), data)
     }
 

@@ -259,24 +259,7 @@ impl GpuTracer {
 
     /// Copy `source` into `readback` and read its bytes.
     pub(crate) fn read(&self, source: &wgpu::Buffer, readback: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>> {
-        let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
-        encoder.copy_buffer_to_buffer(source, 0, readback, 0, bytes);
-        self.queue.submit([encoder.finish()]);
-        let (tx, rx) = std::sync::mpsc::channel();
-        readback.map_async(wgpu::MapMode::Read, .., move |r| {
-            let _ = tx.send(r);
-        });
-        self.wait()?;
-        rx.recv().map_err(|_| Error::Internal("readback callback dropped".into()))?.map_err(|e| Error::Internal(format!("reading GPU results: {e}")))?;
-        let values = match readback.get_mapped_range(..) {
-            Ok(view) => {
-                let bytes: &[u8] = &view;
-                Ok(bytes.to_vec())
-            }
-            Err(e) => Err(Error::Internal(format!("reading GPU results: {e}"))),
-        };
-        readback.unmap();
-        values
+        glassbake_rays::gpu_readback::read_back(&self.device, &self.queue, source, 0, readback, bytes)
     }
 }
 

@@ -17,8 +17,9 @@ mod frame;
 mod targets;
 
 pub use frame::Frame;
+use glassbake_rays::gpu_readback::map_for_reading;
 pub(crate) use targets::padded_row_bytes;
-use targets::{map_for_reading, CoverageBuffers, ShadowMaps, TargetSet, Targets};
+use targets::{CoverageBuffers, ShadowMaps, TargetSet, Targets};
 
 /// Sizes of render targets a rasterizer keeps (the current and the one before).
 pub(crate) const KEPT_TARGET_SIZES: usize = 2;

@@ -2,7 +2,8 @@
 //! they are read back through, the light coverage's buffers, the shadow maps.
 
 use glassbake_core::{Error, Result};
-use glassbake_rays::gpu_stats::{self, created, GpuObject};
+use glassbake_rays::gpu_readback::map_for_reading;
+use glassbake_rays::gpu_stats::{created, GpuObject};
 
 use super::{ChannelMap, DEPTH_FORMAT, TARGET_FORMAT};
 
@@ -107,16 +108,6 @@ impl TargetSet {
         self.readback.unmap();
         Ok(())
     }
-}
-
-/// Maps `buffer` (MAP_READ, its copies submitted) and waits until the host can read it.
-pub(super) fn map_for_reading(device: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<()> {
-    let (tx, rx) = std::sync::mpsc::channel();
-    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
-    gpu_stats::wait(device).map_err(Error::Internal)?;
-    rx.recv().map_err(|_| Error::Internal("readback callback dropped".into()))?.map_err(|e| Error::Internal(format!("mapping the readback buffer: {e}")))
 }
 
 /// Bytes per readback row: 16 bytes per texel, padded to wgpu's 256-byte copy alignment.
