@@ -4,7 +4,18 @@
 //! dataset, and the whole bake: dataset -> models -> evaluation -> report, each stage resumed
 //! where a killed run stopped. The `glassbake` binary parses arguments into these requests
 //! and prints what they report; a program that bakes from its own code calls the same
-//! functions and gets the same files.
+//! functions and gets the same files:
+//!
+//! ```no_run
+//! use glassbake_bake::{bake, BakeRequest, Preset, Progress};
+//!
+//! let mut preset = Preset::quick();
+//! preset.training.steps = 1000; // a preset is a plain value
+//! let request = BakeRequest::new("cornellbox", preset, "bakes/cornellbox");
+//! let result = bake(&request, &Progress::silent())?;
+//! print!("{}", result.summary.text_table());
+//! # Ok::<(), glassbake_core::Error>(())
+//! ```
 
 pub mod ablation;
 pub mod bake;
