@@ -60,7 +60,7 @@ fn face_normal(triangle: u32) -> vec3f {
 fn shading_normal(hit: Hit) -> vec3f {
     let base = hit.triangle * ATTRIBUTE_VEC4S;
     let face = face_normal(hit.triangle);
-    if (bitcast<u32>(attributes[base + 1u].w) & ATTR_HAS_NORMALS) == 0u {
+    if (bitcast<u32>(attributes[base + 2u].w) & ATTR_HAS_NORMALS) == 0u {
         return face;
     }
     let b0 = 1.0 - hit.b1 - hit.b2;
@@ -99,7 +99,7 @@ fn surface_end(hit: Hit, origin: vec3f, direction: vec3f, transmittance: f32, le
     end.length = length;
     let base = hit.triangle * ATTRIBUTE_VEC4S;
     let material_or_light = bitcast<u32>(attributes[base].w);
-    if (bitcast<u32>(attributes[base + 1u].w) & ATTR_RECT_LIGHT) != 0u {
+    if (bitcast<u32>(attributes[base + 2u].w) & ATTR_RECT_LIGHT) != 0u {
         let normal = lights[material_or_light * LIGHT_VEC4S];
         let front = dot(normal.xyz, direction) < 0.0;
         end.albedo = vec3f(0.0);

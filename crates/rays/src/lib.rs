@@ -13,6 +13,7 @@ pub mod geometry;
 pub mod gpu_bvh;
 pub mod gpu_cache;
 pub mod gpu_readback;
+pub mod gpu_scene;
 pub mod gpu_stats;
 pub mod optics;
 pub mod through;

@@ -19,18 +19,14 @@ use wgpu::util::DeviceExt;
 use crate::geometry::{scene_triangles, TriangleAttributes};
 use crate::gpu_bvh::{GpuBvhs, GpuTriangle, COMMON_WGSL, OPTICS_WGSL};
 use crate::gpu_cache::Recent;
+use crate::gpu_scene::{self, bits, v4, ATTRIBUTE_VEC4S, NONE};
 use crate::gpu_stats::{created, GpuObject};
 use crate::through::{LOBE_SAMPLES, MAX_INTERFACES, SELF_HIT, VIEW_SLACK};
-use crate::triangle::Owner;
 
-/// Record sizes in vec4s, and the flags of a triangle's attributes: these constants reach the
-/// shader (`shader_source`).
-const ATTRIBUTE_VEC4S: usize = 8;
+/// Record sizes in vec4s of the through pass's own records (the triangles' are
+/// `gpu_scene`'s): these constants reach the shader (`shader_source`).
 const MATERIAL_VEC4S: usize = 2;
 const LIGHT_VEC4S: usize = 2;
-const ATTR_RECT_LIGHT: u32 = 1;
-const ATTR_HAS_NORMALS: u32 = 2;
-const NONE: u32 = u32::MAX;
 const WORKGROUP_SIDE: u32 = 8;
 
 /// The kernel's uniform block (`Params` in through.wgsl).
@@ -59,13 +55,9 @@ struct Params {
 }
 
 fn shader_source() -> String {
-    let integers: [(&str, usize); 16] = [
-        ("ATTRIBUTE_VEC4S", ATTRIBUTE_VEC4S),
+    let integers: [(&str, usize); 12] = [
         ("MATERIAL_VEC4S", MATERIAL_VEC4S),
         ("LIGHT_VEC4S", LIGHT_VEC4S),
-        ("ATTR_RECT_LIGHT", ATTR_RECT_LIGHT as usize),
-        ("ATTR_HAS_NORMALS", ATTR_HAS_NORMALS as usize),
-        ("NONE", NONE as usize),
         ("NO_SAMPLE", NONE as usize),
         ("MAX_INTERFACES", MAX_INTERFACES),
         ("LOBE_SAMPLES", LOBE_SAMPLES),
@@ -77,7 +69,8 @@ fn shader_source() -> String {
         ("THROUGH_TRANSMITTANCE", through::TRANSMITTANCE),
         ("THROUGH_LENGTH", through::LENGTH),
     ];
-    let mut source: String = integers.iter().map(|(name, value)| format!("const {name}: u32 = {value}u;\n")).collect();
+    let mut source = gpu_scene::wgsl_constants();
+    source.extend(integers.iter().map(|(name, value)| format!("const {name}: u32 = {value}u;\n")));
     source.push_str(&format!(
         "const THROUGH_SCREEN_OFFSET: u32 = {}u;\nconst THROUGH_ON_SCREEN: u32 = {}u;\nconst SELF_HIT: f32 = {SELF_HIT:e};\nconst VIEW_SLACK: f32 = {VIEW_SLACK:e};\n",
         through::SCREEN_OFFSET,
@@ -148,14 +141,6 @@ struct ObjectParams {
     thin: bool,
     /// GGX alpha (roughness squared) of rough glass; `None` for smooth glass.
     alpha: Option<f32>,
-}
-
-fn v4(v: Vec3, w: f32) -> [f32; 4] {
-    [v.x, v.y, v.z, w]
-}
-
-fn bits(x: u32) -> f32 {
-    f32::from_bits(x)
 }
 
 impl GpuThroughPass {
@@ -489,27 +474,14 @@ impl<'a> PlanesAt<'a> {
     }
 }
 
-/// Each triangle's attributes (corners with the material or light and flags, normals, UVs),
-/// `ATTRIBUTE_VEC4S` vec4s a triangle, set after set; and the first triangle of each set.
+/// Each triangle's attribute record (`gpu_scene`), set after set; and the first triangle of
+/// each set.
 fn triangle_attributes(sets: &[(Vec<TriangleAttributes>, String)]) -> (Vec<[f32; 4]>, Vec<u32>) {
     let mut attributes: Vec<[f32; 4]> = Vec::new();
     let mut firsts = Vec::with_capacity(sets.len());
     for (triangles, _) in sets {
         firsts.push((attributes.len() / ATTRIBUTE_VEC4S) as u32);
-        for t in triangles {
-            let (material_or_light, mut flags) = match t.owner {
-                Owner::Object { material, .. } => (material, 0),
-                Owner::RectLight { light } => (light, ATTR_RECT_LIGHT),
-            };
-            if t.normals.is_some() {
-                flags |= ATTR_HAS_NORMALS;
-            }
-            let [p0, p1, p2] = t.positions;
-            attributes.extend([v4(p0, bits(material_or_light)), v4(p1, bits(flags)), v4(p2, 0.0)]);
-            attributes.extend(t.normals.unwrap_or([Vec3::ZERO; 3]).map(|n| v4(n, 0.0)));
-            let [t0, t1, t2] = t.uvs;
-            attributes.extend([[t0.x, t0.y, t1.x, t1.y], [t2.x, t2.y, 0.0, 0.0]]);
-        }
+        gpu_scene::push_attributes(triangles, &mut attributes);
     }
     (attributes, firsts)
 }
@@ -530,12 +502,8 @@ fn pack_materials(scene: &Scene) -> PackedMaterials {
         let texture = m.base_color_texture.filter(|&t| t < scene.textures.len()).map_or(NONE, |t| t as u32);
         materials.extend([v4(m.base_color, bits(texture)), v4(m.emission, 0.0)]);
     }
-    let texture_table = materials.len() as u32;
     let mut texels = Vec::new();
-    for t in &scene.textures {
-        materials.push([bits(texels.len() as u32), bits(t.width), bits(t.height), 0.0]);
-        texels.extend(t.texels.iter().map(|c| c.to_array()));
-    }
+    let texture_table = gpu_scene::push_textures(scene, &mut materials, &mut texels);
     let lights: Vec<[f32; 4]> = scene.rect_lights.iter().flat_map(|l| [v4(l.normal(), if l.two_sided { 1.0 } else { 0.0 }), v4(l.radiance, 0.0)]).collect();
     PackedMaterials { materials, texture_table, texels, lights }
 }

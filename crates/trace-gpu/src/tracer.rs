@@ -72,22 +72,18 @@ pub struct GpuTracer {
 pub(crate) fn shared_constants() -> String {
     use crate::upload::*;
     use glassbake_core::wgsl::{constants, Value};
-    constants(&[
-        ("FLAG_LAMBERTIAN", Value::U32(FLAG_LAMBERTIAN)),
-        ("ATTRIBUTE_VEC4S", Value::U32(ATTRIBUTE_VEC4S as u32)),
-        ("MATERIAL_VEC4S", Value::U32(MATERIAL_VEC4S as u32)),
-        ("EMITTER_VEC4S", Value::U32(EMITTER_VEC4S as u32)),
-        ("NONE", Value::U32(NONE)),
-        ("ATTR_RECT_LIGHT", Value::U32(ATTR_RECT_LIGHT)),
-        ("ATTR_HAS_NORMALS", Value::U32(ATTR_HAS_NORMALS)),
-        ("ATTR_PASS_THROUGH", Value::U32(ATTR_PASS_THROUGH)),
-        ("MAX_VERTICES", Value::U32(glassbake_trace::prepared::MAX_VERTICES)),
-        // The BSDF's: the CPU tracer's values.
-        ("DIELECTRIC_F0", Value::F32(glassbake_trace::bsdf::DIELECTRIC_F0)),
-        ("MIN_OPAQUE_ALPHA", Value::F32(glassbake_trace::bsdf::MIN_OPAQUE_ALPHA)),
-        ("MIN_ALPHA", Value::F32(glassbake_trace::microfacet::MIN_ALPHA)),
-        ("SMOOTH_ROUGHNESS", Value::F32(glassbake_scene::model::SMOOTH_ROUGHNESS)),
-    ])
+    glassbake_rays::gpu_scene::wgsl_constants()
+        + &constants(&[
+            ("FLAG_LAMBERTIAN", Value::U32(FLAG_LAMBERTIAN)),
+            ("MATERIAL_VEC4S", Value::U32(MATERIAL_VEC4S as u32)),
+            ("EMITTER_VEC4S", Value::U32(EMITTER_VEC4S as u32)),
+            ("MAX_VERTICES", Value::U32(glassbake_trace::prepared::MAX_VERTICES)),
+            // The BSDF's: the CPU tracer's values.
+            ("DIELECTRIC_F0", Value::F32(glassbake_trace::bsdf::DIELECTRIC_F0)),
+            ("MIN_OPAQUE_ALPHA", Value::F32(glassbake_trace::bsdf::MIN_OPAQUE_ALPHA)),
+            ("MIN_ALPHA", Value::F32(glassbake_trace::microfacet::MIN_ALPHA)),
+            ("SMOOTH_ROUGHNESS", Value::F32(glassbake_scene::model::SMOOTH_ROUGHNESS)),
+        ])
 }
 
 /// The WGSL source of the trace kernel: the constants it shares with Rust, the optics and the

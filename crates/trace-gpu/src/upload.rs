@@ -1,38 +1,23 @@
 //! A scene instance as the flat arrays of vec4s that `shaders/trace.wgsl` reads. The record
 //! sizes here and the `*_VEC4S` constants there describe the same layouts.
 
-use glam::Vec3;
 use glassbake_core::Result;
 use glassbake_scene::Scene;
-use glassbake_trace::geometry::Owner;
 use glassbake_trace::lights::Shape;
 use glassbake_trace::{PreparedScene, SurfaceMaterial};
 
 pub use glassbake_rays::gpu_bvh::MAX_BVH_DEPTH;
 use glassbake_rays::gpu_bvh::{GpuBvhs, GpuTriangle};
+use glassbake_rays::gpu_scene::{self, bits, v4};
 
-/// No texture, emitter or node.
-pub(crate) const NONE: u32 = u32::MAX;
-/// Per-triangle attribute flags.
-pub(crate) const ATTR_RECT_LIGHT: u32 = 1;
-pub(crate) const ATTR_HAS_NORMALS: u32 = 2;
-pub(crate) const ATTR_PASS_THROUGH: u32 = 4;
+pub(crate) use glassbake_rays::gpu_scene::{ATTR_PASS_THROUGH, NONE};
 
-/// Record sizes in vec4s. These constants, not copies, reach the shader
-/// (`tracer::shared_constants`).
-pub(crate) const ATTRIBUTE_VEC4S: usize = 8;
+/// Record sizes in vec4s of the tracer's own records (the triangles' are `gpu_scene`'s).
+/// These constants, not copies, reach the shader (`tracer::shared_constants`).
 pub(crate) const MATERIAL_VEC4S: usize = 4;
 pub(crate) const EMITTER_VEC4S: usize = 6;
 
 type Vec4s = Vec<[f32; 4]>;
-
-fn bits(x: u32) -> f32 {
-    f32::from_bits(x)
-}
-
-fn v4(v: Vec3, w: f32) -> [f32; 4] {
-    [v.x, v.y, v.z, w]
-}
 
 /// Everything the trace kernel reads about one scene instance.
 pub struct SceneBuffers {
@@ -58,30 +43,8 @@ impl SceneBuffers {
         let prepared = PreparedScene::new(scene);
         let attributes_cpu = &prepared.geometry.attributes;
 
-        let mut attributes = Vec::with_capacity(attributes_cpu.len() * ATTRIBUTE_VEC4S);
-        for a in attributes_cpu {
-            let (material_or_light, mut flags) = match a.owner {
-                Owner::Object { material, .. } => (material, 0),
-                Owner::RectLight { light } => (light, ATTR_RECT_LIGHT),
-            };
-            if a.normals.is_some() {
-                flags |= ATTR_HAS_NORMALS;
-            }
-            if a.may_pass_through {
-                flags |= ATTR_PASS_THROUGH;
-            }
-            let [p0, p1, p2] = a.positions;
-            attributes.push(v4(p0, bits(material_or_light)));
-            attributes.push(v4(p1, bits(a.emitter.unwrap_or(NONE))));
-            attributes.push(v4(p2, bits(flags)));
-            let normals = a.normals.unwrap_or([Vec3::ZERO; 3]);
-            for n in normals {
-                attributes.push(v4(n, 0.0));
-            }
-            let [t0, t1, t2] = a.uvs;
-            attributes.push([t0.x, t0.y, t1.x, t1.y]);
-            attributes.push([t2.x, t2.y, 0.0, 0.0]);
-        }
+        let mut attributes = Vec::new();
+        gpu_scene::push_attributes(attributes_cpu, &mut attributes);
 
         let bvh_triangles: Vec<GpuTriangle> = attributes_cpu
             .iter()
@@ -113,12 +76,8 @@ impl SceneBuffers {
                 bits(texture_ref(m.specular_color_texture)),
             ]);
         }
-        let texture_table = materials.len() as u32;
         let mut texels = Vec::new();
-        for t in &scene.textures {
-            materials.push([bits(texels.len() as u32), bits(t.width), bits(t.height), 0.0]);
-            texels.extend(t.texels.iter().map(|c| c.to_array()));
-        }
+        let texture_table = gpu_scene::push_textures(scene, &mut materials, &mut texels);
 
         let lights = &prepared.lights;
         let mut emitters = Vec::with_capacity(lights.emitters.len() * EMITTER_VEC4S);
