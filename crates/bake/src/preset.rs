@@ -58,14 +58,7 @@ impl Preset {
         Preset {
             name: "tiny".into(),
             dataset: DatasetSize { resolution: 32, spp: 4, glass_spp: None, train: 8, val: 2, test: 2 },
-            network: NetShape {
-                encoding_frequencies: 2,
-                scene_encoder: UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
-                transparency_encoder: CnnConfig { width: 4, layers: 1, out_channels: 4 },
-                blending: UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
-                renderer: RendererConfig { width: 4, large_kernel: 5, layers: 1, pointwise_layers: 1 },
-                pixel_generator: PixelGeneratorConfig { width: 8, layers: 3, skip_at: 2 },
-            },
+            network: NetShape::smallest(),
             training: TrainConfig {
                 steps: 40,
                 batch_size: 2,

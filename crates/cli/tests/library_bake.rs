@@ -2,29 +2,13 @@
 //! arguments: the same dataset byte for byte, the same weights tensor for tensor, the same
 //! scores on every frame.
 
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
+
+mod common;
 
 use glassbake_bake::{bake, BakeRequest, Preset, Progress};
 use glassbake_eval::EvaluationSummary;
-
-/// Every file under `dir` by its path relative to `dir`, with its bytes.
-fn files(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    let mut found = BTreeMap::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for entry in std::fs::read_dir(&d).unwrap() {
-            let p = entry.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                found.insert(p.strip_prefix(dir).unwrap().to_path_buf(), std::fs::read(&p).unwrap());
-            }
-        }
-    }
-    found
-}
 
 /// A safetensors file as (its header, its tensor bytes): the header's metadata is a map whose
 /// order is not fixed, so it is compared as JSON.
@@ -45,9 +29,9 @@ fn a_library_bake_makes_what_the_command_makes() {
 
     let result = bake(&BakeRequest::new("cornell-glass", Preset::tiny(), &library), &Progress::silent()).unwrap();
 
-    let dataset = files(&cli.join("dataset"));
+    let dataset = common::snapshot(&cli.join("dataset"));
     assert!(dataset.keys().any(|p| p.starts_with("gt-train-spp")), "the test split has its noise-floor copy");
-    assert_eq!(dataset, files(&library.join("dataset")), "the datasets differ");
+    assert_eq!(dataset, common::snapshot(&library.join("dataset")), "the datasets differ");
     for model in ["glassnet", "naive"] {
         let weights = |bake: &Path| tensors(&bake.join(model).join("glassnet.safetensors"));
         assert_eq!(weights(&cli), weights(&library), "{model}'s weights differ");

@@ -3,9 +3,10 @@
 //! files and at a glassbake folder of another kind: each exits 2 naming the folder, and leaves
 //! it exactly as it was. Bad arguments are refused before anything is written.
 
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
+
+mod common;
 
 fn glassbake(args: &[&str]) -> (i32, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_glassbake")).args(args).output().unwrap();
@@ -14,23 +15,6 @@ fn glassbake(args: &[&str]) -> (i32, String) {
 
 fn path(p: &Path) -> &str {
     p.to_str().unwrap()
-}
-
-/// Every file under `dir` with its bytes, to show a refused command left it as it was.
-fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    let mut files = BTreeMap::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for entry in std::fs::read_dir(&d).unwrap() {
-            let p = entry.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                files.insert(p.clone(), std::fs::read(&p).unwrap());
-            }
-        }
-    }
-    files
 }
 
 fn tiny_dataset(scene: &str, out: &Path) {
@@ -100,7 +84,7 @@ fn every_command_refuses_a_folder_it_did_not_make() {
         ]
     };
     for (target, what) in [(&user, "the user's folder"), (&model, "a model directory"), (&evaluation, "an evaluation")] {
-        let before = snapshot(target);
+        let before = common::snapshot(target);
         for (command, args) in commands(target) {
             let own_kind = (command == "train" && target == &model) || (command == "eval" && target == &evaluation);
             if own_kind {
@@ -110,7 +94,7 @@ fn every_command_refuses_a_folder_it_did_not_make() {
             let (code, err) = glassbake(&args);
             assert_eq!(code, 2, "{command} into {what}: {err}");
             assert!(err.contains(path(target)), "{command} into {what} should name the folder: {err}");
-            assert_eq!(snapshot(target), before, "{command} into {what} changed it");
+            assert_eq!(common::snapshot(target), before, "{command} into {what} changed it");
         }
     }
 }

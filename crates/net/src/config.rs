@@ -196,6 +196,21 @@ pub struct NetShape {
     pub pixel_generator: PixelGeneratorConfig,
 }
 
+impl NetShape {
+    /// The smallest network every model kind builds: U-Nets of 2 levels, widths of 4. What
+    /// tests train and the `tiny` preset bakes.
+    pub fn smallest() -> NetShape {
+        NetShape {
+            encoding_frequencies: 2,
+            scene_encoder: UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
+            transparency_encoder: CnnConfig { width: 4, layers: 1, out_channels: 4 },
+            blending: UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
+            renderer: RendererConfig { width: 4, large_kernel: 5, layers: 1, pointwise_layers: 1 },
+            pixel_generator: PixelGeneratorConfig { width: 8, layers: 3, skip_at: 2 },
+        }
+    }
+}
+
 impl NetConfig {
     /// `model` of `shape` (a preset's, named `preset_name`) for a scene with `variables`
     /// variables and `transparent_objects` transparent objects.
@@ -441,22 +456,10 @@ impl TrainConfig {
 mod tests {
     use super::*;
 
-    /// A small network (the bake's presets are tested where they are defined).
-    fn shape() -> NetShape {
-        NetShape {
-            encoding_frequencies: 2,
-            scene_encoder: UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
-            transparency_encoder: CnnConfig { width: 4, layers: 1, out_channels: 4 },
-            blending: UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
-            renderer: RendererConfig { width: 4, large_kernel: 5, layers: 1, pointwise_layers: 1 },
-            pixel_generator: PixelGeneratorConfig { width: 8, layers: 3, skip_at: 2 },
-        }
-    }
-
     #[test]
     fn every_model_of_a_shape_is_valid_and_only_pixelgen_has_its_mlp() {
         for kind in ModelKind::ALL {
-            let config = NetConfig::new(&shape(), "small", kind, 3, 4).unwrap();
+            let config = NetConfig::new(&NetShape::smallest(), "small", kind, 3, 4).unwrap();
             assert_eq!(config.pixel_generator.is_some(), kind == ModelKind::Pixelgen);
             assert_eq!(config.through, kind == ModelKind::Glassnet);
             assert_eq!(ModelKind::parse(kind.name()), Some(kind));
@@ -465,7 +468,7 @@ mod tests {
 
     #[test]
     fn too_many_objects_for_exact_sums_are_refused() {
-        let err = NetConfig::new(&shape(), "small", ModelKind::Glassnet, 0, MAX_EXACT_OBJECTS + 1).unwrap_err();
+        let err = NetConfig::new(&NetShape::smallest(), "small", ModelKind::Glassnet, 0, MAX_EXACT_OBJECTS + 1).unwrap_err();
         assert!(err.to_string().contains("transparent_objects"), "{err}");
     }
 
@@ -496,7 +499,7 @@ mod tests {
 
     #[test]
     fn config_round_trips_through_json() {
-        let c = NetConfig::new(&shape(), "small", ModelKind::Concat, 4, 4).unwrap();
+        let c = NetConfig::new(&NetShape::smallest(), "small", ModelKind::Concat, 4, 4).unwrap();
         let json = serde_json::to_string(&c).unwrap();
         assert_eq!(serde_json::from_str::<NetConfig>(&json).unwrap(), c);
         assert!(json.contains("\"model\":\"concat\""));

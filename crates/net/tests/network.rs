@@ -32,7 +32,7 @@ fn every_model_kind_maps_a_batch_to_an_rgb_image_of_its_size() {
     }
     // A U-Net of 3 levels needs multiples of 4.
     let three_levels = glassbake_net::config::UNetConfig { base_width: 4, levels: 3, out_channels: 4 };
-    let shape = glassbake_net::NetShape { scene_encoder: three_levels.clone(), blending: three_levels, ..common::small_shape() };
+    let shape = glassbake_net::NetShape { scene_encoder: three_levels.clone(), blending: three_levels, ..glassbake_net::NetShape::smallest() };
     let net = GlassNet::new(&NetConfig::new(&shape, "small", ModelKind::Glassnet, 2, 3).unwrap(), 3, &device).unwrap();
     assert!(net.check_inputs(64, 64, 3).is_ok());
     assert!(net.check_inputs(66, 64, 3).unwrap_err().to_string().contains("multiple of 4"));

@@ -146,7 +146,7 @@ impl GpuTracer {
             if let Some(p) = progress {
                 p(samples, samples);
             }
-            return Ok(TraceOutput::unlit(image, samples, vec![warning], start.elapsed()));
+            return Ok(TraceOutput::plain(image, samples, vec![warning], start.elapsed()));
         }
         let slots = (TARGET_THREADS / pixels).clamp(1, MAX_SLOTS);
         let limits = self.device.limits();
@@ -232,21 +232,7 @@ impl GpuTracer {
             tracing::warn!("{warning}");
             warnings.push(warning);
         }
-        Ok(TraceOutput {
-            image,
-            discarded_samples,
-            samples,
-            pilot_samples: 0,
-            camera_rays: 0,
-            light_paths: 0,
-            light_pilot_paths: 0,
-            photon_paths: 0,
-            global_photon_paths: 0,
-            photons: 0,
-            merge_radius: 0.0,
-            warnings,
-            elapsed: start.elapsed(),
-        })
+        Ok(TraceOutput { discarded_samples, ..TraceOutput::plain(image, samples, warnings, start.elapsed()) })
     }
 
     pub(crate) fn wait(&self) -> Result<()> {

@@ -6,10 +6,11 @@
 mod data;
 mod preview;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use glassbake_core::{Error, Result};
+use glassbake_dataset::DatasetStore;
 use glassbake_net::hash_grid::HashGridConfig;
 use glassbake_net::model_dir::{ModelConfig, ModelFiles, Network, FORMAT_VERSION};
 use glassbake_net::{
@@ -203,15 +204,7 @@ pub fn train_model(request: &TrainRequest, progress: &Progress) -> Result<bool> 
     // The loaders check their options before the model directory is written.
     let naive = kind.reads_naive_gbuffer();
     let (train_loader, val) = loaders(&request.dataset, scene, &train_config, request.workers, naive)?;
-    let files = ModelFiles::prepare(
-        &request.out,
-        ModelConfig {
-            format_version: FORMAT_VERSION,
-            network: Network::Glassnet(net_config.clone()),
-            train: train_config.clone(),
-            data: data_source(&request.dataset, &store)?,
-        },
-    )?;
+    let files = model_files(&request.out, Network::Glassnet(net_config.clone()), &train_config, &request.dataset, &store)?;
     let mut data = DatasetData::new(train_loader, val, &train_config, naive, net_config.reads_object_buffers(), None);
     let device = select_device(request.device, train_config.seed, true);
     let model = GlassNet::new(&net_config, train_config.seed, &device)?;
@@ -282,15 +275,7 @@ pub fn train_super_sampler(request: &SuperSamplerRequest, progress: &Progress) -
     let sr_config = request.preset.super_sampler.clone();
     let naive = glassnet.kind().reads_naive_gbuffer();
     let (train_loader, val) = loaders(&request.dataset, scene, &train_config, request.workers, naive)?;
-    let files = ModelFiles::prepare(
-        &request.out,
-        ModelConfig {
-            format_version: FORMAT_VERSION,
-            network: Network::SuperSampler(sr_config.clone()),
-            train: train_config.clone(),
-            data: data_source(&request.dataset, &store)?,
-        },
-    )?;
+    let files = model_files(&request.out, Network::SuperSampler(sr_config.clone()), &train_config, &request.dataset, &store)?;
     let mut data = DatasetData::new(train_loader, val, &train_config, false, true, Some(glassnet));
     let device = select_device(request.device, train_config.seed, true);
     let model = SuperSampler::new(&sr_config, train_config.seed, &device);
@@ -305,6 +290,12 @@ pub fn train_super_sampler(request: &SuperSamplerRequest, progress: &Progress) -
     let summary = train(model, &files, &train_config, &device, &mut data, &RunOptions::default(), &mut on_event(progress.bar()))?;
     report(&summary, &files, progress);
     Ok(())
+}
+
+/// The model directory `out` for `network` trained as `train` says on the dataset in
+/// `dataset` (opened as `store`): made, or checked to be this model's when resuming.
+fn model_files(out: &Path, network: Network, train: &TrainConfig, dataset: &Path, store: &DatasetStore) -> Result<ModelFiles> {
+    ModelFiles::prepare(out, ModelConfig { format_version: FORMAT_VERSION, network, train: train.clone(), data: data_source(dataset, store)? })
 }
 
 /// Turns `bar` into a training-step bar of `steps` steps.

@@ -7,7 +7,7 @@ use anyhow::Result;
 use clap::{Args, Subcommand};
 use glassbake_bake::{make_dataset, DatasetRequest, Progress};
 use glassbake_core::Error;
-use glassbake_dataset::{merge, upgrade, DatasetSpec, DatasetStore, ShardSpec, Split, TraceDevice, FORMAT_VERSION};
+use glassbake_dataset::{merge, upgrade, DatasetSpec, DatasetStore, ShardSpec, TraceDevice, FORMAT_VERSION};
 use glassbake_scene::load_scene;
 use glassbake_trace::Estimator;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -191,7 +191,7 @@ pub fn run(args: DatasetArgs) -> Result<()> {
 impl MakeArgs {
     fn request(&self) -> Result<DatasetRequest> {
         let spec = DatasetSpec::new(self.scene.clone(), self.res, self.spp, [self.train, self.val, self.test]);
-        let test_spp = self.test_spp.unwrap_or(spec.spp_of(Split::Test));
+        let test_spp = self.test_spp.unwrap_or(DatasetSpec::default_test_spp(self.spp));
         let spec = DatasetSpec {
             glass_spp: self.glass_spp,
             test_spp: Some(test_spp),

@@ -135,22 +135,9 @@ pub fn synthetic_source() -> glassbake_net::DataSource {
     }
 }
 
-/// A network small enough to train in a test: U-Nets of 2 levels, widths of 4.
-pub fn small_shape() -> glassbake_net::NetShape {
-    use glassbake_net::config::{CnnConfig, PixelGeneratorConfig, RendererConfig, UNetConfig};
-    glassbake_net::NetShape {
-        encoding_frequencies: 2,
-        scene_encoder: UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
-        transparency_encoder: CnnConfig { width: 4, layers: 1, out_channels: 4 },
-        blending: UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
-        renderer: RendererConfig { width: 4, large_kernel: 5, layers: 1, pointwise_layers: 1 },
-        pixel_generator: PixelGeneratorConfig { width: 8, layers: 3, skip_at: 2 },
-    }
-}
-
-/// `kind` of [`small_shape`] for `variables` variables and `objects` transparent objects.
+/// `kind` of the smallest network (`NetShape::smallest`) for `variables` variables and `objects` transparent objects.
 pub fn small_net(kind: glassbake_net::ModelKind, variables: usize, objects: usize) -> glassbake_net::NetConfig {
-    glassbake_net::NetConfig::new(&small_shape(), "small", kind, variables, objects).unwrap()
+    glassbake_net::NetConfig::new(&glassbake_net::NetShape::smallest(), "small", kind, variables, objects).unwrap()
 }
 
 /// A few steps of whole frames, two at a time, validated and checkpointed every 10 steps.

@@ -3,7 +3,7 @@
 
 #![allow(dead_code)]
 
-use glassbake_net::config::{CnnConfig, PixelGeneratorConfig, RendererConfig, UNetConfig};
+use glassbake_net::config::CnnConfig;
 use glassbake_net::model_dir::FORMAT_VERSION;
 use glassbake_net::{DataSource, ModelConfig, ModelKind, NetConfig, NetShape, Network, SuperSamplerConfig, TrainConfig};
 use glassbake_scene::Scene;
@@ -40,18 +40,10 @@ pub fn untrained(scene: &Scene, network: Network, resolution: u32) -> ModelConfi
     }
 }
 
-/// GlassNet with U-Nets of 2 levels and widths of 4, for `scene`'s variables and transparent
+/// The smallest GlassNet (`NetShape::smallest`) for `scene`'s variables and transparent
 /// objects: it reads the through buffers and the light coverage, as a baked one does.
 pub fn small_glassnet(scene: &Scene) -> NetConfig {
-    let shape = NetShape {
-        encoding_frequencies: 2,
-        scene_encoder: UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
-        transparency_encoder: CnnConfig { width: 4, layers: 1, out_channels: 4 },
-        blending: UNetConfig { base_width: 4, levels: 2, out_channels: 4 },
-        renderer: RendererConfig { width: 4, large_kernel: 5, layers: 1, pointwise_layers: 1 },
-        pixel_generator: PixelGeneratorConfig { width: 8, layers: 3, skip_at: 2 },
-    };
-    NetConfig::new(&shape, "small", ModelKind::Glassnet, scene.variables.len(), scene.transparent_objects().len()).unwrap()
+    NetConfig::new(&NetShape::smallest(), "small", ModelKind::Glassnet, scene.variables.len(), scene.transparent_objects().len()).unwrap()
 }
 
 pub fn small_super_sampler() -> SuperSamplerConfig {

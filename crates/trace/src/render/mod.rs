@@ -149,8 +149,10 @@ pub struct TraceOutput {
 }
 
 impl TraceOutput {
-    /// The output of a scene without light: `image` stays black, its `samples` count as traced.
-    pub fn unlit(image: PlanarImage, samples: u64, warnings: Vec<String>, elapsed: Duration) -> Self {
+    /// `image` from `samples` camera samples and nothing else: no pilot, light paths, photons
+    /// or discarded samples. A scene without light (its `image` black), and the GPU tracer's
+    /// plain estimator (which sets what it discarded).
+    pub fn plain(image: PlanarImage, samples: u64, warnings: Vec<String>, elapsed: Duration) -> Self {
         TraceOutput {
             image,
             discarded_samples: 0,
@@ -277,7 +279,7 @@ fn render_in_pool(scene: &Scene, camera: &Camera, settings: &TraceSettings, prog
         if let Some(p) = progress {
             p(budget, budget);
         }
-        return Ok(TraceOutput::unlit(image, budget, vec![warning], start.elapsed()));
+        return Ok(TraceOutput::plain(image, budget, vec![warning], start.elapsed()));
     }
 
     let path_settings =
