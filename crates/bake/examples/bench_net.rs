@@ -13,7 +13,7 @@ use burn::prelude::*;
 use burn::tensor::Distribution;
 use glassbake_core::layout::{LIGHT_COVERAGE_CHANNELS, OPAQUE_CHANNELS};
 use glassbake_net::loss::training_loss;
-use glassbake_net::{burn, select_device, DeviceChoice, GlassNet, ModelKind, NetConfig, NetInputs};
+use glassbake_net::{burn, select_device, DeviceChoice, GlassNet, ModelKind, NetConfig, NetInputs, SceneModel};
 
 fn arg<'a>(args: &'a [String], name: &str, default: &'a str) -> &'a str {
     args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).map_or(default, |s| s.as_str())
@@ -108,8 +108,9 @@ fn main() {
                 PEAK.store(baseline, Ordering::Relaxed);
                 let start = Instant::now();
                 // The streaming path: one transparency buffer alive at a time.
-                let image =
-                    net.forward_streaming(frame.gbuffer.clone(), frame.light_coverage.clone(), frame.values.clone(), t, |k| Some(frame.transparent[k].clone()));
+                let image = net.forward_streaming(frame.gbuffer.clone(), frame.light_coverage.clone(), frame.values.clone(), t, &mut |k| {
+                    Some(frame.transparent[k].clone())
+                });
                 let _ = image.into_data();
                 if i > 0 {
                     infer_times.push(start.elapsed().as_secs_f64() * 1e3);

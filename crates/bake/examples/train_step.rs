@@ -18,7 +18,7 @@ use glassbake_core::layout::{LIGHT_COVERAGE_CHANNELS, OPAQUE_CHANNELS, TRANSPARE
 use glassbake_net::blocks::positional_encoding;
 use glassbake_net::burn;
 use glassbake_net::loss::training_loss;
-use glassbake_net::{GlassNet, ModelKind, NetConfig, NetInputs};
+use glassbake_net::{GlassNet, ModelKind, Naive, NetConfig, NetInputs, SceneModel, Trainable};
 
 const VARIABLES: usize = 4;
 
@@ -58,6 +58,55 @@ fn inputs(n: usize, side: usize, objects: usize, device: &Device) -> NetInputs {
     }
 }
 
+/// What one timed run trains on: `n` frames of `side` px with `objects` transparency buffers,
+/// timed over `runs` steps.
+#[derive(Clone, Copy)]
+struct Shape {
+    n: usize,
+    side: usize,
+    objects: usize,
+    runs: usize,
+}
+
+/// Times whole training steps of `model` on synthetic data and prints them with their parts;
+/// returns the model after them.
+fn time_steps<M: SceneModel + Trainable>(mut model: M, Shape { n, side, objects, runs }: Shape, device: &Device) -> M {
+    let params = model.num_params();
+    let batch = inputs(n, side, objects, device);
+    let target = Tensor::<4>::random([n, 3, side, side], Distribution::Uniform(0.0, 1.0), device);
+    let mut optimizer = AdamWConfig::new().with_weight_decay(1e-4).init();
+
+    // Each part timed inside whole steps, as training runs them: a forward pass without its
+    // backward pass leaves the autodiff graph alive and is not what training costs.
+    let mut parts: Vec<[f64; 4]> = Vec::new();
+    for step in 0..runs + 2 {
+        let start = Instant::now();
+        let loss = training_loss(model.forward(&batch), target.clone(), 1.0);
+        let _ = loss.clone().into_scalar::<f32>();
+        let forward = start.elapsed().as_secs_f64() * 1e3;
+        let gradients = GradientsParams::from_grads(loss.backward(), &model);
+        let backward = start.elapsed().as_secs_f64() * 1e3 - forward;
+        model = optimizer.step(1e-4, model.clone(), gradients);
+        let whole = start.elapsed().as_secs_f64() * 1e3;
+        if step >= 2 {
+            parts.push([whole, forward, backward, whole - forward - backward]);
+        }
+    }
+    let part = |i: usize| median(parts.iter().map(|p| p[i]).collect());
+    let (whole, forward, backward, update) = (part(0), part(1), part(2), part(3));
+    let pixels_per_s = (n * side * side) as f64 / (whole / 1e3);
+    println!(
+        "{:<8} {params:>7} params: step {whole:7.1} ms ({pixels_per_s:>6.0} px/s); medians of its parts: forward+loss {forward:6.1}, backward {backward:6.1}, AdamW {update:6.1}",
+        model.kind().name(),
+    );
+    let prediction = Tensor::<4>::random([n, 3, side, side], Distribution::Uniform(0.0, 1.0), device).require_grad();
+    let loss_ms = median_ms(runs, || {
+        let _ = training_loss(prediction.clone(), target.clone(), 1.0).backward();
+    });
+    println!("         of it, the loss (L1 + SSIM) forward and backward {loss_ms:.1} ms");
+    model
+}
+
 fn main() {
     // As the glassbake binary does.
     glassbake_net::keep_freed_memory();
@@ -73,58 +122,34 @@ fn main() {
         device.seed(1);
         // tools/torch-compare builds the network without the through buffers.
         let config = NetConfig { through: false, ..NetConfig::new(&quick.network, &quick.name, kind, VARIABLES, objects).unwrap() };
-        let mut model = GlassNet::new(&config, 1, &device).unwrap();
-        let params = model.num_params();
-        let batch = inputs(n, side, objects, &device);
-        let target = Tensor::<4>::random([n, 3, side, side], Distribution::Uniform(0.0, 1.0), &device);
-        let mut optimizer = AdamWConfig::new().with_weight_decay(1e-4).init();
-
-        // Each part timed inside whole steps, as training runs them: a forward pass without its
-        // backward pass leaves the autodiff graph alive and is not what training costs.
-        let mut parts: Vec<[f64; 4]> = Vec::new();
-        for step in 0..runs + 2 {
-            let start = Instant::now();
-            let loss = training_loss(model.forward(&batch), target.clone(), 1.0);
-            let _ = loss.clone().into_scalar::<f32>();
-            let forward = start.elapsed().as_secs_f64() * 1e3;
-            let gradients = GradientsParams::from_grads(loss.backward(), &model);
-            let backward = start.elapsed().as_secs_f64() * 1e3 - forward;
-            model = optimizer.step(1e-4, model.clone(), gradients);
-            let whole = start.elapsed().as_secs_f64() * 1e3;
-            if step >= 2 {
-                parts.push([whole, forward, backward, whole - forward - backward]);
-            }
-        }
-        let part = |i: usize| median(parts.iter().map(|p| p[i]).collect());
-        let (whole, forward, backward, update) = (part(0), part(1), part(2), part(3));
-        let pixels_per_s = (n * side * side) as f64 / (whole / 1e3);
-        println!(
-            "{:<8} {params:>7} params: step {whole:7.1} ms ({pixels_per_s:>6.0} px/s); medians of its parts: forward+loss {forward:6.1}, backward {backward:6.1}, AdamW {update:6.1}",
-            kind.name(),
-        );
-        let prediction = Tensor::<4>::random([n, 3, side, side], Distribution::Uniform(0.0, 1.0), &device).require_grad();
-        let loss_ms = median_ms(runs, || {
-            let _ = training_loss(prediction.clone(), target.clone(), 1.0).backward();
-        });
-        println!("         of it, the loss (L1 + SSIM) forward and backward {loss_ms:.1} ms");
-
-        // Forward passes of the parts, without autodiff.
-        let valid = model.valid();
+        let shape = Shape { n, side, objects, runs };
         let inner = device.clone().inner();
         let batch = inputs(n, side, objects, &inner);
-        let f_ms = median_ms(runs, || sync(valid.encode_scene(batch.gbuffer.clone(), batch.light_coverage.clone(), batch.values.clone()).sigma));
-        let scene = valid.encode_scene(batch.gbuffer.clone(), batch.light_coverage.clone(), batch.values.clone());
         let encoding_ms = median_ms(runs, || sync(positional_encoding(batch.gbuffer.clone(), config.encoding_frequencies)));
-        let mut line = format!("         no-grad forward: positional encoding of the G-buffer {encoding_ms:.1} ms, F {f_ms:.1} ms");
-        let tau = if kind == ModelKind::Glassnet {
-            let h_ms = median_ms(runs, || sync(valid.transparency_term(&scene, batch.transparent[0].clone())));
-            line += &format!(", h {h_ms:.1} ms per object");
-            Some(valid.transparency_term(&scene, batch.transparent[0].clone()))
-        } else {
-            None
+        let line = format!("         no-grad forward: positional encoding of the G-buffer {encoding_ms:.1} ms");
+        // Forward passes of the parts, without autodiff.
+        let line = match kind {
+            ModelKind::Glassnet => {
+                let net = time_steps(GlassNet::new(&config, 1, &device).unwrap(), shape, &device).valid();
+                let f_ms = median_ms(runs, || sync(net.encode_scene(batch.gbuffer.clone(), batch.light_coverage.clone(), batch.values.clone()).sigma));
+                let scene = net.encode_scene(batch.gbuffer.clone(), batch.light_coverage.clone(), batch.values.clone());
+                let h_ms = median_ms(runs, || sync(net.transparency_term(&scene, batch.transparent[0].clone())));
+                let tau = net.transparency_term(&scene, batch.transparent[0].clone());
+                let decode_ms = median_ms(runs, || sync(net.decode(&scene, tau.clone())));
+                format!(
+                    "{line}, F {f_ms:.1} ms, h {h_ms:.1} ms per object, B+R {decode_ms:.1} ms, whole {:.1} ms",
+                    median_ms(runs, || sync(net.forward(&batch)))
+                )
+            }
+            _ => {
+                let net = time_steps(Naive::new(&config, 1, &device).unwrap(), shape, &device).valid();
+                let f_ms = median_ms(runs, || sync(net.encode_scene(batch.gbuffer.clone(), batch.light_coverage.clone(), batch.values.clone(), None).sigma));
+                let scene = net.encode_scene(batch.gbuffer.clone(), batch.light_coverage.clone(), batch.values.clone(), None);
+                let decode_ms = median_ms(runs, || sync(net.decode(&scene)));
+                format!("{line}, F {f_ms:.1} ms, B+R {decode_ms:.1} ms, whole {:.1} ms", median_ms(runs, || sync(net.forward(&batch))))
+            }
         };
-        let decode_ms = median_ms(runs, || sync(valid.decode(&scene, tau.clone())));
-        println!("{line}, B+R {decode_ms:.1} ms, whole {:.1} ms", median_ms(runs, || sync(valid.forward(&batch))));
+        println!("{line}");
     }
 
     // Single convolutions at the shapes of the quick U-Nets' top level.

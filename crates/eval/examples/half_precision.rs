@@ -12,9 +12,9 @@ use std::path::{Path, PathBuf};
 use glassbake_core::{Error, Result};
 use glassbake_dataset::Split;
 use glassbake_eval::score::{score_models, ScoreOptions};
-use glassbake_net::model_dir::{write_weights, ModelFiles};
+use glassbake_net::model_dir::{read_weights, write_weights, ModelFiles};
 use glassbake_net::precision::{round_weights_to_f16, set_f16_activations};
-use glassbake_net::{select_device, DeviceChoice, TrainedModel};
+use glassbake_net::{select_device, with_new_model, DeviceChoice, ModelTask, SceneModel, Trainable, TrainedModel};
 
 fn score(model: &Path, dataset: &Path, out: PathBuf, frames: Option<usize>) -> Result<(f64, Option<f64>)> {
     let options = ScoreOptions {
@@ -34,6 +34,20 @@ fn score(model: &Path, dataset: &Path, out: PathBuf, frames: Option<usize>) -> R
     Ok((metrics.psnr, metrics.t_psnr))
 }
 
+/// Reads a model's weights, rounds them to f16 and writes them into another model directory.
+struct RoundToF16<'a> {
+    from: &'a ModelFiles,
+    to: &'a ModelFiles,
+}
+
+impl ModelTask for RoundToF16<'_> {
+    type Output = Result<()>;
+    fn run<M: SceneModel + Trainable>(self, mut model: M) -> Result<()> {
+        read_weights(&mut model, &self.from.weights_path())?;
+        write_weights(&round_weights_to_f16(model), self.to, 0)
+    }
+}
+
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let [model, dataset, out] = [0, 1, 2].map(|i| args.get(i).map(PathBuf::from));
@@ -48,7 +62,7 @@ fn main() -> Result<()> {
     let trained = TrainedModel::load(&model, &device)?;
     let rounded_dir = out.join("model-f16-weights");
     let files = ModelFiles::prepare(&rounded_dir, trained.files.config.clone())?;
-    write_weights(&round_weights_to_f16(trained.net), &files, 0)?;
+    with_new_model(trained.config(), 0, &device, RoundToF16 { from: &trained.files, to: &files })??;
     if let Ok(log) = std::fs::read(model.join("train_log.csv")) {
         std::fs::write(rounded_dir.join("train_log.csv"), log).map_err(|e| Error::io(&rounded_dir, e))?;
     }

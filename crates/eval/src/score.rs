@@ -328,8 +328,8 @@ fn frame_predictions(
 ) -> Result<Vec<Prediction>> {
     let mut predictions = Vec::new();
     for model in models {
-        let (gbuffer, light_coverage) = e.gbuffer(model.kind().reads_naive_gbuffer());
-        let transparent: &[PlanarImage] = if model.config().reads_object_buffers() { &e.transparent } else { &[] };
+        let (gbuffer, light_coverage) = e.gbuffer(model.net.reads_naive_gbuffer());
+        let transparent: &[PlanarImage] = if model.net.reads_object_buffers() { &e.transparent } else { &[] };
         let started = Instant::now();
         let image = model.render(FrameRef { gbuffer, light_coverage: Some(light_coverage), transparent, values: &e.values, ground_truth: None })?;
         predictions.push(Prediction { seconds: Some(started.elapsed().as_secs_f64()), image: RgbImage::from_planar(&image)? });
@@ -370,7 +370,7 @@ pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn
         names.extend(half_resolution_rows(&names[half.model]));
     }
     let lpips = options.lpips_weights.as_deref().map(Lpips::load).transpose()?;
-    let needs_naive = options.path_traced_baseline.is_some() || models.iter().any(|m| m.kind().reads_naive_gbuffer());
+    let needs_naive = options.path_traced_baseline.is_some() || models.iter().any(|m| m.net.reads_naive_gbuffer());
     let scene = scene_if_needed(options, &store)?;
     if let Some(spp) = options.path_traced_baseline {
         names.extend(path_traced_rows(spp));

@@ -34,12 +34,6 @@ impl ModelKind {
 
     pub const ALL: [ModelKind; 4] = [ModelKind::Glassnet, ModelKind::Naive, ModelKind::Concat, ModelKind::Pixelgen];
 
-    /// Whether the network reads the naive G-buffer (glass overwrites what is behind it)
-    /// and no transparency buffers.
-    pub fn reads_naive_gbuffer(self) -> bool {
-        matches!(self, ModelKind::Naive | ModelKind::Pixelgen)
-    }
-
     /// Whether the network reads transparency buffers (GlassNet and the concat baseline).
     pub fn reads_transparency_buffers(self) -> bool {
         matches!(self, ModelKind::Glassnet | ModelKind::Concat)
@@ -348,12 +342,6 @@ impl NetConfig {
     /// screen offset and on-screen flag, which say where h reads the scene code instead.
     pub fn encoded_object_channels(&self) -> usize {
         layout::TRANSPARENT_CHANNELS + if self.through { layout::through::SCREEN_OFFSET } else { 0 }
-    }
-
-    /// Whether the network is handed the transparent objects' buffers: the models that read
-    /// transparency buffers, and the naive baseline reading the front-most through buffer.
-    pub fn reads_object_buffers(&self) -> bool {
-        self.model.reads_transparency_buffers() || self.reads_front_through()
     }
 
     /// Whether F reads the through buffer of the object in front ([`Self::through`] on the

@@ -10,14 +10,13 @@ use glassbake_core::{layout, Error, PlanarImage, Result};
 
 use crate::batch::{image_from_tensor, FrameRef, HostBatch};
 use crate::config::{ModelKind, NetConfig};
-use crate::model::GlassNet;
+use crate::model::{load_model, SceneModel};
 use crate::model_dir::{read_weights, ModelFiles, Network};
 use crate::super_sampler::{downsample_box2, SuperSampler};
-use crate::train::Trainable;
 
 /// A trained GlassNet (or baseline) ready to render on one device.
 pub struct TrainedModel {
-    pub net: GlassNet,
+    pub net: Box<dyn SceneModel>,
     pub files: ModelFiles,
     pub device: Device,
 }
@@ -28,13 +27,12 @@ impl TrainedModel {
         let Network::Glassnet(config) = &files.config.network else {
             return Err(Error::bad_input(dir.display(), "network", "holds a super-sampler, not GlassNet or a baseline"));
         };
-        let mut net = GlassNet::new(config, 0, device)?;
-        read_weights(&mut net, &files.weights_path())?;
+        let net = load_model(config, &files.weights_path(), device)?;
         Ok(TrainedModel { net, files, device: device.clone() })
     }
 
     pub fn config(&self) -> &NetConfig {
-        &self.net.config
+        self.net.config()
     }
 
     pub fn kind(&self) -> ModelKind {
@@ -52,7 +50,7 @@ impl TrainedModel {
 
     /// Renders one frame to tone-mapped linear RGB (channels R, G, B, values clamped to [0, 1]).
     /// `frame.gbuffer` must be the opaque G-buffer for GlassNet and concat, the naive one for
-    /// naive and pixelgen ([`ModelKind::reads_naive_gbuffer`]).
+    /// naive and pixelgen ([`SceneModel::reads_naive_gbuffer`]).
     pub fn render(&self, frame: FrameRef) -> Result<PlanarImage> {
         self.check_frame(&frame)?;
         let batch = HostBatch::from_frames(&[FrameRef { ground_truth: None, ..frame }])?;
@@ -69,7 +67,7 @@ impl TrainedModel {
         // the light it sees (summed over the pixel, divided by its area).
         let light_coverage = frame.light_coverage.map(downsample_box2).transpose()?;
         let transparent =
-            if self.config().reads_object_buffers() { frame.transparent.iter().map(downsample_object_buffer).collect::<Result<Vec<_>>>()? } else { Vec::new() };
+            if self.net.reads_object_buffers() { frame.transparent.iter().map(downsample_object_buffer).collect::<Result<Vec<_>>>()? } else { Vec::new() };
         self.render(FrameRef {
             gbuffer: &gbuffer,
             light_coverage: light_coverage.as_ref(),
@@ -90,19 +88,9 @@ impl TrainedModel {
 
     /// Renders a batch, asking `buffer(k)` for transparency buffer k only when it is needed, so
     /// at most one is alive at a time (GlassNet). Returns the unclamped [N, 3, H, W] prediction.
-    pub fn render_streaming(&self, batch: &HostBatch, buffer: impl FnMut(usize) -> Option<Tensor<4>>) -> Tensor<4> {
+    pub fn render_streaming(&self, batch: &HostBatch, mut buffer: impl FnMut(usize) -> Option<Tensor<4>>) -> Tensor<4> {
         let values = Tensor::from_data(TensorData::new(batch.values.clone(), [batch.frames, batch.variables]), &self.device);
-        self.net.forward_streaming(batch.gbuffer_tensor(&self.device), batch.light_coverage_tensor(&self.device), values, batch.objects(), buffer)
-    }
-}
-
-impl Trainable for GlassNet {
-    fn predict(&self, batch: &HostBatch, device: &Device) -> Tensor<4> {
-        self.forward(&batch.inputs(device))
-    }
-
-    fn target(&self, batch: &HostBatch, device: &Device) -> Result<Tensor<4>> {
-        batch.target(device).ok_or_else(|| Error::Internal("a training batch without ground truth".into()))
+        self.net.forward_streaming(batch.gbuffer_tensor(&self.device), batch.light_coverage_tensor(&self.device), values, batch.objects(), &mut buffer)
     }
 }
 

@@ -28,7 +28,7 @@ pub use batch::{FrameRef, HostBatch};
 pub use config::{ModelKind, NetConfig, NetShape, TrainConfig};
 pub use device::{select_device, DeviceChoice};
 pub use infer::{TrainedModel, TrainedSuperSampler};
-pub use model::{GlassNet, NetInputs};
+pub use model::{load_model, new_model, with_new_model, Concat, GlassNet, ModelTask, Naive, NetInputs, PixelGen, SceneModel};
 pub use model_dir::{DataSource, ModelConfig, ModelFiles, Network};
 pub use super_sampler::{SuperSampler, SuperSamplerConfig};
 pub use train::{train, RunOptions, TrainEvent, TrainSummary, Trainable, TrainingData};

@@ -4,9 +4,10 @@ mod common;
 
 use burn::prelude::*;
 use burn::tensor::TensorData;
+use glassbake_net::model::SceneCode;
 use glassbake_net::model_dir::{read_weights, write_weights, ModelConfig, ModelFiles, Network, FORMAT_VERSION};
 use glassbake_net::sum::{snap_to_grid, TERM_BOUND};
-use glassbake_net::{burn, GlassNet, ModelKind, NetConfig, NetInputs};
+use glassbake_net::{burn, new_model, with_new_model, GlassNet, ModelKind, ModelTask, Naive, NetConfig, NetInputs, PixelGen, SceneModel, Trainable};
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 
@@ -25,7 +26,7 @@ fn every_model_kind_maps_a_batch_to_an_rgb_image_of_its_size() {
     let frames: Vec<_> = (0..2).map(|i| common::frame(i, 16, 3, 2)).collect();
     let batch = common::batch(&frames);
     for kind in ModelKind::ALL {
-        let net = GlassNet::new(&common::small_net(kind, 2, 3), 3, &device).unwrap();
+        let net = new_model(&common::small_net(kind, 2, 3), 3, &device).unwrap();
         let out = net.forward(&batch.inputs(&device));
         assert_eq!(out.dims(), [2, 3, 16, 16], "{kind:?}");
         assert!(values(out).iter().all(|v| v.is_finite()));
@@ -42,9 +43,8 @@ fn every_model_kind_maps_a_batch_to_an_rgb_image_of_its_size() {
 fn pixelgen_is_a_per_pixel_mlp_with_the_input_fed_again_midway() {
     let device = Device::flex();
     let config = common::small_net(ModelKind::Pixelgen, 2, 3);
-    let net = GlassNet::new(&config, 3, &device).unwrap();
-    assert!(net.scene_encoder.is_none() && net.blending.is_none() && net.renderer.is_none() && net.transparency_encoder.is_none());
-    let pixel = net.pixel_generator.as_ref().unwrap();
+    let net = PixelGen::new(&config, 3, &device).unwrap();
+    let pixel = &net.pixel_generator;
     let p = config.pixel_generator.as_ref().unwrap();
     let input = glassbake_core::layout::OPAQUE_CHANNELS * config.encoded_width() + 2;
     assert_eq!(pixel.layers.len(), p.layers);
@@ -94,10 +94,22 @@ fn the_exact_sum_passes_gradients_straight_through_inside_its_bound() {
     assert_eq!(g, vec![1.0, 2.0, 0.0, 4.0]);
 }
 
-/// A network with every weight random, T's last layer included: a new GlassNet starts with that
-/// layer at zero (tau = 0), which would make tests of how T combines objects vacuous.
-fn random_net(config: &NetConfig, seed: u64, device: &Device) -> GlassNet {
+/// A GlassNet with every weight random, T's last layer included: a new GlassNet starts with
+/// that layer at zero (tau = 0), which would make tests of how T combines objects vacuous.
+fn random_glassnet(config: &NetConfig, seed: u64, device: &Device) -> GlassNet {
     glassbake_net::init::initialize(GlassNet::new(config, seed, device).unwrap(), seed)
+}
+
+/// [`random_glassnet`] for a network of any kind.
+fn random_net(config: &NetConfig, seed: u64, device: &Device) -> Box<dyn SceneModel> {
+    struct Randomized(u64);
+    impl ModelTask for Randomized {
+        type Output = Box<dyn SceneModel>;
+        fn run<M: SceneModel + Trainable>(self, model: M) -> Self::Output {
+            Box::new(glassbake_net::init::initialize(model, self.0))
+        }
+    }
+    with_new_model(config, seed, device, Randomized(seed)).unwrap()
 }
 
 #[test]
@@ -115,19 +127,19 @@ fn a_new_glassnet_starts_as_the_naive_network_on_the_opaque_gbuffer_and_learns_t
     let train_device = Device::flex().autodiff();
     let net = GlassNet::new(&common::small_net(ModelKind::Glassnet, 1, 2), 4, &train_device).unwrap();
     let grads = net.forward(&batch.inputs(&train_device)).sum().backward();
-    let head = &net.transparency_encoder.as_ref().unwrap().head.weight;
+    let head = &net.transparency_encoder.head.weight;
     let gradient: Vec<f32> = head.grad(&grads).expect("T's head has a gradient").into_data().try_to_vec::<f32>().unwrap();
     assert!(gradient.iter().any(|g| g.abs() > 1e-6), "T's head gets no gradient: {gradient:?}");
     // R's weights on the summed glass light and transmittance (its last input channels) start
     // at zero too, and get a gradient; so do its outputs that the transmittance multiplies.
-    let r = &net.renderer.as_ref().unwrap().large.conv.weight;
+    let r = &net.renderer.large.conv.weight;
     let [_, inputs, _, _] = r.dims();
     let light = glassbake_net::model::glass_direct_channels(&net.config);
     let weights: Vec<f32> = r.val().narrow(1, inputs - light, light).into_data().try_to_vec::<f32>().unwrap();
     assert!(weights.iter().all(|&w| w == 0.0), "R's glass-light weights start at {weights:?}");
     let gradient: Vec<f32> = r.grad(&grads).expect("R has a gradient").narrow(1, inputs - light, light).into_data().try_to_vec::<f32>().unwrap();
     assert!(gradient.iter().any(|g| g.abs() > 1e-6), "R's glass-light weights get no gradient");
-    let head = &net.renderer.as_ref().unwrap().head.weight;
+    let head = &net.renderer.head.weight;
     let term = net.config.renderer_term_channels();
     let transmitted: Vec<f32> = head.val().narrow(0, term, 2 * term).into_data().try_to_vec::<f32>().unwrap();
     assert!(transmitted.iter().all(|&w| w == 0.0), "R's transmitted outputs start at {transmitted:?}");
@@ -148,9 +160,9 @@ fn the_transmitted_outputs_are_multiplied_by_the_product_of_the_tints_in_front()
     let inputs = batch.inputs(&device);
     // R predicting RGB directly (the demodulated path is tested by its own test below).
     let config = NetConfig { demodulated: false, saturate_direct_light: false, ..common::small_net(ModelKind::Glassnet, 1, objects) };
-    let mut net = random_net(&config, 7, &device);
+    let mut net = random_glassnet(&config, 7, &device);
     for (power, bias) in [(1, [0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0]), (2, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0])] {
-        let head = &mut net.renderer.as_mut().unwrap().head;
+        let head = &mut net.renderer.head;
         head.weight = head.weight.clone().map(|w| w.zeros_like());
         head.bias = Some(burn::module::Param::from_tensor(Tensor::<1>::from_floats(bias, &device)));
         let out = values(net.forward(&inputs));
@@ -189,7 +201,7 @@ fn permutation_exactness(device: &Device, sizes: &[usize]) {
         let frames = vec![common::frame(100 + objects as u64, 16, objects, 1)];
         let batch = common::batch(&frames);
         let config = NetConfig { position_grid: grid, ..common::small_net(ModelKind::Glassnet, 1, objects) };
-        let net = random_net(&config, 5, device);
+        let net = random_glassnet(&config, 5, device);
         if config.position_grid.is_some() {
             assert!(net.scene_grid.is_some() && net.object_grid.is_some());
         }
@@ -317,10 +329,56 @@ fn weights_round_trip_through_safetensors_with_pytorch_names() {
     assert!(tensors.names().iter().all(|n| !n.contains("config")));
 
     // A model directory for a different network is refused with the file named.
-    let wrong = GlassNet::new(&common::small_net(ModelKind::Naive, 2, 2), 1, &device).unwrap();
+    let wrong = Naive::new(&common::small_net(ModelKind::Naive, 2, 2), 1, &device).unwrap();
     let mut wrong = wrong;
     let err = read_weights(&mut wrong, &files.weights_path()).unwrap_err();
     assert!(err.to_string().contains("glassnet.safetensors"), "{err}");
+}
+
+/// Each model type saves exactly its own modules, under their field names (what a model
+/// directory's weights file holds), and `load_model` opens each as the network it saved.
+#[test]
+fn each_model_saves_its_own_modules_and_opens_as_the_same_network() {
+    let device = Device::flex();
+    let grid = Some(test_grid());
+    let cases = [
+        (ModelKind::Glassnet, grid.clone(), &["blending", "object_grid", "renderer", "scene_encoder", "scene_grid", "transparency_encoder"][..]),
+        (ModelKind::Naive, grid, &["blending", "renderer", "scene_encoder", "scene_grid"][..]),
+        (ModelKind::Concat, None, &["blending", "renderer", "scene_encoder", "transparency_encoder"][..]),
+        (ModelKind::Pixelgen, None, &["pixel_generator"][..]),
+    ];
+    let frames = vec![common::frame(3, 16, 2, 2)];
+    let inputs = common::batch(&frames).inputs(&device);
+    for (kind, position_grid, modules) in cases {
+        let config = NetConfig { position_grid, ..common::small_net(kind, 2, 2) };
+        let net = random_net(&config, 4, &device);
+        assert_eq!(net.kind(), kind);
+        let dir = tempfile::tempdir().unwrap();
+        let model = ModelConfig {
+            format_version: FORMAT_VERSION,
+            network: Network::Glassnet(config.clone()),
+            train: common::small_training(),
+            data: common::synthetic_source(),
+        };
+        let files = ModelFiles::prepare(dir.path(), model).unwrap();
+        struct Save<'a>(&'a ModelFiles);
+        impl ModelTask for Save<'_> {
+            type Output = ();
+            fn run<M: SceneModel + Trainable>(self, model: M) {
+                write_weights(&glassbake_net::init::initialize(model, 4), self.0, 0).unwrap();
+            }
+        }
+        with_new_model(&config, 4, &device, Save(&files)).unwrap();
+        let bytes = std::fs::read(files.weights_path()).unwrap();
+        let tensors = safetensors::SafeTensors::deserialize(&bytes).unwrap();
+        let mut saved: Vec<String> = tensors.names().iter().map(|n| n.split('.').next().unwrap().to_string()).collect();
+        saved.sort();
+        saved.dedup();
+        assert_eq!(saved, modules, "{kind:?}");
+        let opened = glassbake_net::load_model(&config, &files.weights_path(), &device).unwrap();
+        assert_eq!(opened.kind(), kind);
+        assert_eq!(bits(opened.forward(&inputs)), bits(net.forward(&inputs)), "{kind:?}: opened weights differ from the saved ones");
+    }
 }
 
 #[test]
@@ -364,23 +422,27 @@ fn demodulated_renderer_output_is_affine_in_the_albedo() {
         for demodulated in [true, false] {
             let config = NetConfig { demodulated, ..common::small_net(kind, 2, 2) };
             assert_eq!(config.renderer_outputs(), if kind == ModelKind::Glassnet { 9 } else { 3 } * if demodulated { 2 } else { 1 });
-            let mut net = GlassNet::new(&config, 9, &device).unwrap();
             // Wake the transmitted terms, which start at zero, so they are tested too.
-            let r = net.renderer.as_mut().unwrap();
-            r.head.weight = r.head.weight.clone().map(|w| w.clone().random_like(burn::tensor::Distribution::Normal(0.0, 0.3)));
-            let scene = net.encode_scene(inputs.gbuffer.clone(), inputs.light_coverage.clone(), inputs.values.clone());
-            let tau = (kind == ModelKind::Glassnet).then(|| {
+            let wake = |r: &mut glassbake_net::blocks::Renderer| {
+                r.head.weight = r.head.weight.clone().map(|w| w.clone().random_like(burn::tensor::Distribution::Normal(0.0, 0.3)));
+            };
+            let albedo_times = |scene: &SceneCode, scale: f32| SceneCode { albedo: scene.albedo.clone().mul_scalar(scale), ..scene.clone() };
+            let with_albedo: Box<dyn Fn(f32) -> Vec<f32>> = if kind == ModelKind::Glassnet {
+                let mut net = GlassNet::new(&config, 9, &device).unwrap();
+                wake(&mut net.renderer);
+                let scene = net.encode_scene(inputs.gbuffer.clone(), inputs.light_coverage.clone(), inputs.values.clone());
                 let mut sum = glassbake_net::sum::TransparencySum::new();
                 for b in &inputs.transparent {
                     sum.add(net.transparency_term(&scene, b.clone()));
                 }
                 let [n, _, h, w] = scene.sigma.dims();
-                sum.finish([n, config.transparency_encoder.out_channels + glassbake_net::model::GLASS_DIRECT_CHANNELS, h, w], &device)
-            });
-            let with_albedo = |scale: f32| {
-                let mut s = scene.clone();
-                s.albedo = s.albedo.clone().mul_scalar(scale);
-                values(net.decode(&s, tau.clone()))
+                let tau = sum.finish([n, config.transparency_encoder.out_channels + glassbake_net::model::GLASS_DIRECT_CHANNELS, h, w], &device);
+                Box::new(move |scale| values(net.decode(&albedo_times(&scene, scale), tau.clone())))
+            } else {
+                let mut net = Naive::new(&config, 9, &device).unwrap();
+                wake(&mut net.renderer);
+                let scene = net.encode_scene(inputs.gbuffer.clone(), inputs.light_coverage.clone(), inputs.values.clone(), None);
+                Box::new(move |scale| values(net.decode(&albedo_times(&scene, scale))))
             };
             let (zero, one, two) = (with_albedo(0.0), with_albedo(1.0), with_albedo(2.0));
             let largest_step = zero.iter().zip(&one).map(|(a, b)| (b - a).abs()).fold(0.0f32, f32::max);
@@ -428,7 +490,7 @@ fn position_grids_replace_the_positions_fourier_features_and_learn() {
     let config = NetConfig { position_grid: Some(test_grid()), ..fourier.clone() };
     // F's input: 14 Fourier-encoded channels, the raw position, the grid's 6 features, 1 variable.
     assert_eq!(config.encoded_buffer_width(glassbake_core::layout::OPAQUE_CHANNELS), 14 * fourier.encoded_width() + 3 + 6);
-    let net = random_net(&config, 2, &device);
+    let net = random_glassnet(&config, 2, &device);
     let grads = net.forward(&batch.inputs(&device)).sum().backward();
     for (name, grid) in [("scene", &net.scene_grid), ("object", &net.object_grid)] {
         let table = &grid.as_ref().unwrap().table;
@@ -436,8 +498,8 @@ fn position_grids_replace_the_positions_fourier_features_and_learn() {
         assert!(gradient.iter().filter(|g| g.abs() > 1e-7).count() >= 8, "{name} grid: too few entries get a gradient");
     }
     // The naive network has F's grid only; pixelgen refuses one.
-    let naive = GlassNet::new(&NetConfig { position_grid: Some(test_grid()), ..common::small_net(ModelKind::Naive, 1, 2) }, 2, &device).unwrap();
-    assert!(naive.scene_grid.is_some() && naive.object_grid.is_none());
+    let naive = Naive::new(&NetConfig { position_grid: Some(test_grid()), ..common::small_net(ModelKind::Naive, 1, 2) }, 2, &device).unwrap();
+    assert!(naive.scene_grid.is_some());
     let pixelgen = NetConfig { position_grid: Some(test_grid()), ..common::small_net(ModelKind::Pixelgen, 1, 2) };
     assert!(pixelgen.check("test").unwrap_err().to_string().contains("position_grid"));
     let both = NetConfig { saturate_direct_light: true, ..common::small_net(ModelKind::Glassnet, 1, 2) };
@@ -651,10 +713,10 @@ fn through_buffers_reach_glassnet_only_when_it_reads_them() {
     let config = common::small_net(ModelKind::Glassnet, 1, 2);
     assert!(config.through, "GlassNet's presets read the through buffers");
     // Trained weights: at initialisation h's head and R's glass inputs are zero.
-    let mut net = random_net(&config, 6, &device);
-    let t = net.transparency_encoder.as_mut().unwrap();
+    let mut net = random_glassnet(&config, 6, &device);
+    let t = &mut net.transparency_encoder;
     t.head.weight = t.head.weight.clone().map(|w| w.ones_like() * 0.05);
-    let r = net.renderer.as_mut().unwrap();
+    let r = &mut net.renderer;
     r.large.conv.weight = r.large.conv.weight.clone().map(|w| w.clone() + w.ones_like() * 0.01);
     assert_ne!(bits(net.forward(&with_through(1.0))), bits(net.forward(&with_through(0.5))));
     for kind in [ModelKind::Glassnet, ModelKind::Naive, ModelKind::Concat] {

@@ -4,8 +4,11 @@
 mod common;
 
 use burn::prelude::*;
+use glassbake_core::Result;
 use glassbake_net::model_dir::{weights_step, ModelConfig, ModelFiles, Network, FORMAT_VERSION};
-use glassbake_net::{burn, train, GlassNet, ModelKind, NetConfig, RunOptions, TrainConfig};
+use glassbake_net::{
+    burn, train, with_new_model, GlassNet, ModelKind, ModelTask, NetConfig, RunOptions, SceneModel, TrainConfig, TrainSummary, Trainable, TrainingData,
+};
 
 fn files(dir: &std::path::Path, net: &NetConfig, train: &TrainConfig) -> ModelFiles {
     ModelFiles::prepare(
@@ -20,6 +23,27 @@ fn model(net: &NetConfig, seed: u64) -> (GlassNet, Device) {
     device.seed(seed);
     let device = device.autodiff();
     (GlassNet::new(net, seed, &device).unwrap(), device)
+}
+
+/// Trains a new network of `net`'s kind, weights drawn from `seed`.
+fn train_new(net: &NetConfig, seed: u64, files: &ModelFiles, config: &TrainConfig, data: &mut dyn TrainingData, losses: &mut Vec<f64>) -> Result<TrainSummary> {
+    struct Train<'a> {
+        files: &'a ModelFiles,
+        config: &'a TrainConfig,
+        device: &'a Device,
+        data: &'a mut dyn TrainingData,
+        losses: &'a mut Vec<f64>,
+    }
+    impl ModelTask for Train<'_> {
+        type Output = Result<TrainSummary>;
+        fn run<M: SceneModel + Trainable>(self, model: M) -> Self::Output {
+            train(model, self.files, self.config, self.device, self.data, &RunOptions::default(), &mut |e| self.losses.push(e.loss))
+        }
+    }
+    let device = Device::flex();
+    device.seed(seed);
+    let device = device.autodiff();
+    with_new_model(net, seed, &device, Train { files, config, device: &device, data, losses }).unwrap()
 }
 
 /// Trains a tiny `kind` (reading through buffers or not) for 500 steps on one frame; returns
@@ -38,9 +62,8 @@ fn overfit_one_frame(kind: ModelKind, objects: usize, through: bool) -> (f64, f6
     let mut data = common::SyntheticData { frames: vec![common::frame(42, 16, objects, 1)], batch_size: 1, seed: 0, poison_from_epoch: None };
     let dir = tempfile::tempdir().unwrap();
     let files = files(dir.path(), &net, &config);
-    let (model, device) = model(&net, 1);
     let mut losses = Vec::new();
-    train(model, &files, &config, &device, &mut data, &RunOptions::default(), &mut |e| losses.push(e.loss)).unwrap();
+    train_new(&net, 1, &files, &config, &mut data, &mut losses).unwrap();
     (losses[0], losses[losses.len() - 10..].iter().sum::<f64>() / 10.0)
 }
 
@@ -110,8 +133,7 @@ fn a_nan_loss_stops_with_a_clear_message_and_keeps_the_last_checkpoint() {
     let mut data = common::SyntheticData { frames: (0..3).map(|i| common::frame(i, 16, 1, 1)).collect(), batch_size: 1, seed: 0, poison_from_epoch: Some(1) };
     let dir = tempfile::tempdir().unwrap();
     let f = files(dir.path(), &net, &config);
-    let (m, d) = model(&net, 1);
-    let err = train(m, &f, &config, &d, &mut data, &RunOptions::default(), &mut |_| {}).unwrap_err();
+    let err = train_new(&net, 1, &f, &config, &mut data, &mut Vec::new()).unwrap_err();
     let message = err.to_string();
     assert!(message.contains("NaN") && message.contains("step 4") && message.contains("last good checkpoint"), "{message}");
     let state: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("checkpoint/state.json")).unwrap()).unwrap();

@@ -182,7 +182,7 @@ impl FramePipeline {
         rasterizer: Rasterizer,
         zero_copy: bool,
     ) -> Result<FramePipeline> {
-        if glassnet.kind().reads_naive_gbuffer() {
+        if glassnet.net.reads_naive_gbuffer() {
             return Err(Error::bad_input(
                 glassnet.files.dir.display(),
                 "network",
@@ -190,7 +190,7 @@ impl FramePipeline {
             ));
         }
         if let Some(n) = &naive {
-            if !n.kind().reads_naive_gbuffer() {
+            if !n.net.reads_naive_gbuffer() {
                 return Err(Error::bad_input(n.files.dir.display(), "network", "is not a baseline on the naive G-buffer (naive or pixelgen)"));
             }
         }
@@ -301,7 +301,7 @@ impl FramePipeline {
         }
         let (lw, lh) = if sr { (width / 2, height / 2) } else { (width, height) };
         let model = if naive { self.naive.as_ref().expect("checked") } else { &self.glassnet };
-        let reads_objects = model.config().reads_object_buffers();
+        let reads_objects = model.net.reads_object_buffers();
         model.net.check_inputs(lw as usize, lh as usize, if reads_objects { instance.transparent_count() } else { 0 })?;
         let device = model.device.clone();
         let through = model.config().through;
@@ -348,7 +348,7 @@ impl FramePipeline {
         let mut cast_ms = 0.0;
         let mut failure = None;
         let mut raster_ms = 0.0;
-        let prediction = model.net.forward_streaming(gbuffer, light_coverage, values_tensor, objects, |k| {
+        let prediction = model.net.forward_streaming(gbuffer, light_coverage, values_tensor, objects, &mut |k| {
             let t = Instant::now();
             let tensor = if let (true, Some(ThroughCaster::Gpu(uploaded)), Some(opaque)) = (zero_copy, &caster, &gbuffer_on_gpu) {
                 // The transparency buffer, then the through buffer the GPU pass casts

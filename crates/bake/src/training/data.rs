@@ -109,7 +109,7 @@ fn host_batch(examples: &[Example], naive: bool, objects: bool, low_res: Option<
     if let Some(model) = low_res {
         let mut low = Vec::new();
         for e in examples {
-            let (gbuffer, light_coverage) = e.gbuffer(model.kind().reads_naive_gbuffer());
+            let (gbuffer, light_coverage) = e.gbuffer(model.net.reads_naive_gbuffer());
             let frame = FrameRef { gbuffer, light_coverage: Some(light_coverage), transparent: &e.transparent, values: &e.values, ground_truth: None };
             let image = model.render_half(frame)?;
             for name in glassbake_core::layout::GROUND_TRUTH_CHANNELS {

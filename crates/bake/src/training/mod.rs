@@ -14,7 +14,8 @@ use glassbake_dataset::DatasetStore;
 use glassbake_net::hash_grid::HashGridConfig;
 use glassbake_net::model_dir::{ModelConfig, ModelFiles, Network, FORMAT_VERSION};
 use glassbake_net::{
-    select_device, train, DeviceChoice, GlassNet, ModelKind, NetConfig, RunOptions, SuperSampler, TrainConfig, TrainEvent, TrainSummary, TrainedModel,
+    select_device, train, with_new_model, DeviceChoice, ModelKind, ModelTask, NetConfig, RunOptions, SceneModel, SuperSampler, TrainConfig, TrainEvent,
+    TrainSummary, Trainable, TrainedModel,
 };
 use glassbake_scene::load_scene;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -185,7 +186,6 @@ fn position_grid(scene: &str) -> Result<HashGridConfig> {
 /// Trains the model of `request`, showing its steps on the progress bar. Returns whether
 /// any step was trained (false: the model was already trained).
 pub fn train_model(request: &TrainRequest, progress: &Progress) -> Result<bool> {
-    let kind = request.model;
     let mut train_config = request.overrides.apply(&request.preset)?;
     if request.ablation == Some(Ablation::L1Only) {
         train_config.ssim_weight = 0.0;
@@ -201,36 +201,56 @@ pub fn train_model(request: &TrainRequest, progress: &Progress) -> Result<bool> 
     if !side.is_multiple_of(net_config.size_multiple()) {
         return Err(Error::bad_input("--crop", "resolution", format!("training frames of {side} px are not a multiple of {}", net_config.size_multiple())));
     }
-    // The loaders check their options before the model directory is written.
-    let naive = kind.reads_naive_gbuffer();
-    let (train_loader, val) = loaders(&request.dataset, scene, &train_config, request.workers, naive)?;
-    let files = model_files(&request.out, Network::Glassnet(net_config.clone()), &train_config, &request.dataset, &store)?;
-    let mut data = DatasetData::new(train_loader, val, &train_config, naive, net_config.reads_object_buffers(), None);
     let device = select_device(request.device, train_config.seed, true);
-    let model = GlassNet::new(&net_config, train_config.seed, &device)?;
-    progress.say(&format!(
-        "training {}{} ({} preset, {} parameters) on {} ({} train frames, {} px{}), {} steps on {}",
-        kind.name(),
-        request.ablation.map(|a| format!(" ({} ablation)", a.name())).unwrap_or_default(),
-        request.preset.name,
-        glassbake_net::burn::module::Module::num_params(&model),
-        request.dataset.display(),
-        data.train.len(),
-        info.resolution,
-        train_config.crop.map(|c| format!(", {c} px crops")).unwrap_or_default(),
-        train_config.steps,
-        request.device.name()
-    ));
-    step_bar(progress.bar(), train_config.steps);
-    let summary = train(model, &files, &train_config, &device, &mut data, &RunOptions::default(), &mut on_event(progress.bar()))?;
-    let already_done = summary.already_done;
-    report(&summary, &files, progress);
-    if already_done && files.dir.join("preview").exists() {
-        return Ok(false);
+    let task = TrainTask { request, progress, train_config: &train_config, store: &store, scene, resolution: info.resolution, device: &device };
+    with_new_model(&net_config, train_config.seed, &device, task)?
+}
+
+/// The rest of [`train_model`] once its network is built, for each type of network.
+struct TrainTask<'a> {
+    request: &'a TrainRequest,
+    progress: &'a Progress,
+    train_config: &'a TrainConfig,
+    store: &'a DatasetStore,
+    scene: Option<glassbake_scene::Scene>,
+    resolution: u32,
+    device: &'a glassbake_net::burn::prelude::Device,
+}
+
+impl ModelTask for TrainTask<'_> {
+    type Output = Result<bool>;
+
+    fn run<M: SceneModel + Trainable>(self, model: M) -> Result<bool> {
+        let TrainTask { request, progress, train_config, store, scene, resolution, device } = self;
+        // The loaders check their options before the model directory is written.
+        let (naive, objects) = (model.reads_naive_gbuffer(), model.reads_object_buffers());
+        let (train_loader, val) = loaders(&request.dataset, scene, train_config, request.workers, naive)?;
+        let files = model_files(&request.out, Network::Glassnet(model.config().clone()), train_config, &request.dataset, store)?;
+        let mut data = DatasetData::new(train_loader, val, train_config, naive, objects, None);
+        progress.say(&format!(
+            "training {}{} ({} preset, {} parameters) on {} ({} train frames, {} px{}), {} steps on {}",
+            model.kind().name(),
+            request.ablation.map(|a| format!(" ({} ablation)", a.name())).unwrap_or_default(),
+            request.preset.name,
+            model.num_params(),
+            request.dataset.display(),
+            data.train.len(),
+            resolution,
+            train_config.crop.map(|c| format!(", {c} px crops")).unwrap_or_default(),
+            train_config.steps,
+            request.device.name()
+        ));
+        step_bar(progress.bar(), train_config.steps);
+        let summary = train(model, &files, train_config, device, &mut data, &RunOptions::default(), &mut on_event(progress.bar()))?;
+        let already_done = summary.already_done;
+        report(&summary, &files, progress);
+        if already_done && files.dir.join("preview").exists() {
+            return Ok(false);
+        }
+        let previews = preview::write_previews(&files, &mut data.val, naive, objects, request.device)?;
+        progress.say(&format!("  preview {} (model | ground truth)", previews.display()));
+        Ok(!already_done)
     }
-    let previews = preview::write_previews(&files, &mut data.val, naive, net_config.reads_object_buffers(), request.device)?;
-    progress.say(&format!("  preview {} (model | ground truth)", previews.display()));
-    Ok(!already_done)
 }
 
 /// A x2 super-sampler to train from a trained GlassNet's images to a dataset's ground truth.
@@ -273,7 +293,7 @@ pub fn train_super_sampler(request: &SuperSamplerRequest, progress: &Progress) -
         ));
     }
     let sr_config = request.preset.super_sampler.clone();
-    let naive = glassnet.kind().reads_naive_gbuffer();
+    let naive = glassnet.net.reads_naive_gbuffer();
     let (train_loader, val) = loaders(&request.dataset, scene, &train_config, request.workers, naive)?;
     let files = model_files(&request.out, Network::SuperSampler(sr_config.clone()), &train_config, &request.dataset, &store)?;
     let mut data = DatasetData::new(train_loader, val, &train_config, false, true, Some(glassnet));
