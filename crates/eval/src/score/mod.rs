@@ -5,22 +5,20 @@
 //! it calls see only images.
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
-use glassbake_core::layout::{self, GROUND_TRUTH_CHANNELS};
-use glassbake_core::seed::purpose_seed;
 use glassbake_core::{Error, PlanarImage, Result};
-use glassbake_dataset::{DatasetInfo, DatasetSpec, DatasetStore, Example, Loader, LoaderOptions, SampleRecord, Split};
+use glassbake_dataset::{DatasetInfo, DatasetSpec, DatasetStore, Example, Loader, LoaderOptions, Split};
 use glassbake_net::burn::prelude::Device;
 use glassbake_net::{select_device, DeviceChoice, FrameRef, ModelKind, TrainedModel, TrainedSuperSampler};
-use glassbake_trace::TraceSettings;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 
-use crate::denoise::{denoise, DenoiseInput};
+mod rows;
+
 use crate::report::{write_report, ReportInputs, TrainingLog};
 use crate::rgb::mask_from_planar;
 use crate::{Evaluation, EvaluationSummary, Lpips, OrderTest, RgbImage};
+use rows::{HalfResolution, Rows};
 
 /// What to score, on what, and where the results go.
 #[derive(Clone, Debug)]
@@ -62,47 +60,15 @@ pub fn half_resolution_rows(name: &str) -> [String; 2] {
     [format!("{name}@half+sr"), format!("{name}@half+bilinear")]
 }
 
-/// A model rendering frames at half resolution ([`TrainedModel::render_half`]) and the
-/// super-sampler that brings them up.
-struct HalfResolution {
-    sampler: TrainedSuperSampler,
-    /// Index of the model among the scored ones.
-    model: usize,
-}
-
-/// One row's image of a frame and, for a row that renders it, the seconds that took.
-struct Prediction {
-    image: RgbImage,
-    seconds: Option<f64>,
-}
-
-impl HalfResolution {
-    /// The frame super-sampled and bilinearly enlarged (rows [`half_resolution_rows`]), the
-    /// half-resolution render counted in both times.
-    fn render(&self, model: &TrainedModel, frame: FrameRef) -> Result<[Prediction; 2]> {
-        let started = Instant::now();
-        let low = model.render_half(frame)?;
-        let gbuffer = frame.gbuffer;
-        let low_seconds = started.elapsed().as_secs_f64();
-        let started = Instant::now();
-        let super_sampled = RgbImage::from_planar(&self.sampler.upsample(&low, gbuffer, frame.light_coverage)?)?;
-        let super_sampled_seconds = low_seconds + started.elapsed().as_secs_f64();
-        let started = Instant::now();
-        let bilinear = RgbImage::from_planar(&low)?.bilinear_x2();
-        let bilinear_seconds = low_seconds + started.elapsed().as_secs_f64();
-        Ok([Prediction { image: super_sampled, seconds: Some(super_sampled_seconds) }, Prediction { image: bilinear, seconds: Some(bilinear_seconds) }])
-    }
-}
-
 /// Loads the super-sampler of `options` for the first GlassNet among `models`, checking that
 /// it was trained on this scene and that the frames halve to a size GlassNet takes.
-fn half_resolution(options: &ScoreOptions, models: &[TrainedModel], scene_hash: &str, resolution: u32) -> Result<Option<HalfResolution>> {
+fn half_resolution(options: &ScoreOptions, models: &[(String, TrainedModel)], scene_hash: &str, resolution: u32) -> Result<Option<HalfResolution>> {
     let Some(dir) = &options.super_sampler else { return Ok(None) };
     let model = models
         .iter()
-        .position(|m| m.kind() == ModelKind::Glassnet)
+        .position(|(_, m)| m.kind() == ModelKind::Glassnet)
         .ok_or_else(|| Error::bad_input("--super-sampler", "models", "needs a GlassNet among the models: it brings up GlassNet's half-resolution image"))?;
-    let sampler = TrainedSuperSampler::load(dir, &models[model].device)?;
+    let sampler = TrainedSuperSampler::load(dir, &models[model].1.device)?;
     if sampler.files.config.data.scene_hash != scene_hash {
         return Err(Error::bad_input(
             dir.join("config.json").display(),
@@ -113,7 +79,7 @@ fn half_resolution(options: &ScoreOptions, models: &[TrainedModel], scene_hash: 
             ),
         ));
     }
-    let multiple = 2 * models[model].config().size_multiple() as u32;
+    let multiple = 2 * models[model].1.config().size_multiple() as u32;
     if !resolution.is_multiple_of(multiple) {
         return Err(Error::bad_input(
             "--super-sampler",
@@ -131,37 +97,6 @@ pub fn noise_floor_row(spec: &DatasetSpec, split: Split) -> Option<String> {
     let glass_spp = spec.glass_spp_of(Split::Train);
     let glass = if glass_spp != spec.spp { format!("-{glass_spp}glass") } else { String::new() };
     spec.has_train_spp_copy(split).then(|| format!("gt-{}spp{glass}", spec.spp))
-}
-
-/// Planes `first..first + 3` of `image` (an RGB or XYZ attribute).
-fn three_planes(image: &PlanarImage, first: usize) -> [&[f32]; 3] {
-    [image.plane(first), image.plane(first + 1), image.plane(first + 2)]
-}
-
-/// The path-traced baseline of one frame (rows [`path_traced_rows`]): `sample` of `scene`
-/// traced at `spp` with the ground truth's default estimator (`TraceSettings::new`) and a
-/// seed of its own (not the ground truth's), then the same denoised with the naive
-/// G-buffer's first-surface albedo and normals as guides.
-fn path_traced_baseline(scene: &glassbake_scene::Scene, sample: &SampleRecord, naive: &PlanarImage, spp: u32) -> Result<[Prediction; 2]> {
-    let (w, h) = (naive.width(), naive.height());
-    let instance = scene.instantiate(&sample.values)?;
-    let settings = TraceSettings::new(w, h, spp, purpose_seed(sample.seed, "path-traced baseline"));
-    let started = Instant::now();
-    let traced = glassbake_trace::render(&instance, &sample.camera, &settings, None)?;
-    let trace_seconds = started.elapsed().as_secs_f64();
-    // OIDN reads interleaved RGB; the denoiser gets unclamped (HDR) radiance.
-    let interleave = |planes: [&[f32]; 3]| -> Vec<f32> { (0..(w * h) as usize).flat_map(|i| planes.map(|p| p[i])).collect() };
-    let color = interleave(GROUND_TRUTH_CHANNELS.map(|c| traced.image.plane_by_name(c).expect("the tracer writes R, G, B")));
-    let albedo = interleave(three_planes(naive, layout::opaque::ALBEDO));
-    let normal = interleave(three_planes(naive, layout::opaque::NORMAL));
-    let started = Instant::now();
-    let denoised = denoise(&DenoiseInput { width: w as usize, height: h as usize, color: &color, albedo: &albedo, normal: &normal })?;
-    let denoise_seconds = started.elapsed().as_secs_f64();
-    let rgb = |v: &[f32]| RgbImage::new(w as usize, h as usize, v.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect());
-    Ok([
-        Prediction { image: rgb(&color)?, seconds: Some(trace_seconds) },
-        Prediction { image: rgb(&denoised)?, seconds: Some(trace_seconds + denoise_seconds) },
-    ])
 }
 
 fn model_name(dir: &Path) -> String {
@@ -233,11 +168,10 @@ fn check_options(options: &ScoreOptions) -> Result<()> {
     Ok(())
 }
 
-/// The models in `model_dirs`, each checked to be of the dataset's scene, and their row names
+/// The models in `model_dirs`, each checked to be of the dataset's scene, with their row names
 /// (a directory's name; repeats numbered).
-fn load_models(model_dirs: &[PathBuf], store: &DatasetStore, device: &Device) -> Result<(Vec<TrainedModel>, Vec<String>)> {
-    let mut models = Vec::new();
-    let mut names: Vec<String> = Vec::new();
+fn load_models(model_dirs: &[PathBuf], store: &DatasetStore, device: &Device) -> Result<Vec<(String, TrainedModel)>> {
+    let mut models: Vec<(String, TrainedModel)> = Vec::new();
     for dir in model_dirs {
         let model = TrainedModel::load(dir, device)?;
         let data = &model.files.config.data;
@@ -252,13 +186,12 @@ fn load_models(model_dirs: &[PathBuf], store: &DatasetStore, device: &Device) ->
             ));
         }
         let mut name = model_name(dir);
-        if names.contains(&name) {
-            name = format!("{name}-{}", names.len());
+        if models.iter().any(|(n, _)| *n == name) {
+            name = format!("{name}-{}", models.len());
         }
-        names.push(name);
-        models.push(model);
+        models.push((name, model));
     }
-    Ok((models, names))
+    Ok(models)
 }
 
 fn split_name(split: Split) -> &'static str {
@@ -316,79 +249,35 @@ fn write_evaluation_report(
     )
 }
 
-/// Every row's image of frame `e`, in row order: each model's, the half-resolution rows, the
-/// path-traced baseline's (at `path_traced`'s spp, of its scene), the noise floor's.
-fn frame_predictions(
-    e: &Example,
-    models: &[TrainedModel],
-    half: Option<&HalfResolution>,
-    path_traced: Option<(u32, &glassbake_scene::Scene)>,
-    noise_floor: bool,
-    store: &DatasetStore,
-) -> Result<Vec<Prediction>> {
-    let mut predictions = Vec::new();
-    for model in models {
-        let (gbuffer, light_coverage) = e.gbuffer(model.net.reads_naive_gbuffer());
-        let transparent: &[PlanarImage] = if model.net.reads_object_buffers() { &e.transparent } else { &[] };
-        let started = Instant::now();
-        let image = model.render(FrameRef { gbuffer, light_coverage: Some(light_coverage), transparent, values: &e.values, ground_truth: None })?;
-        predictions.push(Prediction { seconds: Some(started.elapsed().as_secs_f64()), image: RgbImage::from_planar(&image)? });
-    }
-    if let Some(half) = half {
-        let (gbuffer, light_coverage) = e.gbuffer(false);
-        let frame = FrameRef { gbuffer, light_coverage: Some(light_coverage), transparent: &e.transparent, values: &e.values, ground_truth: None };
-        predictions.extend(half.render(&models[half.model], frame)?);
-    }
-    if let Some((spp, scene)) = path_traced {
-        let sample =
-            store.manifest.samples.iter().find(|s| s.index == e.index).ok_or_else(|| Error::Internal(format!("frame {} is not in the manifest", e.index)))?;
-        let naive = e.naive.as_ref().expect("the loader was asked for naive buffers");
-        predictions.extend(path_traced_baseline(scene, sample, naive, spp)?);
-    }
-    if noise_floor {
-        let image = RgbImage::from_planar(&PlanarImage::read_exr(&store.train_spp_gt_path(e.index))?)?;
-        predictions.push(Prediction { image, seconds: None });
-    }
-    Ok(predictions)
-}
-
 /// Scores `options.models` on the dataset split, writes `OUT/metrics.*`, `OUT/frames`,
 /// `OUT/grids` and `OUT/report/`. `facts` are extra lines for the report (the bake's stage
 /// times); `progress(done, total)` is called after every frame.
 pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn FnMut(usize, usize)) -> Result<Scored> {
-    let (dataset, model_dirs) = (&options.dataset, &options.models);
+    let dataset = &options.dataset;
     let split = options.split;
-    let split_name = split_name(split);
     check_options(options)?;
     let store = DatasetStore::open(dataset)?;
     let info = store.info();
     check_split_complete(dataset, &info, split)?;
     let device = select_device(options.device, 0, false);
-    let (models, mut names) = load_models(model_dirs, &store, &device)?;
+    let models = load_models(&options.models, &store, &device)?;
     let half = half_resolution(options, &models, &store.manifest.scene.hash, store.manifest.spec.resolution)?;
-    if let Some(half) = &half {
-        names.extend(half_resolution_rows(&names[half.model]));
-    }
     let lpips = options.lpips_weights.as_deref().map(Lpips::load).transpose()?;
-    let needs_naive = options.path_traced_baseline.is_some() || models.iter().any(|m| m.net.reads_naive_gbuffer());
+    let needs_naive = options.path_traced_baseline.is_some() || models.iter().any(|(_, m)| m.net.reads_naive_gbuffer());
     let scene = scene_if_needed(options, &store)?;
-    if let Some(spp) = options.path_traced_baseline {
-        names.extend(path_traced_rows(spp));
-    }
-    let noise_floor = noise_floor_row(&store.manifest.spec, split);
-    names.extend(noise_floor.clone());
     let loader_scene = if store.manifest.reads_cached_buffers() { None } else { scene.clone() };
+    let rows = Rows { models, half, path_traced: options.path_traced_baseline.zip(scene), noise_floor: noise_floor_row(&store.manifest.spec, split) };
+    let names = rows.names();
     let mut loader = Loader::new(
         dataset,
         loader_scene,
         LoaderOptions { split, batch_size: 1, crop: None, seed: 0, shuffle: false, workers: options.workers, naive: needs_naive, ..Default::default() },
     )?;
     let total = options.frames.unwrap_or(usize::MAX).min(loader.len());
-    let mut evaluation = Evaluation::new(&options.out, names.clone(), lpips, dataset.display().to_string(), split_name.to_string())?;
+    let mut evaluation = Evaluation::new(&options.out, names.clone(), lpips, dataset.display().to_string(), split_name(split).to_string())?;
     // The order test runs on the first model that sums transparency buffers (GlassNet).
-    let order_model = models.iter().position(|m| m.kind() == ModelKind::Glassnet);
-    let mut order =
-        OrderTest { model: order_model.map(|i| names[i].clone()).unwrap_or_default(), frames: 0, reversed_max_abs_diff: 0.0, shuffled_max_abs_diff: 0.0 };
+    let order_model = rows.models.iter().find(|(_, m)| m.kind() == ModelKind::Glassnet);
+    let mut order = order_model.map(|(name, _)| OrderTest { model: name.clone(), frames: 0, reversed_max_abs_diff: 0.0, shuffled_max_abs_diff: 0.0 });
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x0dde_0b1e);
 
     progress(0, total);
@@ -398,24 +287,12 @@ pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn
             if done == total {
                 break 'frames;
             }
-            let predictions = frame_predictions(&e, &models, half.as_ref(), options.path_traced_baseline.zip(scene.as_ref()), noise_floor.is_some(), &store)?;
-            if let Some(i) = order_model {
-                let model = &models[i];
-                let (gbuffer, light_coverage) = e.gbuffer(false);
-                let frame = |transparent: &[PlanarImage]| {
-                    model.render_raw(FrameRef { gbuffer, light_coverage: Some(light_coverage), transparent, values: &e.values, ground_truth: None })
-                };
-                let original = frame(&e.transparent)?;
-                let mut reversed = e.transparent.clone();
-                reversed.reverse();
-                let mut shuffled = e.transparent.clone();
-                shuffled.shuffle(&mut rng);
-                order.reversed_max_abs_diff = order.reversed_max_abs_diff.max(max_abs_diff(&original, &frame(&reversed)?));
-                order.shuffled_max_abs_diff = order.shuffled_max_abs_diff.max(max_abs_diff(&original, &frame(&shuffled)?));
-                order.frames += 1;
+            let predictions = rows.predict(&e, &store)?;
+            if let (Some((_, model)), Some(order)) = (order_model, order.as_mut()) {
+                add_order_test_frame(order, model, &e, &mut rng)?;
             }
-            for (row, seconds) in predictions.iter().enumerate() {
-                if let Some(s) = seconds.seconds {
+            for (row, prediction) in predictions.iter().enumerate() {
+                if let Some(s) = prediction.seconds {
                     evaluation.add_render_time(row, s);
                 }
             }
@@ -425,10 +302,28 @@ pub fn score_models(options: &ScoreOptions, facts: &[String], progress: &mut dyn
             progress(done, total);
         }
     }
-    if order_model.is_some() {
+    if let Some(order) = order {
         evaluation.set_order_test(order);
     }
     let summary = evaluation.finish()?;
-    let index = write_evaluation_report(options, &store, &info, &names, noise_floor.as_deref(), facts)?;
+    let index = write_evaluation_report(options, &store, &info, &names, rows.noise_floor.as_deref(), facts)?;
     Ok(Scored { summary, report: index })
+}
+
+/// Renders frame `e` with `model` (GlassNet) with its transparency buffers as given, reversed
+/// and shuffled, and records the largest difference in `order`.
+fn add_order_test_frame(order: &mut OrderTest, model: &TrainedModel, e: &Example, rng: &mut rand_chacha::ChaCha8Rng) -> Result<()> {
+    let (gbuffer, light_coverage) = e.gbuffer(false);
+    let frame = |transparent: &[PlanarImage]| {
+        model.render_raw(FrameRef { gbuffer, light_coverage: Some(light_coverage), transparent, values: &e.values, ground_truth: None })
+    };
+    let original = frame(&e.transparent)?;
+    let mut reversed = e.transparent.clone();
+    reversed.reverse();
+    let mut shuffled = e.transparent.clone();
+    shuffled.shuffle(rng);
+    order.reversed_max_abs_diff = order.reversed_max_abs_diff.max(max_abs_diff(&original, &frame(&reversed)?));
+    order.shuffled_max_abs_diff = order.shuffled_max_abs_diff.max(max_abs_diff(&original, &frame(&shuffled)?));
+    order.frames += 1;
+    Ok(())
 }
