@@ -5,14 +5,15 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 
-# With burn's CUDA backend (`--device cuda`) beside wgpu: cudarc loads the driver's libcuda and
-# NVRTC at run time, so no CUDA toolkit is needed here, only the version it should expect
-# (CUDARC_CUDA_VERSION, 12080 = CUDA 12.8 by default). The backend's PTX compiler links a
-# prebuilt LLVM that a build script downloads from github.com/tracel-ai/tracel-llvm, so this
-# needs that site; without it (or with GPU_KIT_CUDA=0) the binary is built without CUDA.
+# With burn's CUDA backend (`--device cuda`) beside wgpu, built offline by tools/cuda/cargo-cuda.sh
+# (cubecl-cuda without its LLVM backend: kernels go through NVRTC). cudarc loads the driver's
+# libcuda and NVRTC at run time, so no CUDA toolkit is needed here, only the version it should
+# expect (CUDARC_CUDA_VERSION, 12080 = CUDA 12.8 by default); NVRTC itself is packed from PyPI's
+# nvidia-cuda-nvrtc-cu12 wheel below, where this machine reaches PyPI. GPU_KIT_CUDA=0 builds
+# glassbake without CUDA.
 features=()
 if [ "${GPU_KIT_CUDA:-1}" = 1 ]; then
-  if CUDARC_CUDA_VERSION="${CUDARC_CUDA_VERSION:-12080}" cargo build --release --locked -p glassbake-cli --features cuda; then
+  if bash tools/cuda/cargo-cuda.sh build --release -p glassbake-cli; then
     features=(--features cuda)
   else
     echo "pack.sh: the CUDA build failed (above); building glassbake without the cuda feature" >&2
@@ -31,6 +32,27 @@ done
 xz -T0 -6 -c target/release/glassbake > .gpu/glassbake.xz
 if [ "${#features[@]}" -gt 0 ]; then echo cuda > .gpu/features.txt; else rm -f .gpu/features.txt; fi
 xz -T0 -6 -c target/release/examples/gpu_trace_bench > .gpu/gpu_trace_bench.xz
+
+# NVRTC for the CUDA backend, with GPU_KIT_NVRTC=1: 31 MB xz-compressed, so only for a GPU machine
+# without PyTorch (run.sh finds the NVRTC PyTorch's wheels install). From PyPI's
+# nvidia-cuda-nvrtc-cu12 wheel of CUDARC_CUDA_VERSION's major.minor.
+if [ "${#features[@]}" -gt 0 ] && [ "${GPU_KIT_NVRTC:-0}" = 1 ] && ! ls .gpu/nvrtc/libnvrtc.so*.xz >/dev/null 2>&1; then
+  cuda="${CUDARC_CUDA_VERSION:-12080}"
+  wheel_dir=$(mktemp -d)
+  python3 -m pip download -q --no-deps --only-binary=:all: --platform manylinux2014_x86_64 -d "$wheel_dir" \
+    "nvidia-cuda-nvrtc-cu12==$((cuda / 1000)).$((cuda % 1000 / 10)).*"
+  mkdir -p .gpu/nvrtc
+  python3 - "$wheel_dir"/*.whl .gpu/nvrtc <<'PY'
+import lzma, sys, zipfile
+wheel = zipfile.ZipFile(sys.argv[1])
+for name in wheel.namelist():
+    file = name.rsplit("/", 1)[1]
+    if "/lib/libnvrtc" in name and ".alt." not in file:
+        with lzma.open(f"{sys.argv[2]}/{file}.xz", "wb", preset=6) as out:
+            out.write(wheel.read(name))
+PY
+  rm -rf "$wheel_dir"
+fi
 
 # The Vulkan loader (the NVIDIA driver's ICD is on the GPU machine, the loader may not be), amd64
 # packages whatever this machine's architecture.

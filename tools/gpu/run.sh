@@ -46,6 +46,20 @@ fi
 icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 if [ -f "$icd" ] && [ -z "${VK_DRIVER_FILES:-}" ]; then export VK_DRIVER_FILES="$icd"; fi
 
+# NVRTC for the CUDA backend: the one pack.sh packed (GPU_KIT_NVRTC=1), else the one PyTorch's
+# wheels installed.
+nvrtc_dir=""
+if ls .gpu/nvrtc/libnvrtc*.xz >/dev/null 2>&1; then
+  nvrtc_dir="$work/nvrtc"
+  mkdir -p "$nvrtc_dir"
+  for f in .gpu/nvrtc/*.xz; do
+    python3 -c "import lzma, shutil, sys; shutil.copyfileobj(lzma.open(sys.argv[1]), open(sys.argv[2], 'wb'))" "$f" "$nvrtc_dir/$(basename "$f" .xz)"
+  done
+else
+  nvrtc_dir=$(python3 -c "import nvidia.cuda_nvrtc, os; print(os.path.join(list(nvidia.cuda_nvrtc.__path__)[0], 'lib'))" 2>/dev/null || true)
+fi
+[ -z "$nvrtc_dir" ] || export LD_LIBRARY_PATH="$nvrtc_dir${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+
 bin="${GLASSBAKE_BIN_DIR:-}"
 if [ -z "$bin" ]; then
   bin="$work/bin"
