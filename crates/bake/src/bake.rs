@@ -36,6 +36,8 @@ pub struct BakeRequest {
     pub out: PathBuf,
     /// Where the networks train and run; `Wgpu` also path-traces the ground truth on the GPU.
     pub device: DeviceChoice,
+    /// GPUs of `device`'s kind that share each training batch.
+    pub devices: usize,
     /// Also the paper's ablations (no positional encoding; L1 loss only).
     pub ablations: bool,
     /// Also the pixelgen baseline and path tracing at [`PATH_TRACED_SPP`], raw and denoised.
@@ -56,6 +58,7 @@ impl BakeRequest {
             preset,
             out: out.into(),
             device: DeviceChoice::Cpu,
+            devices: 1,
             ablations: false,
             baselines: false,
             lpips_weights: None,
@@ -109,6 +112,7 @@ impl BakeRequest {
         let request = |name: &str, kind: ModelKind, ablation: Option<Ablation>| {
             let mut train = TrainRequest::new(&dataset, self.out.join(name), self.preset.clone(), kind);
             train.device = self.device;
+            train.devices = self.devices;
             train.ablation = ablation;
             (name.to_string(), train)
         };

@@ -45,4 +45,12 @@ impl Progress {
     pub fn finish(&self) {
         self.bar.finish_and_clear();
     }
+
+    /// `work` with bars on the terminal, cleared when it ends.
+    pub fn printing_while<T>(work: impl FnOnce(&Progress) -> T) -> T {
+        let progress = Progress::printing();
+        let result = work(&progress);
+        progress.finish();
+        result
+    }
 }

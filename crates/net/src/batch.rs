@@ -151,6 +151,49 @@ impl HostBatch {
     pub fn transparent_tensor(&self, k: usize, device: &Device) -> Tensor<4> {
         self.tensor(&self.transparent[k], self.object_channels, device)
     }
+
+    /// The batch cut into `parts` consecutive runs of frames, as equal as they can be (the
+    /// first ones a frame larger); a part of no frames is left out.
+    pub fn split(&self, parts: usize) -> Vec<HostBatch> {
+        if self.frames == 0 {
+            return vec![self.clone()];
+        }
+        let parts = parts.clamp(1, self.frames.max(1));
+        let (base, extra) = (self.frames / parts, self.frames % parts);
+        let mut start = 0;
+        (0..parts)
+            .map(|p| {
+                let frames = base + usize::from(p < extra);
+                let range = start..start + frames;
+                start += frames;
+                self.frames_in(range)
+            })
+            .collect()
+    }
+
+    /// Frames `range` of the batch.
+    fn frames_in(&self, range: std::ops::Range<usize>) -> HostBatch {
+        let pixels = self.width * self.height;
+        // Each array holds its frames one after another, `len / frames` values each.
+        let cut = |data: &[f32]| {
+            let per_frame = data.len() / self.frames;
+            data[range.start * per_frame..range.end * per_frame].to_vec()
+        };
+        debug_assert_eq!(self.gbuffer.len(), self.frames * OPAQUE_CHANNELS * pixels);
+        HostBatch {
+            frames: range.len(),
+            width: self.width,
+            height: self.height,
+            variables: self.variables,
+            gbuffer: cut(&self.gbuffer),
+            light_coverage: self.light_coverage.as_deref().map(cut),
+            transparent: self.transparent.iter().map(|b| cut(b)).collect(),
+            object_channels: self.object_channels,
+            values: cut(&self.values),
+            ground_truth: self.ground_truth.as_deref().map(cut),
+            low_res_image: self.low_res_image.as_deref().map(cut),
+        }
+    }
 }
 
 /// Frame `index` of an [N, 3, H, W] prediction as a linear RGB image (channels R, G, B).

@@ -1,8 +1,8 @@
 //! Run-time backend choice: `cpu` is burn's pure-Rust `flex` backend, `wgpu` its wgpu backend
 //! (Vulkan on an NVIDIA GPU; lavapipe works but is slow), and, in a build with the `cuda`
-//! feature, `cuda` its CUDA backend (cubecl-cuda). The CUDA build needs no CUDA toolkit: set
-//! `CUDARC_CUDA_VERSION` (e.g. 12080) when building, and the driver's libcuda and NVRTC are
-//! loaded when the program starts using the device.
+//! feature, `cuda` its CUDA backend (cubecl-cuda). The CUDA build needs no CUDA toolkit
+//! (`tools/cuda/cargo-cuda.sh`): the driver's libcuda and NVRTC are loaded when the program
+//! starts using the device. Training can take several GPUs of one kind ([`select_devices`]).
 
 use burn::prelude::Device;
 use serde::{Deserialize, Serialize};
@@ -29,7 +29,7 @@ impl DeviceChoice {
             "cuda" => Err(Error::bad_input(
                 "--device",
                 "device",
-                "this glassbake was built without the `cuda` feature (CUDARC_CUDA_VERSION=12080 cargo build --release --features cuda)",
+                "this glassbake was built without the `cuda` feature (tools/cuda/cargo-cuda.sh build --release -p glassbake-cli)",
             )),
             other => Err(Error::bad_input("--device", "device", format!("{other:?} is not cpu, wgpu or cuda"))),
         }
@@ -61,9 +61,50 @@ pub fn select_device(choice: DeviceChoice, seed: u64, training: bool) -> Device 
     }
 }
 
+/// `count` devices of `choice` for data-parallel training, seeded, with autodiff: one is
+/// [`select_device`]'s; several are that many GPUs (wgpu: the first `count` discrete GPUs wgpu
+/// lists; cuda: devices 0 to `count - 1`). Refuses more GPUs than the machine has, and several
+/// CPUs (the CPU backend already uses every core).
+pub fn select_devices(choice: DeviceChoice, count: usize, seed: u64) -> Result<Vec<Device>> {
+    let refuse = |why: String| Err(Error::bad_input("--devices", "devices", why));
+    match (choice, count) {
+        (_, 0) => refuse("must be at least 1".into()),
+        (_, 1) => Ok(vec![select_device(choice, seed, true)]),
+        (DeviceChoice::Cpu, _) => refuse("several devices are GPUs (--device wgpu or cuda); the CPU backend already uses every core".into()),
+        (DeviceChoice::Wgpu, _) => {
+            use burn::tensor::wgpu::wgpu;
+            // The native GPU APIs only: probing OpenGL complains on a machine without a display.
+            let instance =
+                wgpu::Instance::new(wgpu::InstanceDescriptor { backends: wgpu::Backends::PRIMARY, ..wgpu::InstanceDescriptor::new_without_display_handle() });
+            let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::PRIMARY));
+            let discrete = adapters.iter().filter(|a| a.get_info().device_type == wgpu::DeviceType::DiscreteGpu).count();
+            if discrete < count {
+                return refuse(format!("{count} devices asked for, and wgpu lists {discrete} discrete GPUs"));
+            }
+            Ok((0..count).map(|k| seeded(Device::wgpu(burn::tensor::DeviceKind::DiscreteGpu(k)), seed)).collect())
+        }
+        #[cfg(feature = "cuda")]
+        (DeviceChoice::Cuda, _) => Ok((0..count).map(|k| seeded(Device::cuda(k), seed)).collect()),
+    }
+}
+
+fn seeded(device: Device, seed: u64) -> Device {
+    device.seed(seed);
+    device.autodiff()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn several_devices_are_gpus() {
+        assert_eq!(select_devices(DeviceChoice::Cpu, 1, 0).unwrap().len(), 1);
+        for (choice, count, says) in [(DeviceChoice::Cpu, 0, "at least 1"), (DeviceChoice::Cpu, 2, "GPUs")] {
+            let err = select_devices(choice, count, 0).unwrap_err();
+            assert!(err.is_user_error() && err.to_string().contains(says), "{err}");
+        }
+    }
 
     #[test]
     fn devices_parse_by_name_and_unknown_ones_are_refused() {

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use burn::module::Module;
-use burn::optim::{AdamWConfig, GradientsParams, ModuleOptimizer};
+use burn::optim::{AdamWConfig, GradientsAccumulator, GradientsParams, ModuleOptimizer};
 use burn::prelude::*;
 use burn::store::{BurnpackStore, ModuleSnapshot};
 use serde::{Deserialize, Serialize};
@@ -84,6 +84,9 @@ pub struct TrainSummary {
 pub struct RunOptions {
     /// Stop (as if killed) after this many steps, without a checkpoint: for resume tests.
     pub stop_after: Option<u64>,
+    /// Further devices (of the same kind, with autodiff) that each take a share of every batch
+    /// (data parallelism, [`batch_gradients`]); empty: the whole batch on the model's device.
+    pub replicas: Vec<Device>,
 }
 
 const CHECKPOINT: &str = "checkpoint";
@@ -156,10 +159,7 @@ where
             let Some(batch) = batches.next() else { break };
             let batch = batch?;
             let learning_rate = config.learning_rate_at(state.step);
-            let prediction = model.predict(&batch, device);
-            let target = model.target(&batch, device)?;
-            let loss = training_loss(prediction, target, config.ssim_weight);
-            let loss_value = loss.clone().into_scalar::<f32>() as f64;
+            let (loss_value, gradients) = batch_gradients(&model, &batch, device, &options.replicas, config.ssim_weight)?;
             if !loss_value.is_finite() {
                 return Err(Error::Internal(format!(
                     "the training loss became {loss_value} at step {} (epoch {epoch}); stopped without saving, so {} keeps the last good checkpoint{}. Try a lower learning rate.",
@@ -168,7 +168,6 @@ where
                     if checkpoint_dir.exists() { "" } else { " (there is none yet)" }
                 )));
             }
-            let gradients = GradientsParams::from_grads(loss.backward(), &model);
             model = optimizer.step(learning_rate, model, gradients);
             state.step += 1;
             state.batch_in_epoch += 1;
@@ -205,6 +204,37 @@ where
         elapsed_seconds: elapsed_before + started.elapsed().as_secs_f64(),
         already_done: false,
     })
+}
+
+/// The training loss of `batch` and its gradients for `model`, on `device` or, with `replicas`,
+/// the batch cut into a share of frames per device ([`HostBatch::split`]): each device runs the
+/// model on its share, its loss weighted by the share's part of the frames (the loss is a mean
+/// over frames, so the weighted losses add up to the whole batch's), and the gradients are
+/// summed on `device`. Every device's work is queued before any is waited for, so GPUs run side
+/// by side.
+pub fn batch_gradients<M: Trainable>(model: &M, batch: &HostBatch, device: &Device, replicas: &[Device], ssim_weight: f64) -> Result<(f64, GradientsParams)> {
+    if replicas.is_empty() {
+        let loss = training_loss(model.predict(batch, device), model.target(batch, device)?, ssim_weight);
+        let loss_value = loss.clone().into_scalar::<f32>() as f64;
+        return Ok((loss_value, GradientsParams::from_grads(loss.backward(), model)));
+    }
+    let devices: Vec<&Device> = std::iter::once(device).chain(replicas).collect();
+    let mut shares = Vec::new();
+    for (shard, shard_device) in batch.split(devices.len()).iter().zip(devices) {
+        // The model's weights as they are now, on that device (parameter ids kept).
+        let replica = model.clone().fork(shard_device);
+        let loss = training_loss(replica.predict(shard, shard_device), replica.target(shard, shard_device)?, ssim_weight);
+        let loss = loss.mul_scalar(shard.frames as f64 / batch.frames as f64);
+        let gradients = GradientsParams::from_grads(loss.clone().backward(), &replica);
+        shares.push((loss.detach(), gradients, replica));
+    }
+    let mut sum = GradientsAccumulator::new();
+    let mut loss_value = 0.0;
+    for (loss, gradients, replica) in shares {
+        loss_value += loss.into_scalar::<f32>() as f64;
+        sum.accumulate(model, gradients.to_device(device, &replica));
+    }
+    Ok((loss_value, sum.grads()))
 }
 
 /// The log line of `state.step` (`step,epoch,learning_rate,train_loss,validation_loss,elapsed_s,validation_psnr`).

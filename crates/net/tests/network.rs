@@ -248,34 +248,10 @@ fn glassnet_output_is_bit_identical_under_every_permutation_on_the_cpu() {
 
 #[test]
 fn glassnet_output_is_bit_identical_under_permutation_on_wgpu_when_an_adapter_exists() {
-    // burn's wgpu runtime panics when no adapter exists; probe for one with the same wgpu.
-    let instance = burn::tensor::wgpu::wgpu::Instance::default();
-    let adapter = pollster_block_on(instance.request_adapter(&Default::default()));
-    if adapter.is_err() {
-        assert!(!resources_required(), "no wgpu adapter, and GLASSBAKE_TEST_RESOURCES=required");
-        eprintln!("SKIPPED: no wgpu adapter on this machine");
+    if !common::wgpu_adapter_exists() {
         return;
     }
     permutation_exactness(&Device::wgpu(Default::default()), &[1, 3, 8]);
-}
-
-fn pollster_block_on<F: std::future::Future>(future: F) -> F::Output {
-    // A tiny executor: request_adapter completes without real waiting on native backends.
-    use std::task::{Context, Poll, RawWaker, RawWakerVTable, Waker};
-    fn noop(_: *const ()) {}
-    fn clone(p: *const ()) -> RawWaker {
-        RawWaker::new(p, &VTABLE)
-    }
-    static VTABLE: RawWakerVTable = RawWakerVTable::new(clone, noop, noop, noop);
-    let waker = unsafe { Waker::from_raw(RawWaker::new(std::ptr::null(), &VTABLE)) };
-    let mut cx = Context::from_waker(&waker);
-    let mut future = std::pin::pin!(future);
-    loop {
-        if let Poll::Ready(v) = future.as_mut().poll(&mut cx) {
-            return v;
-        }
-        std::thread::yield_now();
-    }
 }
 
 #[test]
@@ -817,10 +793,4 @@ fn sigma_is_read_where_the_through_hits_land() {
             }
         }
     }
-}
-
-/// `.ci/run` sets GLASSBAKE_TEST_RESOURCES=required after installing what the tests need:
-/// there a test must not skip for want of it.
-fn resources_required() -> bool {
-    std::env::var("GLASSBAKE_TEST_RESOURCES").is_ok_and(|v| v == "required")
 }

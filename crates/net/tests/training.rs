@@ -3,9 +3,11 @@
 
 mod common;
 
+use burn::optim::GradientsParams;
 use burn::prelude::*;
 use glassbake_core::Result;
 use glassbake_net::model_dir::{weights_step, ModelConfig, ModelFiles, Network, FORMAT_VERSION};
+use glassbake_net::train::batch_gradients;
 use glassbake_net::{
     burn, train, with_new_model, GlassNet, ModelKind, ModelTask, NetConfig, RunOptions, SceneModel, TrainConfig, TrainSummary, Trainable, TrainingData,
 };
@@ -104,7 +106,7 @@ fn a_killed_run_resumes_to_the_weights_of_an_uninterrupted_one() {
     let killed = tempfile::tempdir().unwrap();
     let f2 = files(killed.path(), &net, &config);
     let (m, d) = model(&net, 7);
-    train(m, &f2, &config, &d, &mut data(), &RunOptions { stop_after: Some(6) }, &mut |_| {}).unwrap();
+    train(m, &f2, &config, &d, &mut data(), &RunOptions { stop_after: Some(6), ..RunOptions::default() }, &mut |_| {}).unwrap();
     let (m, d) = model(&net, 99); // the checkpoint, not the seed, decides the weights now
     let summary = train(m, &f2, &config, &d, &mut data(), &RunOptions::default(), &mut |_| {}).unwrap();
     assert_eq!(summary.resumed_from, Some(4));
@@ -149,7 +151,7 @@ fn a_damaged_checkpoint_is_named_not_trained_on() {
     let dir = tempfile::tempdir().unwrap();
     let f = files(dir.path(), &net, &config);
     let (m, d) = model(&net, 7);
-    train(m, &f, &config, &d, &mut data(), &RunOptions { stop_after: Some(4) }, &mut |_| {}).unwrap();
+    train(m, &f, &config, &d, &mut data(), &RunOptions { stop_after: Some(4), ..RunOptions::default() }, &mut |_| {}).unwrap();
 
     // One bit of the optimizer's moments flipped (bit rot): resuming on it would train on
     // garbage. The resume refuses, naming the file, and leaves everything as it was.
@@ -234,7 +236,7 @@ fn a_finished_run_repairs_weights_that_are_not_its_final_steps() {
     let early = tempfile::tempdir().unwrap();
     let f4 = files(early.path(), &net, &config);
     let (m, d) = model(&net, 5);
-    train(m, &f4, &config, &d, &mut data(), &RunOptions { stop_after: Some(4) }, &mut |_| {}).unwrap();
+    train(m, &f4, &config, &d, &mut data(), &RunOptions { stop_after: Some(4), ..RunOptions::default() }, &mut |_| {}).unwrap();
     assert_eq!(weights_step(&f4.weights_path()), Some(4));
     std::fs::copy(f4.weights_path(), f.weights_path()).unwrap();
 
@@ -281,4 +283,95 @@ fn a_model_directory_has_one_writer_and_one_dataset() {
     ModelFiles::prepare(seeded.path(), recorded).unwrap();
     let err = ModelFiles::prepare(seeded.path(), other).unwrap_err();
     assert!(err.is_user_error() && err.to_string().contains("data"), "{err}");
+}
+
+/// The largest difference between two sets of gradients of `model`'s parameters, and the
+/// largest gradient, over every parameter.
+fn gradient_difference(model: &impl burn::module::Module, a: &GradientsParams, b: &GradientsParams) -> (f32, f32) {
+    struct Compare<'a> {
+        a: &'a GradientsParams,
+        b: &'a GradientsParams,
+        difference: f32,
+        largest: f32,
+        compared: usize,
+    }
+    impl burn::module::ModuleVisitor for Compare<'_> {
+        fn visit_float<const D: usize>(&mut self, param: &burn::module::Param<Tensor<D>>) {
+            let values = |g: &GradientsParams| g.get::<D>(param.id).expect("every parameter has a gradient").into_data().try_to_vec::<f32>().unwrap();
+            let (a, b) = (values(self.a), values(self.b));
+            for (x, y) in a.iter().zip(&b) {
+                self.difference = self.difference.max((x - y).abs());
+                self.largest = self.largest.max(x.abs());
+            }
+            self.compared += 1;
+        }
+    }
+    let mut compare = Compare { a, b, difference: 0.0, largest: 0.0, compared: 0 };
+    model.visit(&mut compare);
+    assert!(compare.compared > 10, "compared {} parameters", compare.compared);
+    (compare.difference, compare.largest)
+}
+
+/// A batch cut across devices (here 2 frames on the first, 1 on the second, and 1 + 1 + 1 on
+/// three) gives the whole batch's loss and gradients: each share's loss weighted by its frames.
+fn shares_give_the_whole_batchs_gradients(device: &Device, replicas: &[Device]) {
+    let net = common::small_net(ModelKind::Glassnet, 1, 2);
+    let model = GlassNet::new(&net, 3, device).unwrap();
+    let frames: Vec<_> = (0..3).map(|i| common::frame(20 + i, 16, 2, 1)).collect();
+    let batch = common::batch(&frames);
+    let (whole_loss, whole) = batch_gradients(&model, &batch, device, &[], 1.0).unwrap();
+    for count in 1..=replicas.len() {
+        let (loss, shared) = batch_gradients(&model, &batch, device, &replicas[..count], 1.0).unwrap();
+        assert!((loss - whole_loss).abs() <= 1e-6 * whole_loss, "{} devices: loss {loss} against {whole_loss}", count + 1);
+        let (difference, largest) = gradient_difference(&model, &whole, &shared);
+        // f32 sums in another order: a few ulps of the largest gradient.
+        assert!(difference <= 1e-5 * largest, "{} devices: gradients differ by {difference} (largest {largest})", count + 1);
+    }
+}
+
+#[test]
+fn a_batch_shared_across_devices_gives_the_whole_batchs_gradients_on_the_cpu() {
+    let device = Device::flex().autodiff();
+    shares_give_the_whole_batchs_gradients(&device, &[device.clone(), device.clone()]);
+}
+
+/// Two wgpu devices on one adapter (lavapipe's, in CI): the default device and the CPU-kind one.
+#[test]
+fn a_batch_shared_across_two_wgpu_devices_gives_the_whole_batchs_gradients() {
+    if !common::wgpu_adapter_exists() {
+        return;
+    }
+    let first = Device::wgpu(Default::default()).autodiff();
+    let second = Device::wgpu(burn::tensor::DeviceKind::Cpu).autodiff();
+    shares_give_the_whole_batchs_gradients(&first, &[second]);
+}
+
+/// Training with a replica device takes the same steps as training on one: the loss and the
+/// weights after a few steps match the single-device run's.
+#[test]
+fn training_on_two_devices_follows_training_on_one() {
+    let net = common::small_net(ModelKind::Glassnet, 1, 2);
+    let config = TrainConfig { steps: 4, batch_size: 3, checkpoint_every: 4, validate_every: 4, ..common::small_training() };
+    let data = || common::SyntheticData { frames: (0..6).map(|i| common::frame(i, 16, 2, 1)).collect(), batch_size: 3, seed: 2, poison_from_epoch: None };
+    let run = |replicas: Vec<Device>| {
+        let dir = tempfile::tempdir().unwrap();
+        let f = files(dir.path(), &net, &config);
+        let (m, d) = model(&net, 5);
+        let mut losses = Vec::new();
+        train(m, &f, &config, &d, &mut data(), &RunOptions { replicas, ..RunOptions::default() }, &mut |e| losses.push(e.loss)).unwrap();
+        (losses, std::fs::read(f.weights_path()).unwrap())
+    };
+    let (one_losses, one) = run(Vec::new());
+    let (two_losses, two) = run(vec![Device::flex().autodiff()]);
+    for (step, (a, b)) in one_losses.iter().zip(&two_losses).enumerate() {
+        assert!((a - b).abs() <= 1e-5 * a, "step {}: loss {b} on two devices, {a} on one", step + 1);
+    }
+    let (one, two) = (safetensors::SafeTensors::deserialize(&one).unwrap(), safetensors::SafeTensors::deserialize(&two).unwrap());
+    for name in one.names() {
+        let values = |t: &safetensors::SafeTensors| -> Vec<f32> { bytemuck::cast_slice(t.tensor(name).unwrap().data()).to_vec() };
+        let largest = values(&one).iter().zip(values(&two)).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+        // 4 AdamW steps at the test's learning rate (1e-3, warming up) move a weight by at
+        // most 4e-3; the two runs must agree far more closely.
+        assert!(largest <= 1e-4, "{name}: weights differ by {largest} after 4 steps");
+    }
 }

@@ -14,8 +14,8 @@ use glassbake_dataset::DatasetStore;
 use glassbake_net::hash_grid::HashGridConfig;
 use glassbake_net::model_dir::{ModelConfig, ModelFiles, Network, FORMAT_VERSION};
 use glassbake_net::{
-    select_device, train, with_new_model, DeviceChoice, ModelKind, ModelTask, NetConfig, RunOptions, SceneModel, SuperSampler, TrainConfig, TrainEvent,
-    TrainSummary, Trainable, TrainedModel,
+    select_device, select_devices, train, with_new_model, DeviceChoice, ModelKind, ModelTask, NetConfig, RunOptions, SceneModel, SuperSampler, TrainConfig,
+    TrainEvent, TrainSummary, Trainable, TrainedModel,
 };
 use glassbake_scene::load_scene;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -98,6 +98,8 @@ pub struct TrainRequest {
     pub preset: Preset,
     pub model: ModelKind,
     pub device: DeviceChoice,
+    /// GPUs of `device`'s kind that share every batch (data parallelism); 1 on the CPU.
+    pub devices: usize,
     pub overrides: TrainOverrides,
     /// Frame-reading and rasterizing threads.
     pub workers: usize,
@@ -119,6 +121,7 @@ impl TrainRequest {
             preset,
             model,
             device: DeviceChoice::Cpu,
+            devices: 1,
             overrides: TrainOverrides::default(),
             workers: 2,
             ablation: None,
@@ -201,9 +204,10 @@ pub fn train_model(request: &TrainRequest, progress: &Progress) -> Result<bool> 
     if !side.is_multiple_of(net_config.size_multiple()) {
         return Err(Error::bad_input("--crop", "resolution", format!("training frames of {side} px are not a multiple of {}", net_config.size_multiple())));
     }
-    let device = select_device(request.device, train_config.seed, true);
-    let task = TrainTask { request, progress, train_config: &train_config, store: &store, scene, resolution: info.resolution, device: &device };
-    with_new_model(&net_config, train_config.seed, &device, task)?
+    check_devices(request.devices, &train_config)?;
+    let devices = select_devices(request.device, request.devices, train_config.seed)?;
+    let task = TrainTask { request, progress, train_config: &train_config, store: &store, scene, resolution: info.resolution, devices: &devices };
+    with_new_model(&net_config, train_config.seed, &devices[0], task)?
 }
 
 /// The rest of [`train_model`] once its network is built, for each type of network.
@@ -214,14 +218,15 @@ struct TrainTask<'a> {
     store: &'a DatasetStore,
     scene: Option<glassbake_scene::Scene>,
     resolution: u32,
-    device: &'a glassbake_net::burn::prelude::Device,
+    /// The model's device first, then the replicas'.
+    devices: &'a [glassbake_net::burn::prelude::Device],
 }
 
 impl ModelTask for TrainTask<'_> {
     type Output = Result<bool>;
 
     fn run<M: SceneModel + Trainable>(self, model: M) -> Result<bool> {
-        let TrainTask { request, progress, train_config, store, scene, resolution, device } = self;
+        let TrainTask { request, progress, train_config, store, scene, resolution, devices } = self;
         // The loaders check their options before the model directory is written.
         let (naive, objects) = (model.reads_naive_gbuffer(), model.reads_object_buffers());
         let (train_loader, val) = loaders(&request.dataset, scene, train_config, request.workers, naive)?;
@@ -238,10 +243,15 @@ impl ModelTask for TrainTask<'_> {
             resolution,
             train_config.crop.map(|c| format!(", {c} px crops")).unwrap_or_default(),
             train_config.steps,
-            request.device.name()
+            if devices.len() > 1 {
+                format!("{} {} devices sharing each batch", devices.len(), request.device.name())
+            } else {
+                request.device.name().to_string()
+            }
         ));
         step_bar(progress.bar(), train_config.steps);
-        let summary = train(model, &files, train_config, device, &mut data, &RunOptions::default(), &mut on_event(progress.bar()))?;
+        let options = RunOptions { replicas: devices[1..].to_vec(), ..RunOptions::default() };
+        let summary = train(model, &files, train_config, &devices[0], &mut data, &options, &mut on_event(progress.bar()))?;
         let already_done = summary.already_done;
         report(&summary, &files, progress);
         if already_done && files.dir.join("preview").exists() {
@@ -263,6 +273,8 @@ pub struct SuperSamplerRequest {
     pub out: PathBuf,
     pub preset: Preset,
     pub device: DeviceChoice,
+    /// GPUs of `device`'s kind that share every batch.
+    pub devices: usize,
     pub overrides: TrainOverrides,
     pub workers: usize,
 }
@@ -297,8 +309,9 @@ pub fn train_super_sampler(request: &SuperSamplerRequest, progress: &Progress) -
     let (train_loader, val) = loaders(&request.dataset, scene, &train_config, request.workers, naive)?;
     let files = model_files(&request.out, Network::SuperSampler(sr_config.clone()), &train_config, &request.dataset, &store)?;
     let mut data = DatasetData::new(train_loader, val, &train_config, false, true, Some(glassnet));
-    let device = select_device(request.device, train_config.seed, true);
-    let model = SuperSampler::new(&sr_config, train_config.seed, &device);
+    check_devices(request.devices, &train_config)?;
+    let devices = select_devices(request.device, request.devices, train_config.seed)?;
+    let model = SuperSampler::new(&sr_config, train_config.seed, &devices[0]);
     progress.say(&format!(
         "training the x2 super-sampler ({} preset) on {}, {} steps on {}",
         request.preset.name,
@@ -307,8 +320,21 @@ pub fn train_super_sampler(request: &SuperSamplerRequest, progress: &Progress) -
         request.device.name()
     ));
     step_bar(progress.bar(), train_config.steps);
-    let summary = train(model, &files, &train_config, &device, &mut data, &RunOptions::default(), &mut on_event(progress.bar()))?;
+    let options = RunOptions { replicas: devices[1..].to_vec(), ..RunOptions::default() };
+    let summary = train(model, &files, &train_config, &devices[0], &mut data, &options, &mut on_event(progress.bar()))?;
     report(&summary, &files, progress);
+    Ok(())
+}
+
+/// Refuses more devices than a batch has frames: each device takes at least one.
+fn check_devices(devices: usize, train: &TrainConfig) -> Result<()> {
+    if devices > train.batch_size {
+        return Err(Error::bad_input(
+            "--devices",
+            "devices",
+            format!("{devices} devices for batches of {} frames: each device takes at least one frame", train.batch_size),
+        ));
+    }
     Ok(())
 }
 

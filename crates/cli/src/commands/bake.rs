@@ -24,6 +24,9 @@ pub struct BakeArgs {
     /// path-traces the dataset's ground truth on the GPU (`dataset --device wgpu`).
     #[arg(long, default_value = "cpu", value_parser = super::parse_device)]
     pub device: DeviceChoice,
+    /// GPUs of --device's kind that share each training batch (data parallelism).
+    #[arg(long, default_value_t = 1)]
+    pub devices: usize,
     /// Also train and evaluate the paper's ablations (no positional encoding; L1 loss only).
     #[arg(long)]
     pub ablations: bool,
@@ -52,16 +55,14 @@ pub fn run(args: BakeArgs) -> Result<()> {
         preset: args.preset,
         out: args.out,
         device: args.device,
+        devices: args.devices,
         ablations: args.ablations,
         baselines: args.baselines,
         lpips_weights: args.lpips_weights,
         threads: args.threads,
         estimator: args.estimator,
     };
-    let progress = Progress::printing();
-    let result = bake(&request, &progress);
-    progress.finish();
-    let result = result?;
+    let result = Progress::printing_while(|progress| bake(&request, progress))?;
     let summary = &result.summary;
     println!("\nbake of {} done in {:.1} min: {}", request.scene, result.elapsed.as_secs_f64() / 60.0, request.out.display());
     println!("  report {}\n", result.report.display());

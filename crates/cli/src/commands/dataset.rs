@@ -171,10 +171,7 @@ pub fn run(args: DatasetArgs) -> Result<()> {
         }
         (None, Some(make)) => {
             let request = make.request()?;
-            let progress = Progress::printing();
-            let result = make_dataset(&request, &progress);
-            progress.finish();
-            result?;
+            Progress::printing_while(|progress| make_dataset(&request, progress))?;
         }
         (None, None) => {
             return Err(glassbake_core::Error::bad_input(

@@ -58,9 +58,7 @@ pub fn run(args: EvalArgs) -> Result<()> {
         path_traced_baseline: args.path_traced_baseline,
         super_sampler: args.super_sampler.clone(),
     };
-    let progress = Progress::printing();
-    let summary = evaluate(&options, &[], &progress);
-    progress.finish();
+    let summary = Progress::printing_while(|progress| evaluate(&options, &[], progress));
     println!("{}", summary?.text_table());
     Ok(())
 }

@@ -24,6 +24,9 @@ pub struct CommonTrainArgs {
     /// cpu (burn's flex backend), wgpu (Vulkan) or, in a build with the `cuda` feature, cuda.
     #[arg(long, default_value = "cpu", value_parser = super::parse_device)]
     pub device: DeviceChoice,
+    /// GPUs of --device's kind that share each batch (data parallelism; at most the batch size).
+    #[arg(long, default_value_t = 1)]
+    pub devices: usize,
     /// Override the preset's number of optimizer steps.
     #[arg(long)]
     pub steps: Option<u64>,
@@ -95,6 +98,7 @@ impl TrainArgs {
             .ok_or_else(|| Error::bad_input("--model", "model", format!("{:?} is not glassnet, naive, concat or pixelgen", self.model)))?;
         Ok(TrainRequest {
             device: self.common.device,
+            devices: self.common.devices,
             overrides: self.common.overrides(),
             workers: self.common.workers,
             ablation: self.ablation.as_deref().map(Ablation::parse).transpose()?,
@@ -109,10 +113,7 @@ impl TrainArgs {
 
 pub fn run(args: TrainArgs) -> Result<()> {
     let request = args.request()?;
-    let progress = Progress::printing();
-    let result = train_model(&request, &progress);
-    progress.finish();
-    result.map(|_| ()).map_err(Into::into)
+    Progress::printing_while(|progress| train_model(&request, progress)).map(|_| ()).map_err(Into::into)
 }
 
 pub fn run_super_sampler(args: TrainSrArgs) -> Result<()> {
@@ -122,11 +123,9 @@ pub fn run_super_sampler(args: TrainSrArgs) -> Result<()> {
         out: args.common.out.clone(),
         preset: args.common.preset.clone(),
         device: args.common.device,
+        devices: args.common.devices,
         overrides: args.common.overrides(),
         workers: args.common.workers,
     };
-    let progress = Progress::printing();
-    let result = train_super_sampler(&request, &progress);
-    progress.finish();
-    result.map_err(Into::into)
+    Progress::printing_while(|progress| train_super_sampler(&request, progress)).map_err(Into::into)
 }

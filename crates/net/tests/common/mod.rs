@@ -166,3 +166,41 @@ pub fn small_super_sampler() -> glassbake_net::SuperSamplerConfig {
         light_coverage: true,
     }
 }
+
+/// Whether a wgpu adapter exists (burn's wgpu runtime panics without one), probed with the same
+/// wgpu; where none does, the test says it skipped, or fails with
+/// GLASSBAKE_TEST_RESOURCES=required.
+pub fn wgpu_adapter_exists() -> bool {
+    let instance = glassbake_net::burn::tensor::wgpu::wgpu::Instance::default();
+    if pollster_block_on(instance.request_adapter(&Default::default())).is_ok() {
+        return true;
+    }
+    assert!(!resources_required(), "no wgpu adapter, and GLASSBAKE_TEST_RESOURCES=required");
+    eprintln!("SKIPPED: no wgpu adapter on this machine");
+    false
+}
+
+fn pollster_block_on<F: std::future::Future>(future: F) -> F::Output {
+    // A tiny executor: request_adapter completes without real waiting on native backends.
+    use std::task::{Context, Poll, RawWaker, RawWakerVTable, Waker};
+    fn noop(_: *const ()) {}
+    fn clone(p: *const ()) -> RawWaker {
+        RawWaker::new(p, &VTABLE)
+    }
+    static VTABLE: RawWakerVTable = RawWakerVTable::new(clone, noop, noop, noop);
+    let waker = unsafe { Waker::from_raw(RawWaker::new(std::ptr::null(), &VTABLE)) };
+    let mut cx = Context::from_waker(&waker);
+    let mut future = std::pin::pin!(future);
+    loop {
+        if let Poll::Ready(v) = future.as_mut().poll(&mut cx) {
+            return v;
+        }
+        std::thread::yield_now();
+    }
+}
+
+/// `.ci/run` sets GLASSBAKE_TEST_RESOURCES=required after installing what the tests need:
+/// there a test must not skip for want of it.
+fn resources_required() -> bool {
+    std::env::var("GLASSBAKE_TEST_RESOURCES").is_ok_and(|v| v == "required")
+}
