@@ -100,17 +100,22 @@ stage() { # stage NAME COMMAND...: runs a command, its output into $out/NAME.txt
 # with the super-sampler; GPU memory sampled by nvidia-smi every 100 ms while each runs.
 models="${GPU_KIT_MODELS:-}"
 [ -z "$models" ] || models="$(cd "$models" && pwd)"
-bench() { # bench NAME MODEL_DIR DEVICE EXTRA...
-  local name="$1" model="$2" device="$3"; shift 3
-  local sampler="" scene=()
-  [ -z "$models" ] || scene=(--scene cornellbox)
+sampler=""
+memory_start() { # memory_start NAME: nvidia-smi samples the GPU memory into $out/gpu_memory_NAME.csv until memory_stop
   if command -v nvidia-smi >/dev/null; then
-    nvidia-smi --query-compute-apps=pid,used_memory --format=csv,noheader,nounits -lms 100 > "$out/gpu_memory_$name.csv" 2>/dev/null &
+    nvidia-smi --query-compute-apps=pid,used_memory --format=csv,noheader,nounits -lms 100 > "$out/gpu_memory_$1.csv" 2>/dev/null &
     sampler=$!
   fi
+}
+memory_stop() { [ -z "$sampler" ] || kill "$sampler" 2>/dev/null; sampler=""; }
+bench() { # bench NAME MODEL_DIR DEVICE EXTRA...
+  local name="$1" model="$2" device="$3"; shift 3
+  local scene=()
+  [ -z "$models" ] || scene=(--scene cornellbox)
+  memory_start "$name"
   stage "bench_$name" "$glassbake" bench "$model" "${scene[@]}" --device "$device" --res "$bench_res" --objects "$objects" \
     --frames "$bench_frames" --warmup "$warmup" --out "$out/bench_$name.json" "$@"
-  [ -n "$sampler" ] && kill "$sampler" 2>/dev/null
+  memory_stop
 }
 devices=(wgpu)
 if grep -qx cuda .gpu/features.txt 2>/dev/null || [ "${GPU_KIT_CUDA:-0}" = 1 ]; then
@@ -140,20 +145,41 @@ stage dataset "$glassbake" dataset cornellbox --device wgpu --out "$work/dataset
 # Each network trains twice, for a few steps and for more: the difference of the two runs' times
 # is the steady-state step, start-up (shader compilation, autotuning) and the final validation
 # cancelling out.
+train_pair() { # train_pair SUFFIX PRESET DEVICE EXTRA...: the few-step and the many-step run
+  local suffix="$1" preset="$2" device="$3" few=$steps_few many=$steps; shift 3
+  [ "$preset" != paper ] || { few=$paper_steps_few; many=$paper_steps; }
+  stage "train_${suffix}_few" "$glassbake" train "$work/dataset" --model glassnet --preset "$preset" --device "$device" --steps "$few" --out "$work/${suffix}_few" "$@"
+  cp "$work/${suffix}_few/train_log.csv" "$out/train_log_${suffix}_few.csv" 2>/dev/null
+  memory_start "train_$suffix"
+  stage "train_$suffix" "$glassbake" train "$work/dataset" --model glassnet --preset "$preset" --device "$device" --steps "$many" --out "$work/$suffix" "$@"
+  memory_stop
+  cp "$work/$suffix/train_log.csv" "$out/train_log_$suffix.csv" 2>/dev/null
+}
 for device in "${devices[@]}"; do
   for preset in quick paper; do
     suffix="$preset"; [ "$device" = wgpu ] || suffix="${preset}_$device"
-    if [ "$preset" = paper ]; then few=$paper_steps_few many=$paper_steps; else few=$steps_few many=$steps; fi
-    stage "train_${suffix}_few" "$glassbake" train "$work/dataset" --model glassnet --preset "$preset" --device "$device" --steps "$few" --out "$work/${suffix}_few"
-    cp "$work/${suffix}_few/train_log.csv" "$out/train_log_${suffix}_few.csv" 2>/dev/null
-    stage "train_$suffix" "$glassbake" train "$work/dataset" --model glassnet --preset "$preset" --device "$device" --steps "$many" --out "$work/$suffix"
-    cp "$work/$suffix/train_log.csv" "$out/train_log_$suffix.csv" 2>/dev/null
+    train_pair "$suffix" "$preset" "$device"
   done
 done
+# Data parallelism on a machine with several GPUs: the `paper` batch shared by all of them.
+gpus=$(nvidia-smi -L 2>/dev/null | grep -c '^GPU' || true)
+if [ "${gpus:-0}" -ge 2 ]; then
+  for device in "${devices[@]}"; do
+    suffix="paper_x$gpus"; [ "$device" = wgpu ] || suffix="paper_${device}_x$gpus"
+    train_pair "$suffix" paper "$device" --devices "$gpus"
+  done
+fi
 if python3 -c "import torch; assert torch.cuda.is_available()" 2>/dev/null; then
   for model in glassnet naive; do
+    memory_start "torch_$model"
     stage "torch_$model" python3 "$(dirname "$0")/../torch-compare/glassnet_step.py" --model "$model" --device cuda --steps "$steps"
+    memory_stop
   done
+  # The `paper` network at its batch: 8 whole frames of the dataset's size.
+  memory_start torch_glassnet_paper
+  stage torch_glassnet_paper python3 "$(dirname "$0")/../torch-compare/glassnet_step.py" --model glassnet --preset paper \
+    --batch 8 --crop "$data_res" --device cuda --steps "$paper_steps"
+  memory_stop
 fi
 stage train_sr "$glassbake" train-sr "$work/dataset" --glassnet "$work/quick" --preset quick --device wgpu --steps "$steps" --out "$work/sr"
 [ -n "$models" ] || benches "$work"

@@ -51,6 +51,14 @@ def peak_gpu_mib(out, name):
     return max(values) if values else None
 
 
+def hours(ms_per_step):
+    return f"{100_000 * ms_per_step / 3.6e6:.1f}"
+
+
+def memory(mib):
+    return "-" if mib is None else f"{mib:.0f}"
+
+
 def bench_table(out, name, title):
     path = out / f"bench_{name}.json"
     if not path.is_file():
@@ -105,28 +113,37 @@ def training_table(out):
         "`glassbake train --device D --steps N` (batch and crop of the preset; quick: 4 x 32 px crops, 4 objects) and the same `quick`"
         " step in PyTorch on the same GPU (`tools/torch-compare/glassnet_step.py --device cuda`).",
         "",
-        "| network | device | steps | seconds | steps/s | ms/step |",
-        "|---|---|---|---|---|---|",
+        "| network | device | steps | seconds | steps/s | ms/step | 100k steps (h) | GPU memory (MiB, peak) |",
+        "|---|---|---|---|---|---|---|---|",
     ]
-    for preset in ["quick", "paper"]:
-        for device, suffix in [("wgpu", preset), ("cuda", f"{preset}_cuda")]:
-            few, many = last_log_row(out / f"train_log_{suffix}_few.csv"), last_log_row(out / f"train_log_{suffix}.csv")
-            if few is None or many is None or many[0] <= few[0]:
-                if device == "wgpu" or (out / f"train_{suffix}.txt").is_file():
-                    lines.append(f"| {preset} | burn {device} | - | - | not measured (see train_{suffix}_few.txt, train_{suffix}.txt) | - |")
-                continue
-            steps, seconds = many[0] - few[0], many[1] - few[1]
-            rate = steps / seconds if seconds > 0 else float("nan")
-            lines.append(f"| {preset} | burn {device} | {few[0]} -> {many[0]} | {seconds:.1f} | {rate:.2f} | {1000 / rate:.1f} |")
-    for model in ["glassnet", "naive"]:
-        match = re.search(r"([0-9.]+) ms/step", read_text(out / f"torch_{model}.txt"))
+    runs = [(p, d, p if d == "wgpu" else f"{p}_{d}") for p in ["quick", "paper"] for d in ["wgpu", "cuda"]]
+    # Data-parallel runs (`--devices N`) where the machine had several GPUs.
+    for log in sorted(out.glob("train_log_paper*_x*_few.csv")):
+        suffix = log.name[len("train_log_") : -len("_few.csv")]
+        device = "cuda" if "_cuda_" in suffix else "wgpu"
+        runs.append(("paper", f"{device} x {suffix.rsplit('_x', 1)[1]}", suffix))
+    for preset, device, suffix in runs:
+        few, many = last_log_row(out / f"train_log_{suffix}_few.csv"), last_log_row(out / f"train_log_{suffix}.csv")
+        if few is None or many is None or many[0] <= few[0]:
+            if device == "wgpu" or (out / f"train_{suffix}.txt").is_file():
+                lines.append(f"| {preset} | burn {device} | - | - | not measured (see train_{suffix}_few.txt, train_{suffix}.txt) | - | - | - |")
+            continue
+        steps, seconds = many[0] - few[0], many[1] - few[1]
+        rate = steps / seconds if seconds > 0 else float("nan")
+        lines.append(
+            f"| {preset} | burn {device} | {few[0]} -> {many[0]} | {seconds:.1f} | {rate:.2f} | {1000 / rate:.1f}"
+            f" | {hours(1000 / rate)} | {memory(peak_gpu_mib(out, f'train_{suffix}'))} |"
+        )
+    for name, label in [("glassnet", "quick (glassnet)"), ("naive", "quick (naive)"), ("glassnet_paper", "paper (glassnet)")]:
+        match = re.search(r"([0-9.]+) ms/step", read_text(out / f"torch_{name}.txt"))
         if match:
             ms = float(match.group(1))
-            lines.append(f"| quick ({model}) | PyTorch cuda | - | - | {1000 / ms:.2f} | {ms:.1f} |")
+            lines.append(f"| {label} | PyTorch cuda | - | - | {1000 / ms:.2f} | {ms:.1f} | {hours(ms)} | {memory(peak_gpu_mib(out, f'torch_{name}'))} |")
     lines.append("")
     lines.append(
         "burn rows: two runs of the same network, for the first and the second step count; the difference of their times over the"
-        " difference of their steps (start-up and the final validation cancel). PyTorch: after three untimed steps."
+        " difference of their steps (start-up and the final validation cancel). PyTorch: after three untimed steps; its `paper`"
+        " twin at the `paper` batch (8 whole frames). 100k steps: the `paper` preset's length at that step time."
     )
     return "\n".join(lines) + "\n"
 

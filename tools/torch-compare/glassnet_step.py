@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""GlassNet's `quick` network re-built in PyTorch, to time one training step on the same CPU as
+"""GlassNet's `quick` (or `paper`) network re-built in PyTorch, to time one training step on the same CPU as
 glassbake's burn/flex training. Only speed is compared: the weights are
 random and the data synthetic, as in `cargo run --release -p glassbake-bake --example train_step`.
 
@@ -8,7 +8,7 @@ The layer list mirrors crates/net/src/{blocks,model,config}.rs (quick preset): a
 up-sampling, NeRF positional encoding with 4 frequencies, loss L1 + (1 - SSIM) (11x11 Gaussian,
 sigma 1.5), AdamW. Like glassbake's training loop, each step reads its loss back to the host.
 
-    python3 tools/torch-compare/glassnet_step.py [--batch 4] [--crop 32] [--objects 4] [--model glassnet|naive] [--device cpu|cuda]
+    python3 tools/torch-compare/glassnet_step.py [--batch 4] [--crop 32] [--objects 4] [--model glassnet|naive] [--preset quick|paper] [--device cpu|cuda]
 
 It also prints the median no-grad forward pass. tools/torch-compare/compare.sh runs glassbake's
 example and this script back to back and prints the ratios.
@@ -95,16 +95,28 @@ def encode(x, frequencies):
     return torch.cat(parts, 1)
 
 
-class GlassNet(nn.Module):
-    """The quick preset: F and B U-Nets of base width 12 and 3 levels, h 3 layers of 12, R 16 wide."""
+# The presets' widths (crates/bake/src/preset.rs): positional-encoding frequencies; F's and B's
+# U-Net base width, levels and output channels; h's width, layers and output channels; R's width,
+# large kernel, 3x3 layers and 1x1 layers.
+PRESETS = {
+    "quick": dict(frequencies=4, unet=(12, 3, 12), h=(12, 3, 12), r=(16, 5, 1, 1)),
+    "paper": dict(frequencies=6, unet=(32, 4, 32), h=(32, 3, 32), r=(48, 7, 2, 2)),
+}
 
-    def __init__(self, model, variables, frequencies=4):
+
+class GlassNet(nn.Module):
+    """F and B U-Nets, h a plain CNN summed over the objects, R, at a preset's widths."""
+
+    def __init__(self, model, variables, preset="quick"):
         super().__init__()
-        self.model, self.frequencies, e = model, frequencies, 1 + 2 * frequencies
-        self.f = UNet(OPAQUE * e + variables, 12, 3, 12)
-        self.h = PlainCnn(TRANSPARENT * e + 12, 12, 3, 12) if model == "glassnet" else None
-        self.b = UNet(24 if model == "glassnet" else 12, 12, 3, 12)
-        self.r = Renderer(12 + 3, 16, 5, 1, 1)
+        p = PRESETS[preset]
+        self.model, self.frequencies, e = model, p["frequencies"], 1 + 2 * p["frequencies"]
+        base, levels, sigma = p["unet"]
+        width, layers, tau = p["h"]
+        self.f = UNet(OPAQUE * e + variables, base, levels, sigma)
+        self.h = PlainCnn(TRANSPARENT * e + sigma, width, layers, tau) if model == "glassnet" else None
+        self.b = UNet(sigma + tau if model == "glassnet" else sigma, base, levels, sigma)
+        self.r = Renderer(sigma + 3, *p["r"])
 
     def forward(self, gbuffer, transparent, values):
         n, _, h, w = gbuffer.shape
@@ -136,6 +148,7 @@ def main():
     p.add_argument("--objects", type=int, default=4)
     p.add_argument("--variables", type=int, default=4)
     p.add_argument("--model", default="glassnet", choices=["glassnet", "naive"])
+    p.add_argument("--preset", default="quick", choices=sorted(PRESETS), help="the network's widths (paper: use --batch 8 --crop 256)")
     p.add_argument("--steps", type=int, default=30)
     p.add_argument("--threads", type=int, default=torch.get_num_threads())
     p.add_argument("--device", default="cpu", help="cpu, or cuda to time the step on an NVIDIA GPU")
@@ -143,7 +156,7 @@ def main():
     device = torch.device(a.device)
     torch.set_num_threads(a.threads)
     torch.manual_seed(0)
-    net = GlassNet(a.model, a.variables).to(device)
+    net = GlassNet(a.model, a.variables, a.preset).to(device)
     opt = torch.optim.AdamW(net.parameters(), lr=2e-3, weight_decay=1e-4)
     n, s = a.batch, a.crop
     gbuffer = torch.rand(n, OPAQUE, s, s, device=device)
@@ -184,7 +197,7 @@ def main():
     forward = sorted(times)[len(times) // 2]
     params = sum(p.numel() for p in net.parameters())
     where = a.device if device.type != "cpu" else f"{a.threads} threads"
-    print(f"pytorch {torch.__version__} {a.model}: {params} parameters, batch {n} x {s} px, {a.objects} objects, "
+    print(f"pytorch {torch.__version__} {a.model} ({a.preset}): {params} parameters, batch {n} x {s} px, {a.objects} objects, "
           f"{where}: {per_step * 1000:.1f} ms/step ({n * s * s / per_step:.0f} px/s), no-grad forward {forward * 1000:.1f} ms")
 
 
