@@ -111,7 +111,8 @@ def training_table(out):
         "### Training steps per second",
         "",
         "`glassbake train --device D --steps N` (batch and crop of the preset; quick: 4 x 32 px crops, 4 objects) and the same `quick`"
-        " step in PyTorch on the same GPU (`tools/torch-compare/glassnet_step.py --device cuda`).",
+        " and `paper` steps in PyTorch on the same GPU (`tools/torch-compare/glassnet_step.py --device cuda`), with `--devices N`"
+        " where the machine has several GPUs; GPU memory as nvidia-smi sampled it every 100 ms.",
         "",
         "| network | device | steps | seconds | steps/s | ms/step | 100k steps (h) | GPU memory (MiB, peak) |",
         "|---|---|---|---|---|---|---|---|",
