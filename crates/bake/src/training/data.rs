@@ -78,7 +78,7 @@ pub struct DatasetData {
     pub batch_size: usize,
     /// Feed the naive G-buffer instead of the opaque one.
     pub naive: bool,
-    /// Feed the transparent objects' buffers (`NetConfig::reads_object_buffers`).
+    /// Feed the transparent objects' buffers (`SceneModel::reads_object_buffers`).
     pub objects: bool,
     /// For the super-sampler: GlassNet renders the low-resolution image of each frame.
     pub low_res: Option<TrainedModel>,
