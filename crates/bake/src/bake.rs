@@ -9,7 +9,7 @@ use std::time::{Duration, Instant, SystemTime};
 
 use glassbake_core::output_dir::{claim_output_dir, OutputKind};
 use glassbake_core::{Error, Result};
-use glassbake_dataset::{DatasetSpec, DatasetStore, Split, TraceDevice};
+use glassbake_dataset::{fit_glass_budget, DatasetSpec, DatasetStore, Split, TraceDevice};
 use glassbake_eval::report::{write_report, ReportInputs, TrainingLog};
 use glassbake_eval::score::{noise_floor_row, path_traced_rows, ScoreOptions};
 use glassbake_eval::EvaluationSummary;
@@ -92,18 +92,22 @@ impl BakeRequest {
         Ok(())
     }
 
-    /// The dataset stage: the preset's size, buffers cached, traced on the bake's device.
-    pub fn dataset_request(&self) -> DatasetRequest {
+    /// The dataset stage: the preset's size, its glass pixels' spp within the preset's
+    /// budget, buffers cached, traced on the bake's device.
+    pub fn dataset_request(&self) -> Result<DatasetRequest> {
         let size = &self.preset.dataset;
         let device = self.trace_device();
-        let spec = DatasetSpec {
+        let mut spec = DatasetSpec {
             glass_spp: size.glass_spp,
             cache_buffers: true,
             device,
             estimator: device.default_estimator(),
             ..DatasetSpec::new(self.scene.clone(), size.resolution, size.spp, [size.train, size.val, size.test])
         };
-        DatasetRequest { estimator: self.estimator, threads: self.threads, ..DatasetRequest::new(spec, self.out.join("dataset")) }
+        if let Some(budget) = size.glass_budget {
+            spec = fit_glass_budget(spec, &glassbake_scene::load_scene(&self.scene)?, budget)?;
+        }
+        Ok(DatasetRequest { estimator: self.estimator, threads: self.threads, ..DatasetRequest::new(spec, self.out.join("dataset")) })
     }
 
     /// The models the bake trains, each with its folder's name.
@@ -168,7 +172,7 @@ pub fn bake(request: &BakeRequest, progress: &Progress) -> Result<BakeResult> {
     let models = request.models();
     let mut stages = Stages::new(request, 1 + models.len() + 1, progress);
 
-    let dataset = request.dataset_request();
+    let dataset = request.dataset_request()?;
     let spec = &dataset.spec;
     stages.run(
         format!(
