@@ -92,7 +92,8 @@ impl Preset {
             // three quarters to the frames' samples: where glass fills a quarter of the view
             // or less (cornellbox8's frames 24.7% on average, the other built-in scenes less)
             // nothing changes, and bathroom, whose partition fills 58%, gets 219 spp on glass
-            // (1,754 in the test split) and bakes within 45 min on a 2-core box instead of 60.
+            // (1,754 in the test split) and bakes in 49 min on a 2-core box instead of about
+            // 66, with no T.PSNR lost beyond its seeds' spread (docs/benchmarks.md).
             dataset: DatasetSize { resolution: 96, spp: 96, glass_spp: Some(4 * 96), glass_budget: Some(0.75), train: 320, val: 24, test: 24 },
             network: NetShape {
                 encoding_frequencies: 4,
