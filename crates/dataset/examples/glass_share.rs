@@ -4,9 +4,8 @@
 //! frames at 768, 2,304 on glass): what `glassbake_dataset::fit_glass_budget` decides.
 //!
 //! `cargo run --release -p glassbake-dataset --example glass_share -- bathroom 0.75`
-use glassbake_dataset::glass_budget::mean_glass_share;
-use glassbake_dataset::{fit_glass_budget, DatasetManifest, DatasetSpec, Split};
-use glassbake_trace::{glass_pixels, PreparedScene};
+use glassbake_dataset::glass_budget::glass_shares;
+use glassbake_dataset::{fit_glass_budget, DatasetSpec, Split};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -16,16 +15,8 @@ fn main() {
     };
     let scene = glassbake_scene::load_scene(scene_name).expect("scene");
     let spec = DatasetSpec { glass_spp: Some(4 * 96), ..DatasetSpec::new(scene_name.clone(), 96, 96, [320, 24, 24]) };
-    let plan = DatasetManifest::plan(&spec, &scene);
-    let mut shares: Vec<f64> = plan
-        .samples
-        .iter()
-        .map(|sample| {
-            let instance = scene.instantiate(&sample.values).expect("values");
-            let glass = glass_pixels(&PreparedScene::new(&instance), &sample.camera, spec.resolution, spec.resolution);
-            glass.iter().filter(|&&g| g).count() as f64 / glass.len() as f64
-        })
-        .collect();
+    let mut shares = glass_shares(&scene, &spec).expect("scene");
+    let mean = shares.iter().sum::<f64>() / shares.len() as f64;
     shares.sort_by(f64::total_cmp);
     let at = |q: f64| shares[((shares.len() - 1) as f64 * q).round() as usize];
     let fitted = fit_glass_budget(spec.clone(), &scene, budget).expect("budget");
@@ -33,7 +24,7 @@ fn main() {
         "{scene_name}: glass share over {} frames: mean {:.4}, min {:.3}, median {:.3}, p90 {:.3}, max {:.3}; \
          within {budget} of the frames' samples: glass spp {} (was {}), test {} (was {})",
         shares.len(),
-        mean_glass_share(&scene, &spec).expect("share"),
+        mean,
         at(0.0),
         at(0.5),
         at(0.9),

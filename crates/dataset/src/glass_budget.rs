@@ -14,15 +14,11 @@ use rayon::prelude::*;
 
 use crate::format::{DatasetManifest, DatasetSpec};
 
-/// Mean share of the pixels that show glass (`glassbake_trace::glass_pixels`) over every
-/// frame `spec` plans of `scene`, each frame with its own camera and variable values.
-pub fn mean_glass_share(scene: &Scene, spec: &DatasetSpec) -> Result<f64> {
-    let plan = DatasetManifest::plan(spec, scene);
-    if plan.samples.is_empty() {
-        return Ok(0.0);
-    }
+/// Share of the pixels that show glass (`glassbake_trace::glass_pixels`) in each frame `spec`
+/// plans of `scene`, each with its own camera and variable values, in frame order.
+pub fn glass_shares(scene: &Scene, spec: &DatasetSpec) -> Result<Vec<f64>> {
     let res = spec.resolution;
-    let shares: Vec<f64> = plan
+    DatasetManifest::plan(spec, scene)
         .samples
         .par_iter()
         .map(|sample| {
@@ -30,7 +26,15 @@ pub fn mean_glass_share(scene: &Scene, spec: &DatasetSpec) -> Result<f64> {
             let glass = glass_pixels(&PreparedScene::new(&instance), &sample.camera, res, res);
             Ok(glass.iter().filter(|&&g| g).count() as f64 / glass.len() as f64)
         })
-        .collect::<Result<_>>()?;
+        .collect()
+}
+
+/// Mean of [`glass_shares`]; 0 for a dataset of no frames.
+pub fn mean_glass_share(scene: &Scene, spec: &DatasetSpec) -> Result<f64> {
+    let shares = glass_shares(scene, spec)?;
+    if shares.is_empty() {
+        return Ok(0.0);
+    }
     // Summed in frame order, so the share (and the spp it decides) never depends on threads.
     Ok(shares.iter().sum::<f64>() / shares.len() as f64)
 }
