@@ -1,6 +1,7 @@
 //! The bake: a scene to trained models and an honest report. Stages: dataset -> train GlassNet
-//! -> train the naive baseline (-> pixelgen with `baselines`) (-> the ablations) -> evaluate
-//! (-> path traced + denoised) -> report. Every stage resumes where a killed run stopped and
+//! -> train the naive baseline (-> pixelgen with `baselines`) (-> the ablations) -> choose the
+//! GlassNet to ship by validation (`seed_choice`) -> evaluate (-> path traced + denoised) ->
+//! report. Every stage resumes where a killed run stopped and
 //! is skipped when already done; each stage's wall time is kept across runs.
 
 use std::collections::BTreeMap;
@@ -17,6 +18,7 @@ use glassbake_net::{DeviceChoice, ModelKind};
 use glassbake_trace::Estimator;
 use indicatif::{ProgressBar, ProgressStyle};
 
+use crate::seed_choice::{choose_glassnet, SeedChoice, CHOICE_FILE};
 use crate::{evaluate, make_dataset, train_model, Ablation, DatasetRequest, Preset, Progress, TrainRequest};
 
 /// Samples per pixel of the path-traced baseline (`baselines`): the paper's 32.
@@ -48,6 +50,9 @@ pub struct BakeRequest {
     pub threads: Option<usize>,
     /// The ground truth's estimator (`None`: the device's default, or a continued dataset's).
     pub estimator: Option<Estimator>,
+    /// How many more GlassNets (the next seeds) to train while every one so far trails naive
+    /// on the validation split (`seed_choice`).
+    pub seed_retries: u32,
 }
 
 impl BakeRequest {
@@ -64,6 +69,7 @@ impl BakeRequest {
             lpips_weights: None,
             threads: None,
             estimator: None,
+            seed_retries: 1,
         }
     }
 
@@ -162,6 +168,8 @@ pub struct BakeResult {
     pub elapsed: Duration,
     /// The row of `summary` that is the noise floor (the ground truth at the training spp).
     pub noise_floor: Option<String>,
+    /// The GlassNets trained and the one shipped (`None`: no validation frames to choose by).
+    pub glassnet_choice: Option<SeedChoice>,
 }
 
 /// Runs (or continues) the bake of `request`.
@@ -170,7 +178,7 @@ pub fn bake(request: &BakeRequest, progress: &Progress) -> Result<BakeResult> {
     claim_output_dir(&request.out, BAKE_DIRECTORY, "--out")?;
     let started = Instant::now();
     let models = request.models();
-    let mut stages = Stages::new(request, 1 + models.len() + 1, progress);
+    let mut stages = Stages::new(request, 1 + models.len() + 2, progress);
 
     let dataset = request.dataset_request()?;
     let spec = &dataset.spec;
@@ -186,9 +194,28 @@ pub fn bake(request: &BakeRequest, progress: &Progress) -> Result<BakeResult> {
         ),
         &mut || Ok(make_dataset(&dataset, progress)?.generated > 0),
     )?;
+    // Once chosen, glassnet/ may hold a GlassNet of another seed than the request's.
+    let chosen = request.out.join(CHOICE_FILE).exists();
     for (name, train) in &models {
-        stages.run(format!("train {name}"), &mut || train_model(train, progress))?;
+        stages.run(format!("train {name}"), &mut || {
+            if chosen && train.model == ModelKind::Glassnet && train.ablation.is_none() {
+                progress.say(&format!("{} is already trained and chosen ({CHOICE_FILE}); nothing to do", train.out.display()));
+                return Ok(false);
+            }
+            train_model(train, progress)
+        })?;
     }
+    let mut glassnet_choice = None;
+    stages.run("choose GlassNet by validation".into(), &mut || {
+        // `models()` lists GlassNet, then naive.
+        let (glassnet, naive) = (&models[0].1, &models[1].1);
+        let (choice, worked) = choose_glassnet(&request.out, glassnet, &naive.out, request.seed_retries, progress)?;
+        if let Some(choice) = &choice {
+            progress.say(&format!("GlassNet: {}", choice.describe()));
+        }
+        glassnet_choice = choice;
+        Ok(worked)
+    })?;
     let options = request.score_options(&models);
     let mut extra_rows: Vec<String> = options.path_traced_baseline.map(|spp| path_traced_rows(spp).to_vec()).unwrap_or_default();
     let noise_floor = noise_floor_row(&DatasetStore::open(&options.dataset)?.manifest.spec, Split::Test);
@@ -208,6 +235,9 @@ pub fn bake(request: &BakeRequest, progress: &Progress) -> Result<BakeResult> {
     })?;
     let mut facts = stages.finish();
     facts.push(format!("this run: {:.0} s", started.elapsed().as_secs_f64()));
+    if let Some(choice) = &glassnet_choice {
+        facts.push(format!("GlassNet shipped by {}", choice.describe()));
+    }
     // The bake's report: the evaluation's, with the stage times.
     let report = write_report(
         &request.out.join("report"),
@@ -220,7 +250,7 @@ pub fn bake(request: &BakeRequest, progress: &Progress) -> Result<BakeResult> {
         },
     )?;
     progress.finish();
-    Ok(BakeResult { summary: summary.expect("the evaluation stage ran"), report, elapsed: started.elapsed(), noise_floor })
+    Ok(BakeResult { summary: summary.expect("the evaluation stage ran"), report, elapsed: started.elapsed(), noise_floor, glassnet_choice })
 }
 
 /// The bake's stages on a bar of their own, each one's wall time recorded in

@@ -23,6 +23,7 @@ pub mod dataset;
 pub mod evaluation;
 pub mod preset;
 pub mod progress;
+pub mod seed_choice;
 pub mod training;
 
 pub use ablation::Ablation;
@@ -31,4 +32,5 @@ pub use dataset::{make_dataset, DatasetRequest};
 pub use evaluation::evaluate;
 pub use preset::{DatasetSize, Preset};
 pub use progress::Progress;
+pub use seed_choice::SeedChoice;
 pub use training::{train_model, train_super_sampler, SuperSamplerRequest, TrainOverrides, TrainRequest};

@@ -398,6 +398,34 @@ fn append_log(path: &Path, line: &str) -> Result<()> {
 
 /// Drops log rows written after the checkpoint a run resumes from. A header that today's
 /// extends (a log from before a column was added) becomes today's: old rows keep their cells.
+/// The last validation scores a model directory's training log holds, with their step: what
+/// its weights score once training has finished (the last step is always validated). `None`
+/// when no step was validated (no validation frames) or the log predates `validation_psnr`.
+pub fn logged_validation(model_dir: &Path) -> Result<Option<(u64, ValidationScores)>> {
+    let path = model_dir.join(LOG);
+    let text = fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name);
+    let (Some(step_at), Some(loss_at), Some(psnr_at)) = (column("step"), column("validation_loss"), column("validation_psnr")) else {
+        return Ok(None);
+    };
+    let bad_row = |row: &str| Error::bad_input(path.display(), "validation_psnr", format!("a row that is not a training log's: {row:?}"));
+    let mut last = None;
+    for row in lines {
+        let fields: Vec<&str> = row.split(',').collect();
+        let field = |at: usize| fields.get(at).copied().unwrap_or_default();
+        if field(psnr_at).is_empty() {
+            continue;
+        }
+        let step = field(step_at).parse::<u64>().map_err(|_| bad_row(row))?;
+        let loss = field(loss_at).parse::<f64>().map_err(|_| bad_row(row))?;
+        let psnr = field(psnr_at).parse::<f64>().map_err(|_| bad_row(row))?;
+        last = Some((step, ValidationScores { loss, psnr }));
+    }
+    Ok(last)
+}
+
 fn truncate_log(path: &Path, step: u64) -> Result<()> {
     let Ok(text) = fs::read_to_string(path) else {
         return write_log_header(path);
@@ -412,4 +440,31 @@ fn truncate_log(path: &Path, step: u64) -> Result<()> {
         })
         .collect();
     glassbake_core::image::write_bytes_atomically(path, format!("{}\n", kept.join("\n")).as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn logged(text: &str) -> Result<Option<(u64, ValidationScores)>> {
+        let dir = tempfile::tempdir().unwrap();
+        fs::write(dir.path().join(LOG), text).unwrap();
+        logged_validation(dir.path())
+    }
+
+    #[test]
+    fn the_last_validated_row_is_read_and_rows_without_validation_are_skipped() {
+        let log = format!("{LOG_HEADER}\n10,0,1e-3,0.5,0.45,1.0,20.125\n20,0,1e-3,0.4,0.35,2.0,21.5\n25,1,1e-3,0.3,,2.5,\n");
+        assert_eq!(logged(&log).unwrap(), Some((20, ValidationScores { loss: 0.35, psnr: 21.5 })));
+        let no_validation = format!("{LOG_HEADER}\n10,0,1e-3,0.5,,1.0,\n");
+        assert_eq!(logged(&no_validation).unwrap(), None);
+        // A log from before validation_psnr was written has nothing to choose by.
+        assert_eq!(logged("step,epoch,learning_rate,train_loss,validation_loss,elapsed_s\n10,0,1e-3,0.5,0.45,1.0\n").unwrap(), None);
+    }
+
+    #[test]
+    fn a_damaged_row_is_refused_naming_the_log() {
+        let error = logged(&format!("{LOG_HEADER}\n10,0,1e-3,0.5,0.45,1.0,twenty\n")).unwrap_err().to_string();
+        assert!(error.contains(LOG) && error.contains("twenty"), "{error}");
+    }
 }

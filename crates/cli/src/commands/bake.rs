@@ -47,6 +47,11 @@ pub struct BakeArgs {
     /// noise behind glass (docs/trace.md). A bake being continued keeps its dataset's estimator.
     #[arg(long, value_parser = super::dataset::parse_estimator)]
     pub estimator: Option<glassbake_trace::Estimator>,
+    /// When GlassNet trails the naive baseline on the validation split, train it again with
+    /// the next seed, up to this many times, and ship the best on validation (the others stay
+    /// in glassnet-seed<S>/; glassnet_choice.json records the choice).
+    #[arg(long, default_value_t = 1)]
+    pub seed_retries: u32,
 }
 
 pub fn run(args: BakeArgs) -> Result<()> {
@@ -61,6 +66,7 @@ pub fn run(args: BakeArgs) -> Result<()> {
         lpips_weights: args.lpips_weights,
         threads: args.threads,
         estimator: args.estimator,
+        seed_retries: args.seed_retries,
     };
     let result = Progress::printing_while(|progress| bake(&request, progress))?;
     let summary = &result.summary;
