@@ -213,9 +213,16 @@ fn eval_refuses_a_model_of_another_scene() {
 fn ablations_are_trained_with_their_settings_and_evaluated() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("bake");
-    let (code, stdout, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--ablations", "--out", path(&out)]);
+    let (code, stdout, err) = glassbake(&["bake", "cornell-glass", "--preset", "tiny", "--ablations", "--seed", "3", "--out", path(&out)]);
     assert_eq!(code, 0, "{err}");
     let config = |name: &str| -> serde_json::Value { serde_json::from_str(&std::fs::read_to_string(out.join(name).join("config.json")).unwrap()).unwrap() };
+    // Every network is seeded with --seed; GlassNet's first, and the one shipped is the choice's.
+    for name in ["naive", "glassnet-no-encoding", "glassnet-l1-only"] {
+        assert_eq!(config(name)["train"]["seed"], 3, "{name}");
+    }
+    let choice: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("glassnet_choice.json")).unwrap()).unwrap();
+    assert_eq!(choice["candidates"][0]["seed"], 3);
+    assert_eq!(config("glassnet")["train"]["seed"], choice["shipped_seed"]);
     assert_eq!(config("glassnet")["network"]["encoding_frequencies"], 2);
     assert_eq!(config("glassnet-no-encoding")["network"]["encoding_frequencies"], 0);
     assert_eq!(config("glassnet")["train"]["ssim_weight"], 1.0);

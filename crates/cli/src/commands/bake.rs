@@ -52,12 +52,19 @@ pub struct BakeArgs {
     /// in glassnet-seed<S>/; glassnet_choice.json records the choice).
     #[arg(long, default_value_t = 1)]
     pub seed_retries: u32,
+    /// The networks' seed (weights, frame order and crops) instead of the preset's (0).
+    #[arg(long)]
+    pub seed: Option<u64>,
 }
 
 pub fn run(args: BakeArgs) -> Result<()> {
+    let mut preset = args.preset;
+    if let Some(seed) = args.seed {
+        preset.training.seed = seed;
+    }
     let request = BakeRequest {
         scene: args.scene,
-        preset: args.preset,
+        preset,
         out: args.out,
         device: args.device,
         devices: args.devices,
