@@ -58,6 +58,12 @@ impl Preset {
         }
     }
 
+    /// This preset with its networks seeded with `seed` where one is given.
+    pub fn with_seed(mut self, seed: Option<u64>) -> Preset {
+        self.training.seed = seed.unwrap_or(self.training.seed);
+        self
+    }
+
     /// A smoke test: seconds on a CPU, numbers that mean nothing.
     pub fn tiny() -> Preset {
         Preset {

@@ -47,9 +47,8 @@ pub struct BakeArgs {
     /// noise behind glass (docs/trace.md). A bake being continued keeps its dataset's estimator.
     #[arg(long, value_parser = super::dataset::parse_estimator)]
     pub estimator: Option<glassbake_trace::Estimator>,
-    /// When GlassNet trails the naive baseline on the validation split, train it again with
-    /// the next seed, up to this many times, and ship the best on validation (the others stay
-    /// in glassnet-seed<S>/; glassnet_choice.json records the choice).
+    /// While GlassNet trails naive on the validation split, train it again with the next seed,
+    /// up to this many times; the best on validation ships (glassnet_choice.json says which).
     #[arg(long, default_value_t = 1)]
     pub seed_retries: u32,
     /// The networks' seed (weights, frame order and crops) instead of the preset's (0).
@@ -58,13 +57,9 @@ pub struct BakeArgs {
 }
 
 pub fn run(args: BakeArgs) -> Result<()> {
-    let mut preset = args.preset;
-    if let Some(seed) = args.seed {
-        preset.training.seed = seed;
-    }
     let request = BakeRequest {
         scene: args.scene,
-        preset,
+        preset: args.preset.with_seed(args.seed),
         out: args.out,
         device: args.device,
         devices: args.devices,
