@@ -12,10 +12,12 @@ use serde::{Deserialize, Serialize};
 /// 2: transparency buffers gained `Ld` (19 channels). 3: they gained `Ld_far` (22 channels),
 /// and smooth surfaces' `Ld` is averaged over the pixel. 4: cached buffers gained the G-buffers'
 /// light coverage (layers `opaque_light`, `naive_light`). 5: they gained each transparency
-/// buffer's through buffer (layers `transparent.k.through`). An older dataset is still read:
+/// buffer's through buffer (layers `transparent.k.through`). 6: the light coverage of scenes
+/// whose emitters are all rectangle lights is exact (the lights' outlines clipped to each
+/// pixel) instead of counted on 4x4 sub-samples. An older dataset is still read:
 /// its ground truth is good, and its cached buffers, which are not today's, are rasterized
 /// again (or brought up to date in place by `glassbake dataset upgrade`).
-pub const FORMAT_VERSION: u32 = 5;
+pub const FORMAT_VERSION: u32 = 6;
 
 /// The most frames one dataset holds: its manifest lists every frame's camera and values
 /// (about 200 bytes each), and is planned in memory before any frame is traced.

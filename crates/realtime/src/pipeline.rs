@@ -18,7 +18,10 @@ use glassbake_net::burn::prelude::*;
 use glassbake_net::burn::tensor::TensorData;
 use glassbake_net::super_sampler::downsample_box2_tensor;
 use glassbake_net::{TrainedModel, TrainedSuperSampler};
-use glassbake_raster::light_coverage::{coverage_factor, light_coverage_into, light_coverage_of, LIGHT_COVERAGE_FACTOR};
+use glassbake_raster::light_coverage::{
+    coverage_factor, exact_light_coverage_into_frame, exact_light_coverage_of_frame, light_coverage_into, light_coverage_of, CoverageMethod,
+    LIGHT_COVERAGE_FACTOR,
+};
 use glassbake_raster::{wgpu, Frame, Rasterizer, RasterizerOptions};
 use glassbake_rays::through::{through_buffer, ThroughScene};
 use glassbake_rays::through_gpu::{GpuThroughPass, GpuThroughScene, PlanesAt};
@@ -314,20 +317,40 @@ impl FramePipeline {
         let raster_start = Instant::now();
         // With the super-sampler the coverage is drawn at the full resolution it composites
         // at, and 2x2-averaged for the network, as train-sr and eval do. Zero-copy, it is
-        // reduced into a tensor and averaged on the GPU; else it crosses the host once.
+        // reduced into a tensor and averaged on the GPU; else it crosses the host once. The
+        // exact coverage at the network's resolution comes from the frame's own G-buffer.
         let sampler_coverage = self.super_sampler.as_ref().is_some_and(|s| s.net.config.light_coverage);
-        let coverage: Option<Tensor<4>> = if model.config().light_coverage || sampler_coverage {
+        let wants_coverage = model.config().light_coverage || sampler_coverage;
+        let from_frame = wants_coverage && !sr && CoverageMethod::for_scene(&instance, LIGHT_COVERAGE_FACTOR) == CoverageMethod::Exact;
+        let coverage: Option<Tensor<4>> = if wants_coverage && !from_frame {
             let (cw, ch) = if sr { (width, height) } else { (lw, lh) };
             let factor = coverage_factor(&self.coverage_rasterizer, cw, ch).min(self.light_coverage_factor.max(1));
-            Some(light_coverage_tensor(&mut self.coverage_rasterizer, &instance, camera, (cw, ch), factor, naive, zero_copy, &device)?)
+            let rasterizer = &mut self.coverage_rasterizer;
+            let instance = &instance;
+            Some(coverage_tensor((cw, ch), zero_copy, &device, |out| match out {
+                Some((buffer, offset)) => light_coverage_into(rasterizer, instance, camera, cw, ch, factor, naive, buffer, offset).map(|()| None),
+                None => light_coverage_of(rasterizer, instance, camera, cw, ch, factor, naive).map(Some),
+            })?)
         } else {
             None
+        };
+        let mut frame = self.rasterizer.begin_frame(&instance, camera, lw, lh)?;
+        let coverage = if from_frame {
+            let exact_only = || Error::Internal("the exact light coverage was chosen for a scene that needs the sampled one".into());
+            let (frame, instance) = (&mut frame, &instance);
+            Some(coverage_tensor((lw, lh), zero_copy, &device, |out| match out {
+                Some((buffer, offset)) => {
+                    exact_light_coverage_into_frame(frame, instance, camera, naive, buffer, offset)?.then_some(None).ok_or_else(exact_only)
+                }
+                None => exact_light_coverage_of_frame(frame, instance, camera, naive)?.ok_or_else(exact_only).map(Some),
+            })?)
+        } else {
+            coverage
         };
         let light_coverage = match &coverage {
             Some(full) if model.config().light_coverage => Some(if sr { downsample_box2_tensor(full.clone()) } else { full.clone() }),
             _ => None,
         };
-        let mut frame = self.rasterizer.begin_frame(&instance, camera, lw, lh)?;
         let (h, w) = (lh as usize, lw as usize);
         let to_tensor = |data: Vec<f32>, channels: usize| Tensor::<4>::from_data(TensorData::new(data, [1, channels, h, w]), &device);
         let (gbuffer, opaque_image) = gbuffer_tensor(&mut frame, zero_copy, naive, through, &device)?;
@@ -485,27 +508,20 @@ impl FramePipeline {
     }
 }
 
-/// The lights' coverage of each pixel of a `size` frame, `factor` x `factor` samples a pixel,
-/// as a network input on `device`: reduced straight into the tensor's buffer when
-/// `zero_copy`, else through host memory.
-#[allow(clippy::too_many_arguments)]
-fn light_coverage_tensor(
-    rasterizer: &mut Rasterizer,
-    instance: &Scene,
-    camera: &Camera,
+/// The lights' coverage of each pixel of a `size` frame as a network input on `device`:
+/// `make(Some((buffer, offset)))` writes it straight into the tensor's buffer when
+/// `zero_copy`, else `make(None)` returns it on the host to be uploaded.
+fn coverage_tensor(
     (width, height): (u32, u32),
-    factor: u32,
-    naive: bool,
     zero_copy: bool,
     device: &Device,
+    make: impl FnOnce(Option<(&wgpu::Buffer, u64)>) -> Result<Option<PlanarImage>>,
 ) -> Result<Tensor<4>> {
     let (channels, h, w) = (layout::LIGHT_COVERAGE_CHANNELS, height as usize, width as usize);
     if zero_copy {
-        crate::gpu_handover::input_tensor(device, channels, h, w, |buffer, offset| {
-            light_coverage_into(rasterizer, instance, camera, width, height, factor, naive, buffer, offset)
-        })
+        crate::gpu_handover::input_tensor(device, channels, h, w, |buffer, offset| make(Some((buffer, offset))).map(|_| ()))
     } else {
-        let image = light_coverage_of(rasterizer, instance, camera, width, height, factor, naive)?;
+        let image = make(None)?.ok_or_else(|| Error::Internal("the light coverage was not made on the host".into()))?;
         Ok(Tensor::<4>::from_data(TensorData::new(image.data().to_vec(), [1, channels, h, w]), device))
     }
 }

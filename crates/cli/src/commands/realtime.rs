@@ -38,9 +38,10 @@ pub struct PipelineArgs {
     /// comparison).
     #[arg(long)]
     pub host_copy: bool,
-    /// Samples per pixel side for the lights' coverage of each pixel, for models trained with
-    /// it: 4, as the datasets hold it, or fewer for a faster frame (the 4x4 pass is most of a
-    /// CPU frame's rasterizing); 1 samples each pixel's centre, lights drawn whole pixels at a time.
+    /// Samples per pixel side for the lights' coverage of each pixel in a scene with emissive
+    /// meshes (rectangle lights alone are covered exactly): 4, as the datasets hold it, or
+    /// fewer for a faster frame; 1 samples each pixel's centre, lights drawn whole pixels at a
+    /// time.
     #[arg(long, default_value_t = glassbake_raster::light_coverage::LIGHT_COVERAGE_FACTOR, value_parser = clap::value_parser!(u32).range(1..=4))]
     pub light_coverage_samples: u32,
     /// Where the through buffers' refracted rays are cast, for a model that reads them: auto

@@ -4,6 +4,9 @@
 
 // The rasterizer's half that draws a frame: it uses the module's targets, maps and constants.
 use super::*;
+use crate::light_coverage::exact::{ExactCoverage, ExactParams};
+use crate::light_coverage::sampled::CoverageReducer;
+use crate::light_coverage::Reduction;
 
 impl Rasterizer {
     /// Upload a frame (scene instance + camera), render the shadow maps and the opaque
@@ -383,10 +386,10 @@ impl Frame<'_> {
 
     /// The light coverage (`layout::LIGHT_COVERAGE_CHANNELS` planes, channel names `names`)
     /// of this frame's opaque G-buffer, or of its naive one (rendered here) if `naive`, for a
-    /// frame `factor` times smaller on each side than this one: reduced on the GPU, so that
-    /// only the coverage's planes are read back.
-    pub(crate) fn light_coverage(&mut self, naive: bool, factor: u32, names: Vec<String>) -> Result<PlanarImage> {
-        let (width, height) = self.reduce_light_coverage(naive, factor, None)?;
+    /// frame `reduction.factor()` times smaller on each side than this one: reduced on the
+    /// GPU, so that only the coverage's planes are read back.
+    pub(crate) fn light_coverage(&mut self, naive: bool, reduction: &Reduction, names: Vec<String>) -> Result<PlanarImage> {
+        let (width, height) = self.reduce_light_coverage(naive, reduction, None)?;
         let r = &*self.rasterizer;
         let readback = &r.targets.as_ref().expect("targets").coverage.as_ref().expect("reduced above").readback;
         map_for_reading(&r.device, readback)?;
@@ -399,14 +402,15 @@ impl Frame<'_> {
     /// [`Self::light_coverage`] written into `out` from `byte_offset` on (4 f32 planes, e.g.
     /// a network input tensor's storage on this device), on the GPU: submitted, not waited
     /// for, and nothing read back.
-    pub fn light_coverage_to_buffer(&mut self, naive: bool, factor: u32, out: &wgpu::Buffer, byte_offset: u64) -> Result<()> {
-        self.reduce_light_coverage(naive, factor, Some((out, byte_offset))).map(|_| ())
+    pub(crate) fn light_coverage_to_buffer(&mut self, naive: bool, reduction: &Reduction, out: &wgpu::Buffer, byte_offset: u64) -> Result<()> {
+        self.reduce_light_coverage(naive, reduction, Some((out, byte_offset))).map(|_| ())
     }
 
     /// Reduces the light coverage on the GPU into the targets' coverage buffer and copies it
     /// to `out` when given, else to the readback buffer (to be mapped). Returns the
     /// coverage's size.
-    fn reduce_light_coverage(&mut self, naive: bool, factor: u32, out: Option<(&wgpu::Buffer, u64)>) -> Result<(u32, u32)> {
+    fn reduce_light_coverage(&mut self, naive: bool, reduction: &Reduction, out: Option<(&wgpu::Buffer, u64)>) -> Result<(u32, u32)> {
+        let factor = reduction.factor();
         if factor == 0 || !self.width.is_multiple_of(factor) || !self.height.is_multiple_of(factor) {
             return Err(Error::Internal(format!("light coverage of a {}x{} frame at factor {factor}", self.width, self.height)));
         }
@@ -420,24 +424,40 @@ impl Frame<'_> {
         if naive {
             self.ensure_naive_targets();
         }
+        let (kind, lights) = match reduction {
+            Reduction::Sampled { factor } => (Some(*factor), 0),
+            Reduction::Exact { lights, outlines } => (None, (*lights).max(outlines.len())),
+        };
         let r = &mut *self.rasterizer;
-        let reducer = r.coverage_reducer.get_or_insert_with(|| crate::light_coverage::CoverageReducer::new(&r.device));
         let targets = r.targets.as_mut().expect("targets");
-        if targets.coverage.as_ref().is_none_or(|c| c.factor != factor) {
-            targets.coverage = Some(CoverageBuffers::new(&r.device, factor, bytes));
+        if targets.coverage.as_ref().is_none_or(|c| !c.serves(kind, lights)) {
+            targets.coverage = Some(CoverageBuffers::new(&r.device, kind, bytes, lights));
         }
         let coverage = targets.coverage.as_mut().expect("made above");
         let set = if naive { targets.naive.as_ref().expect("created above") } else { &targets.opaque };
-        let group = coverage.groups[usize::from(naive)]
-            .get_or_insert_with(|| reducer.bind(&r.device, &set.views[LD_TARGET as usize], width, height, factor, &coverage.reduced))
-            .clone();
+        let slot = &mut coverage.groups[usize::from(naive)];
+        let group = match reduction {
+            Reduction::Sampled { factor } => {
+                let reducer = r.coverage_reducer.get_or_insert_with(|| CoverageReducer::new(&r.device));
+                slot.get_or_insert_with(|| reducer.bind(&r.device, &set.views[LD_TARGET as usize], width, height, *factor, &coverage.reduced)).clone()
+            }
+            Reduction::Exact { outlines, .. } => {
+                let pass = r.exact_coverage.get_or_insert_with(|| ExactCoverage::new(&r.device));
+                let inputs = coverage.exact.as_ref().expect("made for the exact pass");
+                inputs.write(&r.queue, &ExactParams::new(width, height, outlines.len()), outlines);
+                slot.get_or_insert_with(|| pass.bind(&r.device, &set.views[POSITION_DEPTH_TARGET as usize], inputs, &coverage.reduced)).clone()
+            }
+        };
         let r = &*self.rasterizer;
         let mut encoder = r.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("light coverage") });
         if naive {
             self.encode_pass(&mut encoder, PassKind::Naive);
         }
+        match reduction {
+            Reduction::Sampled { .. } => r.coverage_reducer.as_ref().expect("made above").encode(&mut encoder, &group, width, height),
+            Reduction::Exact { .. } => r.exact_coverage.as_ref().expect("made above").encode(&mut encoder, &group, width, height),
+        }
         let coverage = r.targets.as_ref().expect("targets").coverage.as_ref().expect("made above");
-        r.coverage_reducer.as_ref().expect("made above").encode(&mut encoder, &group, width, height);
         match out {
             Some((buffer, offset)) => encoder.copy_buffer_to_buffer(&coverage.reduced, 0, buffer, offset, bytes),
             None => encoder.copy_buffer_to_buffer(&coverage.reduced, 0, &coverage.readback, 0, bytes),

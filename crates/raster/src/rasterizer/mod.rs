@@ -43,6 +43,8 @@ type ChannelMap = [(usize, usize, u32, u32)];
 
 /// The G-buffer target whose first three components hold L_d (`OPAQUE_MAP`).
 const LD_TARGET: u32 = 4;
+/// The G-buffer target holding the position (xyz) and depth (w) (`OPAQUE_MAP`).
+const POSITION_DEPTH_TARGET: u32 = 1;
 
 const OPAQUE_MAP: [(usize, usize, u32, u32); 7] = [
     (opaque::NORMAL, 3, 0, 0),
@@ -108,7 +110,9 @@ pub struct Rasterizer {
     /// The compute pass writing buffers into caller-owned storage buffers (made on first use).
     unpacker: Option<crate::unpack::Unpacker>,
     /// The compute pass reducing a fine G-buffer to its light coverage (made on first use).
-    coverage_reducer: Option<crate::light_coverage::CoverageReducer>,
+    coverage_reducer: Option<crate::light_coverage::sampled::CoverageReducer>,
+    /// The compute pass clipping the lights' outlines to the pixels (made on first use).
+    exact_coverage: Option<crate::light_coverage::exact::ExactCoverage>,
 }
 
 /// All buffers of one frame.
@@ -268,6 +272,7 @@ impl Rasterizer {
             shadows: None,
             unpacker: None,
             coverage_reducer: None,
+            exact_coverage: None,
         })
     }
 
@@ -324,16 +329,23 @@ impl Rasterizer {
     }
 
     /// Render everything of a frame at once: opaque and naive G-buffers, every transparency
-    /// buffer, the G-buffers' light coverage (at [`crate::light_coverage::coverage_factor`]),
+    /// buffer, the G-buffers' light coverage (exact, or sampled at
+    /// [`crate::light_coverage::coverage_factor`]: [`crate::light_coverage::CoverageMethod`]),
     /// and each transparency buffer's through buffer (cast on the CPU).
     pub fn render(&mut self, scene: &Scene, camera: &Camera, width: u32, height: u32) -> Result<FrameBuffers> {
         let mut frame = self.begin_frame(scene, camera, width, height)?;
         let opaque = frame.opaque()?;
         let naive = frame.naive()?;
         let transparent = (0..frame.transparent_count()).map(|k| frame.transparent(k)).collect::<Result<Vec<_>>>()?;
+        let exact = crate::light_coverage::exact_of_frame(&mut frame, scene, camera)?;
         drop(frame);
-        let factor = crate::light_coverage::coverage_factor(self, width, height);
-        let light_coverage = crate::light_coverage::light_coverage(self, scene, camera, width, height, factor)?;
+        let light_coverage = match exact {
+            Some(coverage) => coverage,
+            None => {
+                let factor = crate::light_coverage::coverage_factor(self, width, height);
+                crate::light_coverage::light_coverage(self, scene, camera, width, height, factor)?
+            }
+        };
         let through = glassbake_rays::through::through_buffers(scene, camera, &opaque, &transparent);
         Ok(FrameBuffers { opaque, naive, transparent, light_coverage, through })
     }

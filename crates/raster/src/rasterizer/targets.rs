@@ -6,6 +6,7 @@ use glassbake_rays::gpu_readback::map_for_reading;
 use glassbake_rays::gpu_stats::{created, GpuObject};
 
 use super::{ChannelMap, DEPTH_FORMAT, TARGET_FORMAT};
+use crate::light_coverage::exact::ExactInputs;
 
 /// One set of same-sized Rgba32Float render targets and the buffer they are read back
 /// through (rows padded to 256 bytes).
@@ -131,16 +132,21 @@ pub(super) struct Targets {
 
 /// Where a frame's light coverage is reduced to, and read back through.
 pub(super) struct CoverageBuffers {
-    /// The reduction's factor (the coverage is the frame's size over it).
-    pub(super) factor: u32,
+    /// The sampled reduction's factor (the coverage is the frame's size over it); `None` for
+    /// the exact pass.
+    pub(super) factor: Option<u32>,
     pub(super) reduced: wgpu::Buffer,
     pub(super) readback: wgpu::Buffer,
+    /// The exact pass's parameters and outlines.
+    pub(super) exact: Option<ExactInputs>,
     /// The reduction's bind groups from the opaque and the naive G-buffer (made on first use).
     pub(super) groups: [Option<wgpu::BindGroup>; 2],
 }
 
 impl CoverageBuffers {
-    pub(super) fn new(device: &wgpu::Device, factor: u32, bytes: u64) -> CoverageBuffers {
+    /// Buffers for `bytes` of coverage, and for the exact pass's outlines of `lights` lights
+    /// when `factor` is `None`.
+    pub(super) fn new(device: &wgpu::Device, factor: Option<u32>, bytes: u64, lights: usize) -> CoverageBuffers {
         let buffer = |label: &str, usage: wgpu::BufferUsages| {
             created(GpuObject::Buffer, device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: bytes, usage, mapped_at_creation: false }))
         };
@@ -148,8 +154,14 @@ impl CoverageBuffers {
             factor,
             reduced: buffer("light coverage", wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC),
             readback: buffer("light coverage readback", wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ),
+            exact: factor.is_none().then(|| ExactInputs::new(device, lights)),
             groups: [None, None],
         }
+    }
+
+    /// Whether these buffers serve a reduction at `factor` (`None`: exact) of `lights` lights.
+    pub(super) fn serves(&self, factor: Option<u32>, lights: usize) -> bool {
+        self.factor == factor && self.exact.as_ref().is_none_or(|e| e.capacity >= lights)
     }
 }
 
