@@ -1,13 +1,16 @@
 //! A headless process's Vulkan environment. Mesa's software Vulkan driver probes for a
 //! Wayland display and prints an error when `XDG_RUNTIME_DIR` is unset (headless machines,
-//! CI); a private runtime directory silences it.
+//! CI); a private runtime directory silences it. Elsewhere than on Unix (a browser's
+//! WebGPU) there is no such probe, and nothing to do.
 
+#[cfg(unix)]
 use std::path::{Path, PathBuf};
 
 /// Points `XDG_RUNTIME_DIR`, when unset, at a private directory of this user's (one per
 /// user, reused, so runs leave nothing new behind). Call it before any thread exists: it
 /// changes the environment.
 pub fn quiet_display_probe() {
+    #[cfg(unix)]
     if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
         let user = std::env::var("USER").unwrap_or_else(|_| "user".into());
         if let Some(dir) = private_runtime_dir(&std::env::temp_dir().join(format!("glassbake-runtime-{user}"))) {
@@ -20,6 +23,7 @@ pub fn quiet_display_probe() {
 /// other), created if missing. In a shared temp folder the path may have been planted by
 /// someone else: anything but a real directory owned by this user (a symbolic link, a file,
 /// another user's folder) is left alone and not used.
+#[cfg(unix)]
 fn private_runtime_dir(dir: &Path) -> Option<PathBuf> {
     use std::os::unix::fs::{DirBuilderExt, MetadataExt, PermissionsExt};
     if std::fs::DirBuilder::new().mode(0o700).create(dir).is_ok() {

@@ -4,14 +4,34 @@
 //! transparent object apart that way. The other WGSL both kernels share lives here too:
 //! `shaders/optics.wgsl` and `shaders/common.wgsl`.
 
-use std::time::Duration;
-
 use glam::Vec3;
 use glam_bvh::Vec3A as BvhVec3;
 use glassbake_core::{Error, Result};
-use obvhs::bvh2::builder::build_bvh2_from_tris;
+use obvhs::bvh2::leaf_collapser::collapse;
+use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
+use obvhs::bvh2::Bvh2;
+use obvhs::ploc::PlocBuilder;
 use obvhs::triangle::Triangle as BvhTriangle;
 use obvhs::BvhBuildParams;
+
+/// obvhs' `build_bvh2_from_tris` with its `medium_build` parameters, step by step: the same
+/// tree, without the build timer it keeps (a clock a browser's wasm has no std access to).
+fn medium_build(triangles: &[BvhTriangle]) -> Bvh2 {
+    let config = BvhBuildParams::medium_build();
+    let indices = (0..triangles.len() as u32).collect();
+    let mut bvh = PlocBuilder::with_capacity(triangles.len()).build(
+        config.ploc_search_distance,
+        triangles,
+        indices,
+        config.sort_precision,
+        config.search_depth_threshold,
+    );
+    let mut reinsertion = ReinsertionOptimizer::default();
+    reinsertion.run(&mut bvh, config.reinsertion_batch_ratio, None);
+    collapse(&mut bvh, config.max_prims_per_leaf.clamp(1, 255), config.collapse_traversal_cost);
+    reinsertion.run(&mut bvh, config.reinsertion_batch_ratio * config.post_collapse_reinsertion_batch_ratio_multiplier, None);
+    bvh
+}
 
 /// Deepest BVH the shader's traversal stack holds (its `BVH_STACK_SIZE`).
 pub const MAX_BVH_DEPTH: usize = 64;
@@ -55,7 +75,7 @@ impl GpuBvhs {
         let to_bvh = |v: Vec3| BvhVec3::new(v.x, v.y, v.z);
         let bvh_triangles: Vec<BvhTriangle> =
             triangles.iter().map(|t| BvhTriangle { v0: to_bvh(t.positions[0]), v1: to_bvh(t.positions[1]), v2: to_bvh(t.positions[2]) }).collect();
-        let bvh = build_bvh2_from_tris(&bvh_triangles, BvhBuildParams::medium_build(), &mut Duration::default());
+        let bvh = medium_build(&bvh_triangles);
         let depth = depth(&bvh.nodes);
         if depth >= MAX_BVH_DEPTH {
             return Err(Error::bad_input(name, "geometry", format!("its BVH is {depth} levels deep; the GPU traversal stack holds {MAX_BVH_DEPTH}")));
@@ -269,6 +289,23 @@ mod tests {
             for axis in 0..3 {
                 assert!((refit[axis] - rebuilt[axis]).abs() < 1e-5, "{refit:?} against {rebuilt:?}");
             }
+        }
+    }
+
+    #[test]
+    fn the_medium_build_is_obvhs_own_tree() {
+        let to_bvh = |v: Vec3| BvhVec3::new(v.x, v.y, v.z);
+        let triangles: Vec<BvhTriangle> = grid(40, Vec3::ZERO)
+            .iter()
+            .chain(&grid(9, Vec3::new(0.3, 2.0, 10.0)))
+            .map(|t| BvhTriangle { v0: to_bvh(t.positions[0]), v1: to_bvh(t.positions[1]), v2: to_bvh(t.positions[2]) })
+            .collect();
+        let ours = medium_build(&triangles);
+        let theirs = obvhs::bvh2::builder::build_bvh2_from_tris(&triangles, BvhBuildParams::medium_build(), &mut std::time::Duration::default());
+        assert_eq!(ours.primitive_indices, theirs.primitive_indices);
+        assert_eq!(ours.nodes.len(), theirs.nodes.len());
+        for (a, b) in ours.nodes.iter().zip(&theirs.nodes) {
+            assert_eq!((a.aabb.min, a.aabb.max, a.first_index, a.prim_count), (b.aabb.min, b.aabb.max, b.first_index, b.prim_count));
         }
     }
 }

@@ -12,6 +12,7 @@
 pub mod geometry;
 pub mod gpu_bvh;
 pub mod gpu_cache;
+pub mod gpu_errors;
 pub mod gpu_readback;
 pub mod gpu_scene;
 pub mod gpu_stats;

@@ -146,7 +146,7 @@ struct ObjectParams {
 impl GpuThroughPass {
     /// Compile the kernel on `device`.
     pub fn new(device: wgpu::Device, queue: wgpu::Queue) -> Result<GpuThroughPass> {
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let scope = crate::gpu_errors::ValidationScope::push(&device);
         let module =
             device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("through.wgsl"), source: wgpu::ShaderSource::Wgsl(shader_source().into()) });
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -157,7 +157,7 @@ impl GpuThroughPass {
             compilation_options: Default::default(),
             cache: None,
         });
-        if let Some(e) = pollster::block_on(scope.pop()) {
+        if let Some(e) = scope.pop() {
             return Err(Error::Internal(format!("compiling through.wgsl: {e}")));
         }
         let uniform = device.create_buffer(&wgpu::BufferDescriptor {
@@ -400,7 +400,7 @@ impl GpuThroughPass {
             .get_or_make(key, || {
                 // Whatever wgpu refuses here comes back as an error, not as a panic of its
                 // handler; a kept bind group was checked when it was made.
-                let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+                let scope = crate::gpu_errors::ValidationScope::push(&self.device);
                 let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: self.uniform.as_entire_binding() }];
                 for (i, buffer) in scene.arrays.iter().enumerate() {
                     entries.push(wgpu::BindGroupEntry { binding: i as u32 + 1, resource: buffer.as_entire_binding() });
@@ -412,7 +412,7 @@ impl GpuThroughPass {
                     layout: &self.pipeline.get_bind_group_layout(0),
                     entries: &entries,
                 });
-                refused = pollster::block_on(scope.pop());
+                refused = scope.pop();
                 created(GpuObject::BindGroup, bind_group)
             })
             .clone();
