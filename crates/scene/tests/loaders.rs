@@ -825,3 +825,39 @@ fn repeated_object_names_are_warned_and_a_manifest_cannot_address_them() {
     let names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
     assert_eq!(names, ["wall#1", "wall", "wall#2"]);
 }
+
+#[test]
+fn a_scene_folder_in_memory_loads_as_it_does_from_disk_and_reads_nothing_else() {
+    use std::collections::BTreeMap;
+    let original = builtin("desk").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    glassbake_scene::export::export_scene(&original, dir.path(), false).unwrap();
+    let on_disk = load_scene(dir.path().join("manifest.toml").to_str().unwrap()).unwrap();
+    let mut files = BTreeMap::new();
+    let mut stack = vec![dir.path().to_path_buf()];
+    while let Some(folder) = stack.pop() {
+        for entry in std::fs::read_dir(&folder).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                let name = path.strip_prefix(dir.path()).unwrap().to_str().unwrap().replace('\\', "/");
+                files.insert(format!("scene/{name}"), std::fs::read(&path).unwrap());
+            }
+        }
+    }
+    let in_memory = glassbake_scene::load::load_scene_from_memory("scene/manifest.toml", &files).unwrap();
+    assert_eq!(in_memory.content_hash(), on_disk.content_hash());
+    // A reference to a file the folder does not hold is refused, naming the file and field,
+    // even where a file of that name exists on disk beside the process.
+    let manifest = String::from_utf8(files["scene/manifest.toml"].clone()).unwrap();
+    let geometry = manifest.lines().find(|l| l.starts_with("geometry")).unwrap().to_string();
+    let moved = manifest.replace(&geometry, "geometry = \"elsewhere.gltf\"");
+    files.insert("scene/manifest.toml".into(), moved.into_bytes());
+    let err = glassbake_scene::load::load_scene_from_memory("scene/manifest.toml", &files).unwrap_err().to_string();
+    assert!(err.contains("scene/manifest.toml") && err.contains("geometry") && err.contains("not among the scene's files"), "{err}");
+    let escaping = manifest.replace(&geometry, "geometry = \"../outside.gltf\"");
+    files.insert("scene/manifest.toml".into(), escaping.into_bytes());
+    assert!(glassbake_scene::load::load_scene_from_memory("scene/manifest.toml", &files).is_err());
+    assert!(glassbake_scene::load::load_scene_from_memory("scene/missing.toml", &files).is_err());
+}

@@ -8,7 +8,7 @@ use glam::{Affine2, Affine3A, Mat4, Vec2, Vec3, Vec4};
 use glassbake_core::color::srgb_to_linear;
 use glassbake_core::{Error, Result};
 
-use super::scene_files::{read_scene_file, SceneFolder};
+use super::scene_files::{FileSource, SceneFolder};
 use super::{check_reference, empty_scene, finish_mesh, unique_name};
 use crate::gltf_extensions;
 use crate::model::{Material, Mesh, Object, Scene, Texture, Transmission};
@@ -191,12 +191,16 @@ fn parse_document(bytes: &[u8], label: &str) -> Result<(gltf::Document, Option<V
 
 /// Load a glTF 2.0 file (.gltf or .glb) with its buffers and textures.
 pub fn load_gltf(path: &Path) -> Result<Scene> {
+    load_gltf_from(path, FileSource::Disk)
+}
+
+pub(crate) fn load_gltf_from(path: &Path, source: FileSource) -> Result<Scene> {
     let label = path.display().to_string();
-    let bytes = read_scene_file(path, &label, "file")?;
+    let bytes = source.read(path, &label, "file")?;
     let (used, required) = gltf_extensions::declared_extensions(&bytes, &label)?;
     let extension_warnings = gltf_extensions::check_extensions(&used, &required, &label)?;
     let (document, blob) = parse_document(&bytes, &label)?;
-    let folder = SceneFolder::of(path)?;
+    let folder = source.folder(path)?;
     let buffers = read_buffers(&document, &folder, blob)?;
     let images = read_images(&document, &folder, &buffers)?;
     let mut scene = empty_scene(path);

@@ -6,8 +6,8 @@ use std::path::Path;
 use glam::Vec3;
 use glassbake_core::{Error, Result};
 
-use super::scene_files::{read_scene_file, SceneFolder};
-use super::{load_geometry, require_file};
+use super::scene_files::FileSource;
+use super::{load_geometry_from, require_file};
 use crate::camera_spec::{CameraPosition, CameraSpec, Interval};
 use crate::manifest::{parse_manifest, CameraManifest, Manifest, NumberOrRange, PositionManifest, TargetManifest};
 use crate::model::{Material, RectLight, Scene};
@@ -56,13 +56,17 @@ fn named(names: &[&str], name: &str, kind: &str, file: &str, field: &str) -> Res
 
 /// Load a manifest and the geometry it points to, and apply its declarations.
 pub fn load_manifest(path: &Path) -> Result<Scene> {
+    load_manifest_from(path, FileSource::Disk)
+}
+
+pub(crate) fn load_manifest_from(path: &Path, source: FileSource) -> Result<Scene> {
     let file = path.display().to_string();
-    require_file(path)?;
-    let bytes = read_scene_file(path, &file, "file")?;
+    require_file(path, source)?;
+    let bytes = source.read(path, &file, "file")?;
     let text = String::from_utf8(bytes).map_err(|e| Error::bad_input(&file, "file", format!("not UTF-8 text: {e}")))?;
     let manifest = parse_manifest(&text).map_err(|(field, message)| Error::bad_input(&file, field, message))?;
-    let geometry = SceneFolder::of(path)?.resolve("geometry", &manifest.geometry)?;
-    let mut scene = load_geometry(&geometry)?;
+    let geometry = source.folder(path)?.resolve("geometry", &manifest.geometry)?;
+    let mut scene = load_geometry_from(&geometry, source)?;
     apply_manifest(&mut scene, &manifest, &file)?;
     Ok(scene)
 }

@@ -1,7 +1,7 @@
 //! Resolving a scene argument (a built-in name or a path), the glTF / OBJ / manifest loaders,
 //! and validation. Every error names the file and the field at fault.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 
 use glam::Vec2;
@@ -16,6 +16,7 @@ mod validate;
 pub use gltf_file::load_gltf;
 pub use manifest_file::{apply_manifest, load_manifest};
 pub use obj_file::load_obj;
+use scene_files::FileSource;
 pub use scene_files::MAX_SCENE_FILE_BYTES;
 pub use validate::{validate, MAX_COORDINATE, MAX_RADIANCE, MAX_SPECULAR_COLOR, MAX_TEXTURE_COORDINATE, MAX_VARIABLES};
 
@@ -29,17 +30,28 @@ pub fn load_scene(arg: &str) -> Result<Scene> {
     if let Some(scene) = builtin(arg) {
         return Ok(scene);
     }
+    load_scene_file(arg, FileSource::Disk)
+}
+
+/// [`load_scene`] of the scene file `entry` among `files`, the files of one scene folder held
+/// in memory by their paths relative to it (what a web page fetched): the same references are
+/// allowed as on disk, and nothing is read from anywhere else.
+pub fn load_scene_from_memory(entry: &str, files: &BTreeMap<String, Vec<u8>>) -> Result<Scene> {
+    load_scene_file(entry, FileSource::Memory(files))
+}
+
+fn load_scene_file(arg: &str, source: FileSource) -> Result<Scene> {
     let path = Path::new(arg);
     let extension = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
     let scene = match extension.as_deref() {
-        Some("toml") => load_manifest(path)?,
+        Some("toml") => manifest_file::load_manifest_from(path, source)?,
         Some("gltf" | "glb" | "obj") => {
-            let mut scene = load_geometry(path)?;
+            let mut scene = load_geometry_from(path, source)?;
             let (lo, hi) = scene.bounds().ok_or_else(|| Error::bad_input(path.display(), "geometry", "the file holds no triangles"))?;
             scene.camera = CameraSpec::framing(lo, hi);
             scene
         }
-        _ if !path.exists() && !arg.contains(['/', '\\', '.']) => {
+        _ if !source.exists(path) && !arg.contains(['/', '\\', '.']) => {
             return Err(Error::bad_input(arg, "scene", format!("no built-in scene of that name (built-ins: {})", BUILTIN_NAMES.join(", "))))
         }
         _ => return Err(Error::bad_input(path.display(), "scene", "expected a built-in name or a .toml manifest, .gltf, .glb or .obj file")),
@@ -104,8 +116,8 @@ fn percent_decode(text: &str) -> Vec<u8> {
     out
 }
 
-fn require_file(path: &Path) -> Result<()> {
-    if !path.is_file() {
+fn require_file(path: &Path, source: FileSource) -> Result<()> {
+    if !source.exists(path) {
         return Err(Error::bad_input(path.display(), "file", "no such file"));
     }
     Ok(())
@@ -113,11 +125,15 @@ fn require_file(path: &Path) -> Result<()> {
 
 /// Load a glTF or OBJ file as a scene with a default name and no camera ranges or variables.
 pub fn load_geometry(path: &Path) -> Result<Scene> {
-    require_file(path)?;
+    load_geometry_from(path, FileSource::Disk)
+}
+
+fn load_geometry_from(path: &Path, source: FileSource) -> Result<Scene> {
+    require_file(path, source)?;
     let extension = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
     let mut scene = match extension.as_deref() {
-        Some("gltf" | "glb") => load_gltf(path)?,
-        Some("obj") => load_obj(path)?,
+        Some("gltf" | "glb") => gltf_file::load_gltf_from(path, source)?,
+        Some("obj") => obj_file::load_obj_from(path, source)?,
         _ => return Err(Error::bad_input(path.display(), "geometry", "expected a .gltf, .glb or .obj file")),
     };
     warn_repeated_names(&mut scene);

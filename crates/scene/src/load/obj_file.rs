@@ -8,7 +8,7 @@ use glam::{Affine3A, Vec2, Vec3, Vec4};
 use glassbake_core::color::srgb_to_linear;
 use glassbake_core::{Error, Result};
 
-use super::scene_files::{read_scene_file, SceneFolder};
+use super::scene_files::{FileSource, SceneFolder};
 use super::{check_reference, empty_scene, finish_mesh, unique_name};
 use crate::model::{Material, Mesh, Object, Scene, Texture, Transmission};
 fn load_image_texture(folder: &SceneFolder, name: &str, is_color: bool, field: &str) -> Result<Texture> {
@@ -109,9 +109,13 @@ fn check_material_colours(library: &Path, bytes: &[u8]) -> Result<()> {
 /// or an illumination model 4, 6, 7 or 9; roughness from the Phong exponent `Ns`, alpha =
 /// sqrt(2 / (Ns + 2))).
 pub fn load_obj(path: &Path) -> Result<Scene> {
+    load_obj_from(path, FileSource::Disk)
+}
+
+pub(crate) fn load_obj_from(path: &Path, source: FileSource) -> Result<Scene> {
     let label = path.display().to_string();
-    let text = read_scene_file(path, &label, "file")?;
-    let folder = SceneFolder::of(path)?;
+    let text = source.read(path, &label, "file")?;
+    let folder = source.folder(path)?;
     // The material libraries are read here, through the scene folder's rule, and handed to
     // tobj by the name it asks for.
     let mut libraries = HashMap::new();
@@ -127,7 +131,11 @@ pub fn load_obj(path: &Path) -> Result<Scene> {
             let name = line.split_once(' ').unwrap_or_default().1.trim();
             // A library that is not there is tobj's to report.
             let library = path.with_file_name(name);
-            if library.symlink_metadata().is_err() {
+            let present = match source {
+                FileSource::Disk => library.symlink_metadata().is_ok(),
+                FileSource::Memory(_) => source.exists(&library),
+            };
+            if !present {
                 continue;
             }
             let bytes = folder.read(&field, name)?;

@@ -6,8 +6,9 @@
 //! exports) a file outside its folder through a link, nor hang it on a pipe, nor exhaust
 //! memory with a length it declares.
 
+use std::collections::BTreeMap;
 use std::io::Read;
-use std::path::{Path, PathBuf};
+use std::path::{Component, Path, PathBuf};
 
 use glassbake_core::{Error, Result};
 
@@ -17,24 +18,71 @@ use super::{check_reference, percent_decode, ALLOW_OUTSIDE_ENV};
 /// fields are 32 bits), far above any scene glassbake can bake.
 pub const MAX_SCENE_FILE_BYTES: u64 = u32::MAX as u64;
 
+/// Where a scene's files are read from: the file system, or files held in memory by their
+/// paths relative to one folder (a web page's, which fetched them), with the same references
+/// allowed in both.
+#[derive(Clone, Copy)]
+pub(crate) enum FileSource<'a> {
+    Disk,
+    Memory(&'a BTreeMap<String, Vec<u8>>),
+}
+
+impl<'a> FileSource<'a> {
+    pub(crate) fn exists(&self, path: &Path) -> bool {
+        match self {
+            FileSource::Disk => path.is_file(),
+            FileSource::Memory(files) => files.contains_key(&memory_key(path)),
+        }
+    }
+
+    /// The bytes of a scene file given by its path (not a reference).
+    pub(crate) fn read(&self, path: &Path, label: &str, field: &str) -> Result<Vec<u8>> {
+        match self {
+            FileSource::Disk => read_scene_file(path, label, field),
+            FileSource::Memory(files) => files
+                .get(&memory_key(path))
+                .cloned()
+                .ok_or_else(|| Error::bad_input(label, field, format!("{} is not among the scene's files", path.display()))),
+        }
+    }
+
+    /// The folder of `file`, which refers to the files read through it.
+    pub(crate) fn folder(&self, file: &Path) -> Result<SceneFolder<'a>> {
+        match *self {
+            FileSource::Disk => SceneFolder::of(file),
+            FileSource::Memory(files) => {
+                let dir = file.parent().unwrap_or(Path::new("")).to_path_buf();
+                Ok(SceneFolder { label: file.display().to_string(), dir, root: None, memory: Some(files) })
+            }
+        }
+    }
+}
+
+/// A path as the key of a file in memory: its normal components joined by `/`.
+fn memory_key(path: &Path) -> String {
+    path.components().filter_map(|c| if let Component::Normal(part) = c { Some(part.to_string_lossy()) } else { None }).collect::<Vec<_>>().join("/")
+}
+
 /// The folder of one scene file, against which its references are resolved.
-pub(crate) struct SceneFolder {
+pub(crate) struct SceneFolder<'a> {
     /// The referring file, for error messages.
     label: String,
     dir: PathBuf,
     /// The folder with its links resolved; `None` where the user trusts the scene with files
-    /// outside it.
+    /// outside it, or the files are in memory.
     root: Option<PathBuf>,
+    /// The scene's files, where they are held in memory rather than on disk.
+    memory: Option<&'a BTreeMap<String, Vec<u8>>>,
 }
 
-impl SceneFolder {
-    /// The folder of `file`, which refers to the files read through it.
+impl SceneFolder<'_> {
+    /// The folder of `file` on disk, which refers to the files read through it.
     pub(crate) fn of(file: &Path) -> Result<Self> {
         let label = file.display().to_string();
         let dir = file.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new(".")).to_path_buf();
         let trusted = std::env::var(ALLOW_OUTSIDE_ENV).is_ok_and(|v| v == "1");
         let root = if trusted { None } else { Some(dir.canonicalize().map_err(|e| Error::bad_input(&label, "folder", e.to_string()))?) };
-        Ok(SceneFolder { label, dir, root })
+        Ok(SceneFolder { label, dir, root, memory: None })
     }
 
     pub(crate) fn label(&self) -> &str {
@@ -49,6 +97,15 @@ impl SceneFolder {
         // Only a trusted scene gets here with a `file:` URI.
         let name = decoded.strip_prefix("file://").or_else(|| decoded.strip_prefix("file:")).unwrap_or(&decoded);
         let path = self.dir.join(name);
+        if let Some(files) = self.memory {
+            // `check_reference` refused every way out of the folder (`..`, absolute paths).
+            let key = memory_key(&path);
+            return if files.contains_key(&key) {
+                Ok(PathBuf::from(key))
+            } else {
+                Err(Error::bad_input(&self.label, field, format!("{} is not among the scene's files", path.display())))
+            };
+        }
         let resolved = path.canonicalize().map_err(|e| Error::bad_input(&self.label, field, format!("{}: {e}", path.display())))?;
         if let Some(root) = &self.root {
             if !resolved.starts_with(root) {
@@ -70,7 +127,11 @@ impl SceneFolder {
 
     /// The bytes of the file `reference` names: all of it, up to [`MAX_SCENE_FILE_BYTES`].
     pub(crate) fn read(&self, field: &str, reference: &str) -> Result<Vec<u8>> {
-        read_scene_file(&self.resolve(field, reference)?, &self.label, field)
+        let path = self.resolve(field, reference)?;
+        match self.memory {
+            Some(files) => FileSource::Memory(files).read(&path, &self.label, field),
+            None => read_scene_file(&path, &self.label, field),
+        }
     }
 
     /// The first `declared` bytes of the file `reference` names (a glTF buffer's
@@ -80,6 +141,14 @@ impl SceneFolder {
             return Err(Error::bad_input(&self.label, field, format!("declares {declared} bytes, above the {MAX_SCENE_FILE_BYTES}-byte limit")));
         }
         let path = self.resolve(field, reference)?;
+        if let Some(files) = self.memory {
+            let mut bytes = FileSource::Memory(files).read(&path, &self.label, field)?;
+            if (bytes.len() as u64) < declared {
+                return Err(Error::bad_input(&self.label, field, format!("{} holds {} bytes where {declared} are declared", path.display(), bytes.len())));
+            }
+            bytes.truncate(declared as usize);
+            return Ok(bytes);
+        }
         let (file, length) = open_regular_file(&path, &self.label, field)?;
         if length < declared {
             return Err(Error::bad_input(&self.label, field, format!("{} holds {length} bytes where {declared} are declared", path.display())));
