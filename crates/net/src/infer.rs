@@ -31,6 +31,20 @@ impl TrainedModel {
         Ok(TrainedModel { net, files, device: device.clone() })
     }
 
+    /// A model from its `config.json` text and weights file bytes (a web page fetches them
+    /// from `dir`, which names the files in errors).
+    pub fn from_bytes(config_json: &str, weights: Vec<u8>, dir: &str, device: &Device) -> Result<TrainedModel> {
+        let config_label = format!("{dir}/{}", crate::model_dir::CONFIG_FILE);
+        let config = crate::model_dir::parse_config(config_json, &config_label)?;
+        config.check(&config_label)?;
+        let files = ModelFiles { dir: dir.into(), config };
+        let Network::Glassnet(config) = &files.config.network else {
+            return Err(Error::bad_input(dir, "network", "holds a super-sampler, not GlassNet or a baseline"));
+        };
+        let net = crate::model::load_model_from_bytes(config, weights, &files.weights_path().display().to_string(), device)?;
+        Ok(TrainedModel { net, files, device: device.clone() })
+    }
+
     pub fn config(&self) -> &NetConfig {
         self.net.config()
     }

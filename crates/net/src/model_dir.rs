@@ -191,13 +191,18 @@ impl ModelFiles {
 
 fn read_config(path: &Path) -> Result<ModelConfig> {
     let text = fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    let config: ModelConfig = serde_json::from_str(&text).map_err(|e| Error::bad_input(path.display(), "config", e.to_string()))?;
+    parse_config(&text, &path.display().to_string())
+}
+
+/// A `config.json`'s text as a config of a format this glassbake reads; `label` names the file.
+pub fn parse_config(text: &str, label: &str) -> Result<ModelConfig> {
+    let config: ModelConfig = serde_json::from_str(text).map_err(|e| Error::bad_input(label, "config", e.to_string()))?;
     let reads_transparency_buffers = matches!(&config.network, Network::Glassnet(n) if n.model.reads_transparency_buffers());
     match config.format_version {
         FORMAT_VERSION | 4..=6 => Ok(config),
         1..=3 if !reads_transparency_buffers => Ok(config),
         old @ (1 | 2) => Err(Error::bad_input(
-            path.display(),
+            label,
             "format_version",
             format!(
                 "{old}: trained on {}-channel transparency buffers, before they gained {}; retrain it with `glassbake train`",
@@ -206,11 +211,11 @@ fn read_config(path: &Path) -> Result<ModelConfig> {
             ),
         )),
         3 => Err(Error::bad_input(
-            path.display(),
+            label,
             "format_version",
             "3: its renderer predates the glass transmittance input (format 4); retrain it with `glassbake train`",
         )),
-        other => Err(Error::bad_input(path.display(), "format_version", format!("{other} is not a version this glassbake reads (1 to {FORMAT_VERSION})"))),
+        other => Err(Error::bad_input(label, "format_version", format!("{other} is not a version this glassbake reads (1 to {FORMAT_VERSION})"))),
     }
 }
 
@@ -249,12 +254,11 @@ pub fn weights_step(path: &Path) -> Option<u64> {
     header.get("__metadata__")?.get(STEP_METADATA)?.as_str()?.parse().ok()
 }
 
-/// Refuses a weights file holding NaN or infinity, which would render black (or NaN) frames
-/// that are scored as if they were a model's.
-fn check_weights_are_finite(path: &Path) -> Result<()> {
+/// Refuses weights holding NaN or infinity, which would render black (or NaN) frames that are
+/// scored as if they were a model's. `label` names the file.
+fn check_weights_are_finite(bytes: &[u8], label: &str) -> Result<()> {
     use safetensors::{Dtype, SafeTensors};
-    let bytes = fs::read(path).map_err(|e| Error::io(path, e))?;
-    let tensors = SafeTensors::deserialize(&bytes).map_err(|e| Error::bad_input(path.display(), "weights", e.to_string()))?;
+    let tensors = SafeTensors::deserialize(bytes).map_err(|e| Error::bad_input(label, "weights", e.to_string()))?;
     for (name, tensor) in tensors.tensors() {
         let data = tensor.data();
         let first_bad = match tensor.dtype() {
@@ -267,7 +271,7 @@ fn check_weights_are_finite(path: &Path) -> Result<()> {
         };
         if let Some(index) = first_bad {
             return Err(Error::bad_input(
-                path.display(),
+                label,
                 format!("weights {name}"),
                 format!("element {index} is NaN or infinite: the weights are damaged or their training diverged; retrain the model"),
             ));
@@ -276,12 +280,49 @@ fn check_weights_are_finite(path: &Path) -> Result<()> {
     Ok(())
 }
 
+/// The weights with every f16 or bf16 tensor widened to f32 (a web site stores them halved):
+/// the networks compute in f32, and loading keeps a tensor's stored type.
+fn weights_in_f32(bytes: Vec<u8>, label: &str) -> Result<Vec<u8>> {
+    use safetensors::tensor::{Dtype, SafeTensors, TensorView};
+    let tensors = SafeTensors::deserialize(&bytes).map_err(|e| Error::bad_input(label, "weights", e.to_string()))?;
+    if tensors.tensors().iter().all(|(_, t)| !matches!(t.dtype(), Dtype::F16 | Dtype::BF16)) {
+        return Ok(bytes);
+    }
+    let (_, metadata) = SafeTensors::read_metadata(&bytes).map_err(|e| Error::bad_input(label, "weights", e.to_string()))?;
+    let widened: Vec<(String, Vec<usize>, Dtype, Vec<u8>)> = tensors
+        .tensors()
+        .into_iter()
+        .map(|(name, t)| {
+            let halves = t.data().chunks_exact(2).map(|b| [b[0], b[1]]);
+            let data: Vec<u8> = match t.dtype() {
+                Dtype::F16 => halves.flat_map(|b| half::f16::from_le_bytes(b).to_f32().to_le_bytes()).collect(),
+                Dtype::BF16 => halves.flat_map(|b| half::bf16::from_le_bytes(b).to_f32().to_le_bytes()).collect(),
+                _ => return (name, t.shape().to_vec(), t.dtype(), t.data().to_vec()),
+            };
+            (name, t.shape().to_vec(), Dtype::F32, data)
+        })
+        .collect();
+    let views = widened
+        .iter()
+        .map(|(name, shape, dtype, data)| TensorView::new(*dtype, shape.clone(), data).map(|v| (name.clone(), v)))
+        .collect::<std::result::Result<Vec<_>, _>>()
+        .map_err(|e| Error::bad_input(label, "weights", e.to_string()))?;
+    safetensors::serialize(views, metadata.metadata().clone()).map_err(|e| Error::bad_input(label, "weights", e.to_string()))
+}
+
 /// Loads weights written by [`write_weights`] into `model` (built from the same config),
 /// refusing weights that are not finite.
 pub fn read_weights<M: Module + ModuleSnapshot>(model: &mut M, path: &Path) -> Result<()> {
-    check_weights_are_finite(path)?;
-    let mut store = SafetensorsStore::from_file(path).with_from_adapter(PyTorchToBurnAdapter);
-    let result = model.load_from(&mut store).map_err(|e| Error::bad_input(path.display(), "weights", e.to_string()))?;
+    let bytes = fs::read(path).map_err(|e| Error::io(path, e))?;
+    read_weights_from_bytes(model, bytes, &path.display().to_string())
+}
+
+/// [`read_weights`] from the file's bytes (a web page fetches them); `label` names the file.
+pub fn read_weights_from_bytes<M: Module + ModuleSnapshot>(model: &mut M, bytes: Vec<u8>, label: &str) -> Result<()> {
+    check_weights_are_finite(&bytes, label)?;
+    let bytes = weights_in_f32(bytes, label)?;
+    let mut store = SafetensorsStore::from_bytes(Some(bytes)).with_from_adapter(PyTorchToBurnAdapter);
+    let result = model.load_from(&mut store).map_err(|e| Error::bad_input(label, "weights", e.to_string()))?;
     if !result.missing.is_empty() || !result.errors.is_empty() || !result.unused.is_empty() {
         let first = result
             .missing
@@ -290,7 +331,7 @@ pub fn read_weights<M: Module + ModuleSnapshot>(model: &mut M, path: &Path) -> R
             .or_else(|| result.unused.first().cloned())
             .unwrap_or_else(|| format!("{:?}", result.errors.first()));
         return Err(Error::bad_input(
-            path.display(),
+            label,
             "weights",
             format!(
                 "do not fit the network in config.json ({} missing, {} unused, {} errors; first: {first})",

@@ -125,15 +125,21 @@ pub fn with_new_model<T: ModelTask>(config: &NetConfig, seed: u64, device: &Devi
 /// The network of `config` with its weights read from `weights` (a model directory's
 /// SafeTensors file), on `device`.
 pub fn load_model(config: &NetConfig, weights: &Path, device: &Device) -> Result<Box<dyn SceneModel>> {
-    struct Load<'a>(&'a Path);
+    let bytes = std::fs::read(weights).map_err(|e| Error::io(weights, e))?;
+    load_model_from_bytes(config, bytes, &weights.display().to_string(), device)
+}
+
+/// [`load_model`] from the weights file's bytes; `label` names the file in errors.
+pub fn load_model_from_bytes(config: &NetConfig, weights: Vec<u8>, label: &str, device: &Device) -> Result<Box<dyn SceneModel>> {
+    struct Load<'a>(Vec<u8>, &'a str);
     impl ModelTask for Load<'_> {
         type Output = Result<Box<dyn SceneModel>>;
         fn run<M: SceneModel + Trainable>(self, mut model: M) -> Self::Output {
-            crate::model_dir::read_weights(&mut model, self.0)?;
+            crate::model_dir::read_weights_from_bytes(&mut model, self.0, self.1)?;
             Ok(Box::new(model))
         }
     }
-    with_new_model(config, 0, device, Load(weights))?
+    with_new_model(config, 0, device, Load(weights, label))?
 }
 
 /// The network of `config` as a trait object, weights drawn from `seed`.
