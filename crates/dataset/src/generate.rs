@@ -217,6 +217,17 @@ pub struct UpgradeSummary {
     pub elapsed: Duration,
 }
 
+impl std::fmt::Display for UpgradeSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let now = crate::FORMAT_VERSION;
+        if self.from_version == now {
+            return write!(f, "already format {now}: nothing to do");
+        }
+        let seconds = self.elapsed.as_secs_f64();
+        write!(f, "format {} -> {now}, buffers of {} frame(s) rasterized again in {seconds:.1} s, ground truth kept", self.from_version, self.rasterized)
+    }
+}
+
 /// Bring a dataset of an older format to [`crate::FORMAT_VERSION`] in place: its ground truth
 /// (the expensive part) is kept, the cached buffers of its finished frames are rasterized again
 /// from `scene`, and the manifest is rewritten last, so an interrupted upgrade leaves the old

@@ -145,6 +145,27 @@ pub fn run_bench(pipeline: &mut FramePipeline, device: &str, options: &BenchOpti
     })
 }
 
+/// What a run of the benchmark measures on: the network's device, the cores, where the
+/// through rays are cast, and whether only the camera moves.
+pub fn describe_run(pipeline: &FramePipeline, network_device: &str, camera_only: bool) -> String {
+    let host = pipeline.zero_copy() && !pipeline.glassnet_frames_zero_copy();
+    format!(
+        "network on {network_device} ({} cores), through rays on the {}{}{}",
+        std::thread::available_parallelism().map_or(1, |n| n.get()),
+        pipeline.through_rays().name(),
+        if host { " (so GlassNet's buffers go through host memory)" } else { "" },
+        if camera_only { "; the camera moves, the variables stay" } else { "" }
+    )
+}
+
+impl BenchReport {
+    /// The line above the table: where, how many frames, which model.
+    pub fn heading(&self) -> String {
+        let sampler = if self.super_sampler { ", with the x2 super-sampler" } else { "" };
+        format!("{}: median of {} frames after {} warm-up, {}{sampler}", self.device, self.frames, self.warmup, self.model)
+    }
+}
+
 /// Least-squares slope of ms per frame against the object count, per resolution.
 pub fn marginal_ms_per_object(report: &BenchReport, resolution: u32) -> Option<f64> {
     marginal_per_object(report, resolution, |r| r.ms_per_frame)

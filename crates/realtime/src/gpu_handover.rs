@@ -28,6 +28,18 @@ pub struct SharedDevice {
 pub fn open_shared(options: RasterizerOptions) -> Result<SharedDevice> {
     let options = RasterizerOptions { all_adapter_features: true, ..options };
     let (instance, adapter, device, queue) = glassbake_raster::device::open(&options)?;
+    register_shared(instance, adapter, device, queue, options)
+}
+
+/// A rasterizer on a device opened elsewhere with every shareable adapter feature (a
+/// browser's, `raster::device::open_for_surface`), and the device registered with burn.
+pub fn register_shared(
+    instance: wgpu::Instance,
+    adapter: wgpu::Adapter,
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    options: RasterizerOptions,
+) -> Result<SharedDevice> {
     let backend = adapter.get_info().backend;
     let setup = WgpuSetup { instance: instance.clone(), adapter: adapter.clone(), device: device.clone(), queue: queue.clone(), backend };
     let burn_device =

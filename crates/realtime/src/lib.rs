@@ -3,13 +3,15 @@
 //! at a time -> GlassNet -> optional x2 super-sampler -> image), opening a trained model's
 //! pipeline, finding a model's scene,
 //! synthesising scenes with more or fewer transparent objects for the benchmark, the
-//! benchmark itself (frame times, peak memory), and, with the `viewer` feature, the
+//! benchmark itself (frame times, peak memory), the orbit camera within a scene's trained
+//! views, and, with the `viewer` feature, the
 //! interactive viewer (eframe: egui on wgpu/winit).
 
 pub mod bench;
 pub mod gpu_handover;
 pub mod memory;
 pub mod open;
+pub mod orbit;
 pub mod pipeline;
 pub mod scene_source;
 pub mod synth;

@@ -8,7 +8,7 @@
 //! straight into the network's input tensor (`gpu_handover`), and so is its through buffer when
 //! the GPU pass casts it (see docs/realtime.md for why and what each costs).
 
-use std::time::Instant;
+use web_time::Instant;
 
 use glam::Vec3;
 use glassbake_core::layout::{self, OPAQUE_ATTRIBUTES, TRANSPARENT_ATTRIBUTES, TRANSPARENT_CHANNELS};
@@ -104,6 +104,13 @@ pub struct FrameTimes {
     /// Everything else: the network, uploads, the image read-back.
     pub network_ms: f64,
     pub total_ms: f64,
+}
+
+impl std::fmt::Display for FrameTimes {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let FrameTimes { raster_ms, through_ms, network_ms, total_ms } = self;
+        write!(f, "{total_ms:.1} ms (raster {raster_ms:.1}, through rays {through_ms:.1}, network {network_ms:.1})")
+    }
 }
 
 pub struct FramePipeline {

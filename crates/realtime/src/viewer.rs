@@ -13,13 +13,13 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use eframe::egui;
-use glam::Vec3;
 use glassbake_core::color::linear_to_srgb;
 use glassbake_core::layout::{GROUND_TRUTH_CHANNELS, OPAQUE_ATTRIBUTES, TRANSPARENT_ATTRIBUTES};
 use glassbake_core::{Camera, Error, PlanarImage, Result};
 
 use glassbake_raster::display::DisplayTexture;
 
+use crate::orbit::Orbit;
 use crate::pipeline::{FramePipeline, FrameTimes, Output};
 
 pub struct ViewerOptions {
@@ -47,34 +47,6 @@ pub fn check_display() -> Result<()> {
         ));
     }
     Ok(())
-}
-
-/// The orbit camera: angles in degrees around the scene camera's target.
-#[derive(Clone, Copy, Debug)]
-struct Orbit {
-    target: Vec3,
-    distance: f32,
-    azimuth: f32,
-    elevation: f32,
-}
-
-impl Orbit {
-    fn from_camera(camera: &Camera) -> Orbit {
-        let offset = camera.position - camera.target;
-        let distance = offset.length().max(1e-3);
-        Orbit {
-            target: camera.target,
-            distance,
-            azimuth: offset.x.atan2(offset.z).to_degrees(),
-            elevation: (offset.y / distance).clamp(-1.0, 1.0).asin().to_degrees(),
-        }
-    }
-
-    fn camera(&self, template: &Camera) -> Camera {
-        let (a, e) = (self.azimuth.to_radians(), self.elevation.clamp(-85.0, 85.0).to_radians());
-        let offset = Vec3::new(e.cos() * a.sin(), e.sin(), e.cos() * a.cos()) * self.distance;
-        Camera { position: self.target + offset, target: self.target, ..*template }
-    }
 }
 
 /// Everything the output menu offers.
@@ -357,21 +329,5 @@ pub fn run_viewer(pipeline: FramePipeline, options: ViewerOptions) -> Result<Opt
         Some(Err(e)) => Err(Error::Internal(format!("saving the screenshot: {e}"))),
         None if options.screenshot.is_some() => Err(Error::Internal("the window closed before the screenshot was taken".into())),
         None => Ok(None),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn orbit_round_trips_a_camera() {
-        let camera = Camera {
-            position: Vec3::new(1.0, 2.0, 3.0),
-            target: Vec3::new(0.0, 1.0, 0.0),
-            ..glassbake_scene::builtin::builtin("cornellbox").unwrap().camera.middle()
-        };
-        let back = Orbit::from_camera(&camera).camera(&camera);
-        assert!((back.position - camera.position).length() < 1e-5, "{:?}", back.position);
     }
 }
