@@ -38,6 +38,8 @@ enum Command {
     Bench(commands::realtime::BenchArgs),
     /// Interactive viewer: orbit camera, a slider per scene variable, FPS, output switch.
     View(commands::realtime::ViewArgs),
+    /// A trained GlassNet as a static web site that renders it in the browser (WebGPU).
+    ExportWeb(commands::export_web::ExportWebArgs),
 }
 
 fn main() {
@@ -69,6 +71,7 @@ fn main() {
         Command::Render(args) => commands::realtime::render(args),
         Command::Bench(args) => commands::realtime::bench(args),
         Command::View(args) => commands::realtime::view(args),
+        Command::ExportWeb(args) => commands::export_web::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {}", one_line(&e));

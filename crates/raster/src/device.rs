@@ -120,6 +120,40 @@ pub fn open(options: &RasterizerOptions) -> Result<(wgpu::Instance, wgpu::Adapte
     Ok((instance, adapter, device, queue))
 }
 
+/// Opens a device on the adapter `instance` offers for `surface` (a browser's WebGPU, which
+/// offers one and answers asynchronously), as [`open`] does with `all_adapter_features`: what
+/// the rasterizer and burn's runtime sharing it need. Refused where the adapter cannot draw
+/// the G-buffer.
+pub async fn open_for_surface(instance: &wgpu::Instance, surface: &wgpu::Surface<'_>) -> Result<(wgpu::Adapter, wgpu::Device, wgpu::Queue)> {
+    let adapter = instance
+        .request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            compatible_surface: Some(surface),
+            ..Default::default()
+        })
+        .await
+        .map_err(|e| Error::Internal(format!("no WebGPU adapter: {e}")))?;
+    if !usable(&adapter) {
+        let limits = adapter.limits();
+        return Err(Error::Internal(format!(
+            "the adapter {:?} allows {} colour targets / {} colour bytes per sample of Rgba32Float; the G-buffer needs {GBUFFER_TARGETS} / {REQUIRED_COLOR_BYTES}",
+            adapter.get_info().name,
+            limits.max_color_attachments,
+            limits.max_color_attachment_bytes_per_sample
+        )));
+    }
+    let (device, queue) = adapter
+        .request_device(&wgpu::DeviceDescriptor {
+            label: Some("glassbake-raster"),
+            required_features: shareable_features(adapter.features()),
+            required_limits: adapter.limits(),
+            ..Default::default()
+        })
+        .await
+        .map_err(|e| Error::Internal(format!("opening the WebGPU device: {e}")))?;
+    Ok((adapter, device, queue))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

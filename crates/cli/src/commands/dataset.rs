@@ -7,10 +7,9 @@ use anyhow::Result;
 use clap::{Args, Subcommand};
 use glassbake_bake::{make_dataset, DatasetRequest, Progress};
 use glassbake_core::Error;
-use glassbake_dataset::{merge, upgrade, DatasetSpec, DatasetStore, ShardSpec, TraceDevice, FORMAT_VERSION};
+use glassbake_dataset::{merge, upgrade, DatasetSpec, DatasetStore, ShardSpec, TraceDevice};
 use glassbake_scene::load_scene;
 use glassbake_trace::Estimator;
-use indicatif::{ProgressBar, ProgressStyle};
 
 #[derive(Args)]
 #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
@@ -139,30 +138,10 @@ pub fn run(args: DatasetArgs) -> Result<()> {
             let store = DatasetStore::open(&dir)?;
             let scene = load_scene(scene.as_deref().unwrap_or(&store.manifest.spec.scene))?;
             drop(store);
-            let bar = ProgressBar::new(0);
-            bar.set_style(
-                ProgressStyle::with_template("{spinner} rasterizing buffers [{elapsed_precise}] {wide_bar} {pos}/{len}")
-                    .expect("static template")
-                    .progress_chars("=> "),
-            );
-            let progress = |done: u64, total: u64| {
-                bar.set_length(total);
-                bar.set_position(done);
-            };
+            let (bar, progress) = super::counting_bar("rasterizing buffers of frames");
             let summary = upgrade(&dir, &scene, &Default::default(), &progress);
             bar.finish_and_clear();
-            let summary = summary?;
-            if summary.from_version == FORMAT_VERSION {
-                println!("dataset {} is already format {FORMAT_VERSION}: nothing to do", dir.display());
-            } else {
-                println!(
-                    "dataset {}: format {} -> {FORMAT_VERSION}, buffers of {} frame(s) rasterized again in {:.1} s, ground truth kept",
-                    dir.display(),
-                    summary.from_version,
-                    summary.rasterized,
-                    summary.elapsed.as_secs_f64()
-                );
-            }
+            println!("dataset {}: {}", dir.display(), summary?);
         }
         (Some(DatasetCommand::Merge { out, shards }), _) => {
             let shard_paths: Vec<&std::path::Path> = shards.iter().map(|p| p.as_path()).collect();

@@ -2,18 +2,16 @@
 //! memory over resolutions x object counts) and `glassbake view` (the interactive viewer).
 
 use std::path::{Path, PathBuf};
-use std::time::Duration;
 
 use anyhow::Result;
 use clap::{ArgGroup, Args};
 use glassbake_core::Error;
 use glassbake_eval::plot::{line_chart, Series};
 use glassbake_net::DeviceChoice;
-use glassbake_realtime::bench::{marginal_ms_per_object, table};
+use glassbake_realtime::bench::{describe_run, marginal_ms_per_object, table};
 #[cfg(feature = "viewer")]
 use glassbake_realtime::viewer::{check_display, run_viewer, ViewerOptions};
 use glassbake_realtime::{open_pipeline, run_bench, BenchOptions, OpenedPipeline, Output, PipelineRequest, ThroughRays};
-use indicatif::{ProgressBar, ProgressStyle};
 
 /// The model (and optional companions) a real-time command runs.
 #[derive(Args, Clone)]
@@ -107,17 +105,7 @@ pub fn render(args: RenderArgs) -> Result<()> {
     };
     let (image, times) = opened.pipeline.render(&camera, &values, args.res, args.res, &output)?;
     image.write_png_rgb(&args.out, [0, 1, 2])?;
-    println!(
-        "{} ({}x{}, {}): {:.1} ms (raster {:.1}, through rays {:.1}, network {:.1}; first frame, includes warm-up)",
-        args.out.display(),
-        args.res,
-        args.res,
-        args.output,
-        times.total_ms,
-        times.raster_ms,
-        times.through_ms,
-        times.network_ms
-    );
+    println!("{} ({}x{}, {}): {times} (first frame, includes warm-up)", args.out.display(), args.res, args.res, args.output);
     Ok(())
 }
 
@@ -164,36 +152,14 @@ pub fn bench(args: BenchArgs) -> Result<()> {
         seed: opened.dataset_seed,
         camera_only: args.camera_only,
     };
-    let bar = ProgressBar::new(0);
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} frames {pos}/{len} [{elapsed_precise}] {wide_bar} ETA {eta}").expect("static template").progress_chars("=> "),
-    );
-    bar.enable_steady_tick(Duration::from_millis(250));
-    let progress = |done: usize, total: usize| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64);
-    };
-    let device = format!(
-        "network on {} ({} cores), through rays on the {}{}{}",
-        opened.device,
-        std::thread::available_parallelism().map_or(1, |n| n.get()),
-        opened.pipeline.through_rays().name(),
-        if opened.pipeline.zero_copy() && !opened.pipeline.glassnet_frames_zero_copy() { " (so GlassNet's buffers go through host memory)" } else { "" },
-        if args.camera_only { "; the camera moves, the variables stay" } else { "" }
-    );
-    let report = run_bench(&mut opened.pipeline, &device, &options, &progress);
+    let (bar, progress) = super::counting_bar("frames");
+    let device = describe_run(&opened.pipeline, &opened.device, args.camera_only);
+    let report = run_bench(&mut opened.pipeline, &device, &options, &|done, total| progress(done as u64, total as u64));
     bar.finish_and_clear();
     let report = report?;
     let json = serde_json::to_string_pretty(&report).map_err(|e| Error::Internal(e.to_string()))?;
     glassbake_core::image::write_bytes_atomically(&out, json.as_bytes())?;
-    println!(
-        "{}: median of {} frames after {} warm-up, {}{}",
-        report.device,
-        report.frames,
-        report.warmup,
-        report.model,
-        if report.super_sampler { ", with the x2 super-sampler" } else { "" }
-    );
+    println!("{}", report.heading());
     print!("{}", table(&report));
     if opened.pipeline.glassnet_frames_zero_copy() {
         // Nothing is read back between the stages, so their clocks stop when the work is

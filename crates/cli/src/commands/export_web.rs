@@ -1,0 +1,40 @@
+//! `glassbake export-web`: a trained GlassNet as a static web site (glassbake_web::export).
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use clap::Args;
+use glassbake_web::export::{default_module_dir, export_site, ExportRequest};
+
+#[derive(Args)]
+pub struct ExportWebArgs {
+    /// The trained GlassNet's model directory (a bake's `glassnet/`).
+    pub model: PathBuf,
+    /// The site's folder: new, empty, or a site exported before.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// The page's wasm module (glassbake_web.js, glassbake_web_bg.wasm), built by `bash
+    /// tools/web/build.sh` [default: $GLASSBAKE_WEB_MODULE, else `web-module/` beside the binary's folder].
+    #[arg(long)]
+    pub module: Option<PathBuf>,
+    /// Store the weights in f32 instead of f16 (twice the download; the page computes in f32).
+    #[arg(long)]
+    pub full_precision_weights: bool,
+}
+
+pub fn run(args: ExportWebArgs) -> Result<()> {
+    let module = args.module.map_or_else(default_module_dir, Ok)?;
+    let request = ExportRequest { model: args.model, out: args.out.clone(), module, half_weights: !args.full_precision_weights };
+    let s = export_site(&request)?;
+    let mib = |bytes: u64| bytes as f64 / (1u64 << 20) as f64;
+    println!("wrote {} ({} files, {:.2} MiB)", args.out.display(), s.files.len(), mib(s.total_bytes));
+    println!(
+        "  module {:.2} MiB ({:.2} MiB gzipped), weights {:.2} MiB, scene {:.2} MiB",
+        mib(s.module_bytes),
+        mib(s.module_gzip_bytes),
+        mib(s.weights_bytes),
+        mib(s.scene_bytes)
+    );
+    println!("  serve it from any static server, e.g. `python3 -m http.server -d {}`, and open it in a browser with WebGPU", args.out.display());
+    Ok(())
+}
