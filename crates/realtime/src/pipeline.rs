@@ -302,14 +302,8 @@ impl FramePipeline {
         let instance = self.scene.instantiate(values)?;
         let normalised: Vec<f32> = self.scene.variables.iter().zip(values).map(|(v, &x)| v.normalize(x)).collect();
         let mut times = FrameTimes::default();
-        if naive && self.naive.is_none() {
-            return Err(Error::bad_input("--naive", "model", "no naive baseline was loaded"));
-        }
+        let (lw, lh) = self.network_size(naive, width, height)?;
         let sr = self.super_sampler.is_some();
-        if sr && !(width.is_multiple_of(2) && height.is_multiple_of(2)) {
-            return Err(Error::bad_input("--res", "resolution", "the x2 super-sampler needs an even size"));
-        }
-        let (lw, lh) = if sr { (width / 2, height / 2) } else { (width, height) };
         let model = if naive { self.naive.as_ref().expect("checked") } else { &self.glassnet };
         let reads_objects = model.net.reads_object_buffers();
         model.net.check_inputs(lw as usize, lh as usize, if reads_objects { instance.transparent_count() } else { 0 })?;
@@ -329,31 +323,15 @@ impl FramePipeline {
         let sampler_coverage = self.super_sampler.as_ref().is_some_and(|s| s.net.config.light_coverage);
         let wants_coverage = model.config().light_coverage || sampler_coverage;
         let from_frame = wants_coverage && !sr && CoverageMethod::for_scene(&instance, LIGHT_COVERAGE_FACTOR) == CoverageMethod::Exact;
-        let coverage: Option<Tensor<4>> = if wants_coverage && !from_frame {
-            let (cw, ch) = if sr { (width, height) } else { (lw, lh) };
-            let factor = coverage_factor(&self.coverage_rasterizer, cw, ch).min(self.light_coverage_factor.max(1));
-            let rasterizer = &mut self.coverage_rasterizer;
-            let instance = &instance;
-            Some(coverage_tensor((cw, ch), zero_copy, &device, |out| match out {
-                Some((buffer, offset)) => light_coverage_into(rasterizer, instance, camera, cw, ch, factor, naive, buffer, offset).map(|()| None),
-                None => light_coverage_of(rasterizer, instance, camera, cw, ch, factor, naive).map(Some),
-            })?)
+        let coverage = if wants_coverage && !from_frame {
+            let full = if sr { (width, height) } else { (lw, lh) };
+            let factor = self.light_coverage_factor;
+            Some(sampled_coverage(&mut self.coverage_rasterizer, factor, &instance, camera, full, zero_copy, &device, naive)?)
         } else {
             None
         };
         let mut frame = self.rasterizer.begin_frame(&instance, camera, lw, lh)?;
-        let coverage = if from_frame {
-            let exact_only = || Error::Internal("the exact light coverage was chosen for a scene that needs the sampled one".into());
-            let (frame, instance) = (&mut frame, &instance);
-            Some(coverage_tensor((lw, lh), zero_copy, &device, |out| match out {
-                Some((buffer, offset)) => {
-                    exact_light_coverage_into_frame(frame, instance, camera, naive, buffer, offset)?.then_some(None).ok_or_else(exact_only)
-                }
-                None => exact_light_coverage_of_frame(frame, instance, camera, naive)?.ok_or_else(exact_only).map(Some),
-            })?)
-        } else {
-            coverage
-        };
+        let coverage = if from_frame { Some(exact_coverage_of_frame(&mut frame, &instance, camera, zero_copy, &device, naive)?) } else { coverage };
         let light_coverage = match &coverage {
             Some(full) if model.config().light_coverage => Some(if sr { downsample_box2_tensor(full.clone()) } else { full.clone() }),
             _ => None,
@@ -436,6 +414,21 @@ impl FramePipeline {
         times.total_ms = ms(start);
         times.network_ms = (times.total_ms - times.raster_ms - times.through_ms).max(0.0);
         Ok((prediction, times))
+    }
+
+    /// The size the network renders at for a `width` x `height` frame (half of it with the
+    /// super-sampler), or why the request cannot be served.
+    fn network_size(&self, naive: bool, width: u32, height: u32) -> Result<(u32, u32)> {
+        if naive && self.naive.is_none() {
+            return Err(Error::bad_input("--naive", "model", "no naive baseline was loaded"));
+        }
+        if self.super_sampler.is_none() {
+            return Ok((width, height));
+        }
+        if !(width.is_multiple_of(2) && height.is_multiple_of(2)) {
+            return Err(Error::bad_input("--res", "resolution", "the x2 super-sampler needs an even size"));
+        }
+        Ok((width / 2, height / 2))
     }
 
     /// `low`, the network's half-resolution image, brought up to `width` x `height` by the
@@ -531,6 +524,37 @@ fn coverage_tensor(
         let image = make(None)?.ok_or_else(|| Error::Internal("the light coverage was not made on the host".into()))?;
         Ok(Tensor::<4>::from_data(TensorData::new(image.data().to_vec(), [1, channels, h, w]), device))
     }
+}
+
+/// The lights' coverage at `size` sampled on `rasterizer`'s own G-buffer (at most
+/// `max_factor`² samples a pixel): written straight into a tensor zero-copy, else read back once.
+#[allow(clippy::too_many_arguments)]
+fn sampled_coverage(
+    rasterizer: &mut Rasterizer,
+    max_factor: u32,
+    instance: &Scene,
+    camera: &Camera,
+    (width, height): (u32, u32),
+    zero_copy: bool,
+    device: &Device,
+    naive: bool,
+) -> Result<Tensor<4>> {
+    let factor = coverage_factor(rasterizer, width, height).min(max_factor.max(1));
+    coverage_tensor((width, height), zero_copy, device, |out| match out {
+        Some((buffer, offset)) => light_coverage_into(rasterizer, instance, camera, width, height, factor, naive, buffer, offset).map(|()| None),
+        None => light_coverage_of(rasterizer, instance, camera, width, height, factor, naive).map(Some),
+    })
+}
+
+/// The lights' exact coverage at the frame's own size, from its G-buffer (a scene whose
+/// lights are all rectangles, see `CoverageMethod::for_scene`).
+fn exact_coverage_of_frame(frame: &mut Frame<'_>, instance: &Scene, camera: &Camera, zero_copy: bool, device: &Device, naive: bool) -> Result<Tensor<4>> {
+    let exact_only = || Error::Internal("the exact light coverage was chosen for a scene that needs the sampled one".into());
+    let size = (frame.width(), frame.height());
+    coverage_tensor(size, zero_copy, device, |out| match out {
+        Some((buffer, offset)) => exact_light_coverage_into_frame(frame, instance, camera, naive, buffer, offset)?.then_some(None).ok_or_else(exact_only),
+        None => exact_light_coverage_of_frame(frame, instance, camera, naive)?.ok_or_else(exact_only).map(Some),
+    })
 }
 
 /// Object `k`'s through buffer from its transparency buffer `planes` read back to the host

@@ -61,6 +61,23 @@ pub struct ExportSummary {
     pub total_bytes: u64,
 }
 
+/// The sizes a visitor downloads, as the export prints them.
+impl std::fmt::Display for ExportSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mib = |bytes: u64| bytes as f64 / (1u64 << 20) as f64;
+        write!(
+            f,
+            "{} files, {:.2} MiB: module {:.2} MiB ({:.2} MiB gzipped), weights {:.2} MiB, scene {:.2} MiB",
+            self.files.len(),
+            mib(self.total_bytes),
+            mib(self.module_bytes),
+            mib(self.module_gzip_bytes),
+            mib(self.weights_bytes),
+            mib(self.scene_bytes)
+        )
+    }
+}
+
 /// Writes the site of `request.model` into `request.out`. Everything is checked (the module
 /// is there, the model opens, its scene is the one it was trained on) before anything is
 /// written, and `out` must be new, empty or a site glassbake exported.

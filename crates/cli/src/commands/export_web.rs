@@ -25,16 +25,8 @@ pub struct ExportWebArgs {
 pub fn run(args: ExportWebArgs) -> Result<()> {
     let module = args.module.map_or_else(default_module_dir, Ok)?;
     let request = ExportRequest { model: args.model, out: args.out.clone(), module, half_weights: !args.full_precision_weights };
-    let s = export_site(&request)?;
-    let mib = |bytes: u64| bytes as f64 / (1u64 << 20) as f64;
-    println!("wrote {} ({} files, {:.2} MiB)", args.out.display(), s.files.len(), mib(s.total_bytes));
-    println!(
-        "  module {:.2} MiB ({:.2} MiB gzipped), weights {:.2} MiB, scene {:.2} MiB",
-        mib(s.module_bytes),
-        mib(s.module_gzip_bytes),
-        mib(s.weights_bytes),
-        mib(s.scene_bytes)
-    );
+    let summary = export_site(&request)?;
+    println!("wrote {} ({summary})", args.out.display());
     println!("  serve it from any static server, e.g. `python3 -m http.server -d {}`, and open it in a browser with WebGPU", args.out.display());
     Ok(())
 }
