@@ -1,8 +1,9 @@
-//! The bake: a scene to trained models and an honest report. Stages: dataset -> train GlassNet
-//! -> train the naive baseline (-> pixelgen with `baselines`) (-> the ablations) -> choose the
-//! GlassNet to ship by validation (`seed_choice`) -> evaluate (-> path traced + denoised) ->
-//! report. Every stage resumes where a killed run stopped and
-//! is skipped when already done; each stage's wall time is kept across runs.
+//! The bake: a scene to trained models and an honest report. Stages: dataset -> train the
+//! naive baseline (-> pixelgen with `baselines`) (-> the ablations) -> train GlassNet, checked
+//! against naive on validation half way and at the end, and choose the one to ship
+//! (`seed_choice`) -> evaluate (-> path traced + denoised) -> report. Every stage resumes
+//! where a killed run stopped and is skipped when already done; each stage's wall time is kept
+//! across runs.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -18,7 +19,7 @@ use glassbake_net::{DeviceChoice, ModelKind};
 use glassbake_trace::Estimator;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::seed_choice::{choose_glassnet, SeedChoice, CHOICE_FILE};
+use crate::seed_choice::{choose_glassnet, SeedChoice};
 use crate::{evaluate, make_dataset, train_model, Ablation, DatasetRequest, Preset, Progress, TrainRequest};
 
 /// Samples per pixel of the path-traced baseline (`baselines`): the paper's 32.
@@ -178,7 +179,7 @@ pub fn bake(request: &BakeRequest, progress: &Progress) -> Result<BakeResult> {
     claim_output_dir(&request.out, BAKE_DIRECTORY, "--out")?;
     let started = Instant::now();
     let models = request.models();
-    let mut stages = Stages::new(request, 1 + models.len() + 2, progress);
+    let mut stages = Stages::new(request, 1 + models.len() + 1, progress);
 
     let dataset = request.dataset_request()?;
     let spec = &dataset.spec;
@@ -194,21 +195,15 @@ pub fn bake(request: &BakeRequest, progress: &Progress) -> Result<BakeResult> {
         ),
         &mut || Ok(make_dataset(&dataset, progress)?.generated > 0),
     )?;
-    // Once chosen, glassnet/ may hold a GlassNet of another seed than the request's.
-    let chosen = request.out.join(CHOICE_FILE).exists();
-    for (name, train) in &models {
-        stages.run(format!("train {name}"), &mut || {
-            if chosen && train.model == ModelKind::Glassnet && train.ablation.is_none() {
-                progress.say(&format!("{} is already trained and chosen ({CHOICE_FILE}); nothing to do", train.out.display()));
-                return Ok(false);
-            }
-            train_model(train, progress)
-        })?;
+    // Naive (and the other models) first: GlassNet is checked against naive as it trains.
+    let is_main_glassnet = |train: &TrainRequest| train.model == ModelKind::Glassnet && train.ablation.is_none();
+    for (name, train) in models.iter().filter(|(_, train)| !is_main_glassnet(train)) {
+        stages.run(format!("train {name}"), &mut || train_model(train, progress))?;
     }
     let mut glassnet_choice = None;
-    stages.run("choose GlassNet by validation".into(), &mut || {
-        // `models()` lists GlassNet, then naive.
-        let (glassnet, naive) = (&models[0].1, &models[1].1);
+    stages.run("train glassnet, checked against naive on validation".into(), &mut || {
+        let glassnet = &models.iter().find(|(_, train)| is_main_glassnet(train)).expect("the bake trains GlassNet").1;
+        let naive = &models.iter().find(|(_, train)| train.model == ModelKind::Naive).expect("the bake trains naive").1;
         let (choice, worked) = choose_glassnet(&request.out, glassnet, &naive.out, request.seed_retries, progress)?;
         if let Some(choice) = &choice {
             progress.say(&format!("GlassNet: {}", choice.describe()));

@@ -84,6 +84,9 @@ pub struct TrainSummary {
 pub struct RunOptions {
     /// Stop (as if killed) after this many steps, without a checkpoint: for resume tests.
     pub stop_after: Option<u64>,
+    /// Stop once this step is trained, validated and checkpointed, to be continued later (by a
+    /// run without it) from there; a run already past it returns at once.
+    pub pause_at: Option<u64>,
     /// Further devices (of the same kind, with autodiff) that each take a share of every batch
     /// (data parallelism, [`batch_gradients`]); empty: the whole batch on the model's device.
     pub replicas: Vec<Device>,
@@ -153,7 +156,8 @@ where
         let skip = state.batch_in_epoch;
         let mut batches = data.epoch(epoch, skip);
         loop {
-            if state.step >= config.steps || options.stop_after.is_some_and(|s| state.step >= s) {
+            let stop = options.stop_after.into_iter().chain(options.pause_at).any(|s| state.step >= s);
+            if state.step >= config.steps || stop {
                 break 'epochs;
             }
             let Some(batch) = batches.next() else { break };
@@ -174,7 +178,8 @@ where
             losses_since_log.push(loss_value);
 
             let mut validation_loss = None;
-            if state.step.is_multiple_of(config.validate_every) || state.step == config.steps {
+            let pausing = options.pause_at == Some(state.step);
+            if state.step.is_multiple_of(config.validate_every) || state.step == config.steps || pausing {
                 let scores = validate(&model, &validation, device, config.ssim_weight)?;
                 validation_loss = scores.map(|s| s.loss);
                 state.last_validation_loss = validation_loss;
@@ -183,7 +188,7 @@ where
                 let seconds = elapsed_before + started.elapsed().as_secs_f64();
                 append_log(&files.dir.join(LOG), &log_line(&state, learning_rate, train_loss, scores, seconds))?;
             }
-            let checkpointed = state.step.is_multiple_of(config.checkpoint_every) || state.step == config.steps;
+            let checkpointed = state.step.is_multiple_of(config.checkpoint_every) || state.step == config.steps || pausing;
             if checkpointed {
                 let seconds = elapsed_before + started.elapsed().as_secs_f64();
                 save_step(&model, &optimizer, &state, batches_per_epoch, seconds, files)?;
@@ -396,22 +401,26 @@ fn append_log(path: &Path, line: &str) -> Result<()> {
     writeln!(file, "{line}").map_err(|e| Error::io(path, e))
 }
 
-/// Drops log rows written after the checkpoint a run resumes from. A header that today's
-/// extends (a log from before a column was added) becomes today's: old rows keep their cells.
 /// The last validation scores a model directory's training log holds, with their step: what
 /// its weights score once training has finished (the last step is always validated). `None`
 /// when no step was validated (no validation frames) or the log predates `validation_psnr`.
 pub fn logged_validation(model_dir: &Path) -> Result<Option<(u64, ValidationScores)>> {
+    Ok(logged_validations(model_dir)?.pop())
+}
+
+/// Every validated step's scores in a model directory's training log, in step order (empty
+/// when none was validated, or the log predates `validation_psnr`).
+pub fn logged_validations(model_dir: &Path) -> Result<Vec<(u64, ValidationScores)>> {
     let path = model_dir.join(LOG);
     let text = fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
     let column = |name: &str| header.iter().position(|h| *h == name);
     let (Some(step_at), Some(loss_at), Some(psnr_at)) = (column("step"), column("validation_loss"), column("validation_psnr")) else {
-        return Ok(None);
+        return Ok(Vec::new());
     };
     let bad_row = |row: &str| Error::bad_input(path.display(), "validation_psnr", format!("a row that is not a training log's: {row:?}"));
-    let mut last = None;
+    let mut scores = Vec::new();
     for row in lines {
         let fields: Vec<&str> = row.split(',').collect();
         let field = |at: usize| fields.get(at).copied().unwrap_or_default();
@@ -421,11 +430,13 @@ pub fn logged_validation(model_dir: &Path) -> Result<Option<(u64, ValidationScor
         let step = field(step_at).parse::<u64>().map_err(|_| bad_row(row))?;
         let loss = field(loss_at).parse::<f64>().map_err(|_| bad_row(row))?;
         let psnr = field(psnr_at).parse::<f64>().map_err(|_| bad_row(row))?;
-        last = Some((step, ValidationScores { loss, psnr }));
+        scores.push((step, ValidationScores { loss, psnr }));
     }
-    Ok(last)
+    Ok(scores)
 }
 
+/// Drops log rows written after the checkpoint a run resumes from. A header that today's
+/// extends (a log from before a column was added) becomes today's: old rows keep their cells.
 fn truncate_log(path: &Path, step: u64) -> Result<()> {
     let Ok(text) = fs::read_to_string(path) else {
         return write_log_header(path);

@@ -1,5 +1,6 @@
 //! The training loop: a tiny model overfits one frame, a killed run resumes to the same
-//! weights as an uninterrupted one, a NaN loss stops with the last good checkpoint kept.
+//! weights as an uninterrupted one (and so does a paused one continued), a NaN loss stops with
+//! the last good checkpoint kept.
 
 mod common;
 
@@ -7,7 +8,7 @@ use burn::optim::GradientsParams;
 use burn::prelude::*;
 use glassbake_core::Result;
 use glassbake_net::model_dir::{weights_step, ModelConfig, ModelFiles, Network, FORMAT_VERSION};
-use glassbake_net::train::batch_gradients;
+use glassbake_net::train::{batch_gradients, logged_validations};
 use glassbake_net::{
     burn, train, with_new_model, GlassNet, ModelKind, ModelTask, NetConfig, RunOptions, SceneModel, TrainConfig, TrainSummary, Trainable, TrainingData,
 };
@@ -126,6 +127,42 @@ fn a_killed_run_resumes_to_the_weights_of_an_uninterrupted_one() {
     // A finished run is not trained again.
     let (m, d) = model(&net, 7);
     assert!(train(m, &f2, &config, &d, &mut data(), &RunOptions::default(), &mut |_| {}).unwrap().already_done);
+}
+
+#[test]
+fn a_paused_run_is_validated_and_checkpointed_there_and_continues_to_the_uninterrupted_weights() {
+    let net = common::small_net(ModelKind::Glassnet, 1, 2);
+    // Step 5 is neither a validation (every 3) nor a checkpoint (every 4) step.
+    let config = TrainConfig { steps: 9, batch_size: 2, checkpoint_every: 4, validate_every: 3, ..common::small_training() };
+    let data = || common::SyntheticData { frames: (0..5).map(|i| common::frame(i, 16, 2, 1)).collect(), batch_size: 2, seed: 3, poison_from_epoch: None };
+    let straight = tempfile::tempdir().unwrap();
+    let f = files(straight.path(), &net, &config);
+    let (m, d) = model(&net, 7);
+    train(m, &f, &config, &d, &mut data(), &RunOptions::default(), &mut |_| {}).unwrap();
+
+    let paused = tempfile::tempdir().unwrap();
+    let f2 = files(paused.path(), &net, &config);
+    let pause = RunOptions { pause_at: Some(5), ..RunOptions::default() };
+    let (m, d) = model(&net, 7);
+    let summary = train(m, &f2, &config, &d, &mut data(), &pause, &mut |_| {}).unwrap();
+    assert_eq!((summary.steps, summary.already_done), (5, false));
+    assert_eq!(weights_step(&f2.weights_path()), Some(5));
+    let validated: Vec<u64> = logged_validations(paused.path()).unwrap().iter().map(|(step, _)| *step).collect();
+    assert_eq!(validated, [3, 5]);
+    // Paused again, it trains nothing; then it continues from step 5, not from 4.
+    let (m, d) = model(&net, 99);
+    assert_eq!(train(m, &f2, &config, &d, &mut data(), &pause, &mut |_| {}).unwrap().steps, 5);
+    let (m, d) = model(&net, 99);
+    let summary = train(m, &f2, &config, &d, &mut data(), &RunOptions::default(), &mut |_| {}).unwrap();
+    assert_eq!((summary.resumed_from, summary.steps), (Some(5), 9));
+    let (a, b) = (std::fs::read(f.weights_path()).unwrap(), std::fs::read(f2.weights_path()).unwrap());
+    let (a, b) = (safetensors::SafeTensors::deserialize(&a).unwrap(), safetensors::SafeTensors::deserialize(&b).unwrap());
+    for name in a.names() {
+        assert!(a.tensor(name).unwrap().data() == b.tensor(name).unwrap().data(), "{name}: the paused run's weights differ from the uninterrupted run's");
+    }
+    // The pause's validation is a row of its own: the uninterrupted log plus step 5.
+    let validated: Vec<u64> = logged_validations(paused.path()).unwrap().iter().map(|(step, _)| *step).collect();
+    assert_eq!(validated, [3, 5, 6, 9]);
 }
 
 #[test]

@@ -110,6 +110,9 @@ pub struct TrainRequest {
     pub ssim_weight: Option<f64>,
     pub renderer_output: Option<RendererOutput>,
     pub position_encoding: Option<PositionEncoding>,
+    /// Stop once this step is trained and validated (the bake's half-way check against naive);
+    /// a later request without it continues from there.
+    pub pause_at: Option<u64>,
 }
 
 impl TrainRequest {
@@ -129,6 +132,7 @@ impl TrainRequest {
             ssim_weight: None,
             renderer_output: None,
             position_encoding: None,
+            pause_at: None,
         }
     }
 }
@@ -250,9 +254,13 @@ impl ModelTask for TrainTask<'_> {
             }
         ));
         step_bar(progress.bar(), train_config.steps);
-        let options = RunOptions { replicas: devices[1..].to_vec(), ..RunOptions::default() };
+        let options = RunOptions { replicas: devices[1..].to_vec(), pause_at: request.pause_at, ..RunOptions::default() };
         let summary = train(model, &files, train_config, &devices[0], &mut data, &options, &mut on_event(progress.bar()))?;
         let already_done = summary.already_done;
+        if summary.steps < train_config.steps {
+            progress.say(&format!("{} paused at step {} of {}", files.dir.display(), summary.steps, train_config.steps));
+            return Ok(summary.resumed_from != Some(summary.steps));
+        }
         report(&summary, &files, progress);
         if already_done && files.dir.join("preview").exists() {
             return Ok(false);

@@ -47,8 +47,9 @@ pub struct BakeArgs {
     /// noise behind glass (docs/trace.md). A bake being continued keeps its dataset's estimator.
     #[arg(long, value_parser = super::dataset::parse_estimator)]
     pub estimator: Option<glassbake_trace::Estimator>,
-    /// While GlassNet trails naive on the validation split, train it again with the next seed,
-    /// up to this many times; the best on validation ships (glassnet_choice.json says which).
+    /// While GlassNet trails naive on the validation split (half way, where it is stopped, or at
+    /// the end), train it again with the next seed, up to this many times; the best on
+    /// validation ships (glassnet_choice.json says which).
     #[arg(long, default_value_t = 1)]
     pub seed_retries: u32,
     /// The networks' seed (weights, frame order and crops) instead of the preset's (0).
