@@ -21,6 +21,17 @@ fn files(dir: &std::path::Path, net: &NetConfig, train: &TrainConfig) -> ModelFi
     .unwrap()
 }
 
+/// The weights in `run`'s folder are bit for bit those in `uninterrupted`'s, tensor by tensor
+/// (the file's metadata order is not fixed, so its bytes can differ).
+fn assert_same_weights(uninterrupted: &ModelFiles, run: &ModelFiles, how: &str) {
+    let (a, b) = (std::fs::read(uninterrupted.weights_path()).unwrap(), std::fs::read(run.weights_path()).unwrap());
+    let (a, b) = (safetensors::SafeTensors::deserialize(&a).unwrap(), safetensors::SafeTensors::deserialize(&b).unwrap());
+    assert_eq!(a.len(), b.len());
+    for name in a.names() {
+        assert!(a.tensor(name).unwrap().data() == b.tensor(name).unwrap().data(), "{name}: the {how} run's weights differ from the uninterrupted run's");
+    }
+}
+
 fn model(net: &NetConfig, seed: u64) -> (GlassNet, Device) {
     let device = Device::flex();
     device.seed(seed);
@@ -113,13 +124,7 @@ fn a_killed_run_resumes_to_the_weights_of_an_uninterrupted_one() {
     assert_eq!(summary.resumed_from, Some(4));
     assert_eq!(summary.steps, 12);
 
-    // Tensor by tensor (the file's metadata order is not fixed, so its bytes can differ).
-    let (a, b) = (std::fs::read(f.weights_path()).unwrap(), std::fs::read(f2.weights_path()).unwrap());
-    let (a, b) = (safetensors::SafeTensors::deserialize(&a).unwrap(), safetensors::SafeTensors::deserialize(&b).unwrap());
-    assert_eq!(a.len(), b.len());
-    for name in a.names() {
-        assert!(a.tensor(name).unwrap().data() == b.tensor(name).unwrap().data(), "{name}: resumed weights differ from the uninterrupted run's");
-    }
+    assert_same_weights(&f, &f2, "resumed");
     let log = |dir: &std::path::Path| std::fs::read_to_string(dir.join("train_log.csv")).unwrap();
     let steps = |text: String| text.lines().skip(1).map(|l| l.split(',').next().unwrap().to_string()).collect::<Vec<_>>();
     assert_eq!(steps(log(straight.path())), steps(log(killed.path())), "the resumed log must not repeat or skip rows");
@@ -155,11 +160,7 @@ fn a_paused_run_is_validated_and_checkpointed_there_and_continues_to_the_uninter
     let (m, d) = model(&net, 99);
     let summary = train(m, &f2, &config, &d, &mut data(), &RunOptions::default(), &mut |_| {}).unwrap();
     assert_eq!((summary.resumed_from, summary.steps), (Some(5), 9));
-    let (a, b) = (std::fs::read(f.weights_path()).unwrap(), std::fs::read(f2.weights_path()).unwrap());
-    let (a, b) = (safetensors::SafeTensors::deserialize(&a).unwrap(), safetensors::SafeTensors::deserialize(&b).unwrap());
-    for name in a.names() {
-        assert!(a.tensor(name).unwrap().data() == b.tensor(name).unwrap().data(), "{name}: the paused run's weights differ from the uninterrupted run's");
-    }
+    assert_same_weights(&f, &f2, "paused");
     // The pause's validation is a row of its own: the uninterrupted log plus step 5.
     let validated: Vec<u64> = logged_validations(paused.path()).unwrap().iter().map(|(step, _)| *step).collect();
     assert_eq!(validated, [3, 5, 6, 9]);
