@@ -3,9 +3,11 @@
 # into target/web-module/, where `glassbake export-web` finds it (docs/web.md). Installs the wasm32
 # target and the wasm-bindgen CLI of the version Cargo.lock pins, if missing.
 #   bash tools/web/build.sh            # the `web` profile: release code, function names kept
+#   GLASSBAKE_WEB_PROFILE=web-ci bash tools/web/build.sh   # the same at opt-level 1 (CI's test)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 out="${GLASSBAKE_WEB_MODULE:-target/web-module}"
+profile="${GLASSBAKE_WEB_PROFILE:-web}"
 
 if ! rustup target list --installed | grep -qx wasm32-unknown-unknown; then
   rustup target add wasm32-unknown-unknown
@@ -18,6 +20,6 @@ if [ "$(wasm-bindgen --version 2>/dev/null | awk '{print $2}')" != "$version" ];
   cargo install wasm-bindgen-cli --version "=$version"
 fi
 
-cargo build --locked --profile web --target wasm32-unknown-unknown -p glassbake-web
-wasm-bindgen --target web --no-typescript --out-dir "$out" target/wasm32-unknown-unknown/web/glassbake_web.wasm
+cargo build --locked --profile "$profile" --target wasm32-unknown-unknown -p glassbake-web
+wasm-bindgen --target web --no-typescript --out-dir "$out" "target/wasm32-unknown-unknown/$profile/glassbake_web.wasm"
 ls -l "$out"
