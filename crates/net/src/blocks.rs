@@ -7,8 +7,12 @@ use burn::prelude::*;
 use burn::tensor::{DType, TensorData};
 
 use crate::config::{CnnConfig, PixelGeneratorConfig, RendererConfig, UNetConfig};
+use crate::device::is_cpu;
+#[cfg(not(target_arch = "wasm32"))]
 use crate::flex_ops::{leaky_relu, shift_stack};
 use crate::precision::activation;
+#[cfg(target_arch = "wasm32")]
+use burn::tensor::activation::leaky_relu;
 
 /// Leaky slope of every hidden activation: small nets lose too many units to plain ReLU.
 const LEAK: f64 = 0.1;
@@ -36,7 +40,7 @@ pub fn apply_conv(conv: &Conv2d, x: Tensor<4>) -> Tensor<4> {
 fn convolve(conv: &Conv2d, x: Tensor<4>) -> Tensor<4> {
     let [k, k2] = conv.kernel_size;
     let same = k == 1 || matches!(conv.padding, PaddingConfig2d::Same);
-    let training_on_flex = conv.weight.val().is_require_grad() && conv.weight.device().inner() == Device::flex();
+    let training_on_flex = conv.weight.val().is_require_grad() && is_cpu(conv.weight.device());
     if k != k2 || k % 2 == 0 || !same || (k > 1 && !training_on_flex) || conv.stride != [1, 1] || conv.dilation != [1, 1] || conv.groups != 1 {
         return conv.forward(x);
     }
@@ -50,6 +54,12 @@ fn convolve(conv: &Conv2d, x: Tensor<4>) -> Tensor<4> {
         y = y + bias.val().reshape([1, out, 1]);
     }
     y.reshape([n, out, h, w])
+}
+
+// A wasm32 build has no CPU backend, so `convolve` never takes the im2col path there.
+#[cfg(target_arch = "wasm32")]
+fn shift_stack(_: Tensor<4>, _: usize) -> Tensor<4> {
+    unreachable!("im2col runs only when training on the CPU backend")
 }
 
 /// Convolution followed by a leaky ReLU.
@@ -251,7 +261,7 @@ pub fn positional_encoding(x: Tensor<4>, frequencies: usize) -> Tensor<4> {
     if frequencies == 0 {
         return x;
     }
-    if !x.is_require_grad() && x.dtype() == DType::F32 && x.device().inner() == Device::flex() {
+    if !x.is_require_grad() && x.dtype() == DType::F32 && is_cpu(x.device()) {
         let device = x.device();
         let [n, c, h, w] = x.dims();
         let values = x.into_data().convert::<f32>().try_into_vec::<f32>().expect("converted to f32");

@@ -1,4 +1,5 @@
-//! Run-time backend choice: `cpu` is burn's pure-Rust `flex` backend, `wgpu` its wgpu backend
+//! Run-time backend choice: `cpu` is burn's pure-Rust `flex` backend (not in a wasm32 build,
+//! whose page runs on WebGPU), `wgpu` its wgpu backend
 //! (Vulkan on an NVIDIA GPU; lavapipe works but is slow), and, in a build with the `cuda`
 //! feature, `cuda` its CUDA backend (cubecl-cuda). The CUDA build needs no CUDA toolkit
 //! (`tools/cuda/cargo-cuda.sh`): the driver's libcuda and NVRTC are loaded when the program
@@ -12,6 +13,7 @@ use glassbake_core::{Error, Result};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum DeviceChoice {
+    #[cfg(not(target_arch = "wasm32"))]
     Cpu,
     Wgpu,
     #[cfg(feature = "cuda")]
@@ -21,6 +23,7 @@ pub enum DeviceChoice {
 impl DeviceChoice {
     pub fn parse(name: &str) -> Result<DeviceChoice> {
         match name {
+            #[cfg(not(target_arch = "wasm32"))]
             "cpu" => Ok(DeviceChoice::Cpu),
             "wgpu" => Ok(DeviceChoice::Wgpu),
             #[cfg(feature = "cuda")]
@@ -37,6 +40,7 @@ impl DeviceChoice {
 
     pub fn name(self) -> &'static str {
         match self {
+            #[cfg(not(target_arch = "wasm32"))]
             DeviceChoice::Cpu => "cpu",
             DeviceChoice::Wgpu => "wgpu",
             #[cfg(feature = "cuda")]
@@ -48,6 +52,7 @@ impl DeviceChoice {
 /// The device for `choice`, seeded, with autodiff when `training`.
 pub fn select_device(choice: DeviceChoice, seed: u64, training: bool) -> Device {
     let device = match choice {
+        #[cfg(not(target_arch = "wasm32"))]
         DeviceChoice::Cpu => Device::flex(),
         DeviceChoice::Wgpu => Device::wgpu(Default::default()),
         #[cfg(feature = "cuda")]
@@ -70,6 +75,7 @@ pub fn select_devices(choice: DeviceChoice, count: usize, seed: u64) -> Result<V
     match (choice, count) {
         (_, 0) => refuse("must be at least 1".into()),
         (_, 1) => Ok(vec![select_device(choice, seed, true)]),
+        #[cfg(not(target_arch = "wasm32"))]
         (DeviceChoice::Cpu, _) => refuse("several devices are GPUs (--device wgpu or cuda); the CPU backend already uses every core".into()),
         (DeviceChoice::Wgpu, _) => {
             use burn::tensor::wgpu::wgpu;
@@ -85,6 +91,18 @@ pub fn select_devices(choice: DeviceChoice, count: usize, seed: u64) -> Result<V
         }
         #[cfg(feature = "cuda")]
         (DeviceChoice::Cuda, _) => Ok((0..count).map(|k| seeded(Device::cuda(k), seed)).collect()),
+    }
+}
+
+/// Whether `device`, with or without autodiff, is the CPU backend, where `flex_ops` and the
+/// host-memory shortcuts apply.
+pub fn is_cpu(device: Device) -> bool {
+    #[cfg(not(target_arch = "wasm32"))]
+    return device.inner() == Device::flex();
+    #[cfg(target_arch = "wasm32")]
+    {
+        let _ = device;
+        false
     }
 }
 

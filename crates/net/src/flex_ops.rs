@@ -47,7 +47,7 @@ pub fn shift_stack(x: Tensor<4>, kernel: usize) -> Tensor<4> {
 /// --release -p glassbake-bake --example train_step`).
 pub fn leaky_relu(x: Tensor<4>, slope: f64) -> Tensor<4> {
     let device = x.device();
-    let training_on_flex = device.is_autodiff() && device.inner() == Device::flex();
+    let training_on_flex = device.is_autodiff() && crate::device::is_cpu(device);
     if training_on_flex && matches!(x.dtype(), DType::F32 | DType::F64) {
         Tensor::from_dispatch(<Dispatch as FlexOps>::leaky_relu(x.into_dispatch(), slope))
     } else {

@@ -11,6 +11,7 @@ pub mod batch;
 pub mod blocks;
 pub mod config;
 pub mod device;
+#[cfg(not(target_arch = "wasm32"))]
 pub mod flex_ops;
 pub mod hash_grid;
 pub mod infer;
@@ -26,7 +27,7 @@ pub mod train;
 pub use allocator::keep_freed_memory;
 pub use batch::{FrameRef, HostBatch};
 pub use config::{ModelKind, NetConfig, NetShape, TrainConfig};
-pub use device::{select_device, select_devices, DeviceChoice};
+pub use device::{is_cpu, select_device, select_devices, DeviceChoice};
 pub use infer::{TrainedModel, TrainedSuperSampler};
 pub use model::{load_model, new_model, with_new_model, Concat, GlassNet, ModelTask, Naive, NetInputs, PixelGen, SceneModel};
 pub use model_dir::{DataSource, ModelConfig, ModelFiles, Network};
