@@ -120,6 +120,18 @@ impl HostBatch {
         self.transparent.len()
     }
 
+    /// Whether transparent object `k` covers a pixel of any frame of the batch: its coverage
+    /// plane is not 0 everywhere.
+    pub fn shows_object(&self, k: usize) -> bool {
+        let pixels = self.width * self.height;
+        let coverage = layout::transparent::COVERAGE * pixels..(layout::transparent::COVERAGE + 1) * pixels;
+        self.transparent[k].chunks_exact(self.object_channels * pixels).any(|frame| frame[coverage.clone()].iter().any(|&c| c != 0.0))
+    }
+
+    pub fn values_tensor(&self, device: &Device) -> Tensor<2> {
+        Tensor::from_data(TensorData::new(self.values.clone(), [self.frames, self.variables]), device)
+    }
+
     fn tensor(&self, data: &[f32], channels: usize, device: &Device) -> Tensor<4> {
         Tensor::from_data(TensorData::new(data.to_vec(), [self.frames, channels, self.height, self.width]), device)
     }
@@ -138,7 +150,7 @@ impl HostBatch {
             gbuffer: self.tensor(&self.gbuffer, OPAQUE_CHANNELS, device),
             light_coverage: self.light_coverage_tensor(device),
             transparent: self.transparent.iter().map(|b| self.tensor(b, self.object_channels, device)).collect(),
-            values: Tensor::from_data(TensorData::new(self.values.clone(), [self.frames, self.variables]), device),
+            values: self.values_tensor(device),
         }
     }
 

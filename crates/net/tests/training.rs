@@ -413,3 +413,43 @@ fn training_on_two_devices_follows_training_on_one() {
         assert!(largest <= 1e-4, "{name}: weights differ by {largest} after 4 steps");
     }
 }
+
+/// A training batch leaves out the objects none of its frames show (`HostBatch::shows_object`):
+/// with GlassNet's terms masked by coverage such an object adds exactly 0, so the loss and
+/// every gradient are bit for bit those of the whole network. Without the mask the same object
+/// does change the image, so the equality is the mask's doing, not the data's.
+#[test]
+fn objects_a_batch_does_not_show_are_left_out_without_changing_a_bit() {
+    let device = Device::flex().autodiff();
+    let mut frames: Vec<_> = (0..2).map(|i| common::frame(60 + i, 16, 3, 1)).collect();
+    for frame in &mut frames {
+        // Object 1 covers nothing; its other channels stay as random as the others'.
+        frame.transparent[1].plane_mut(glassbake_core::layout::transparent::COVERAGE).fill(0.0);
+    }
+    let batch = common::batch(&frames);
+    assert!(batch.shows_object(0) && !batch.shows_object(1) && batch.shows_object(2));
+
+    let config = common::small_net(ModelKind::Glassnet, 1, 3);
+    assert!(config.terms_masked_by_coverage);
+    let model = glassbake_net::init::initialize(GlassNet::new(&config, 8, &device).unwrap(), 8);
+    assert!(model.unseen_objects_add_nothing());
+    let (loss, left_out) = batch_gradients(&model, &batch, &device, &[], 1.0).unwrap();
+    let whole_loss = glassbake_net::loss::training_loss(model.forward(&batch.inputs(&device)), model.target(&batch, &device).unwrap(), 1.0);
+    let whole_loss_value = whole_loss.clone().into_scalar::<f32>() as f64;
+    let whole = GradientsParams::from_grads(whole_loss.backward(), &model);
+    assert_eq!(loss.to_bits(), whole_loss_value.to_bits(), "loss {loss} against {whole_loss_value}");
+    let (difference, largest) = gradient_difference(&model, &whole, &left_out);
+    assert!(difference == 0.0 && largest > 0.0, "gradients differ by {difference} (largest {largest})");
+
+    let unmasked = NetConfig { terms_masked_by_coverage: false, ..config };
+    let model = glassbake_net::init::initialize(GlassNet::new(&unmasked, 8, &device).unwrap(), 8);
+    assert!(!model.unseen_objects_add_nothing());
+    let image = |leave_out: bool| {
+        let inputs = batch.inputs(&device);
+        let prediction = model.forward_streaming(inputs.gbuffer, inputs.light_coverage, inputs.values, 3, &mut |k| {
+            (!(leave_out && k == 1)).then(|| inputs.transparent[k].clone())
+        });
+        prediction.into_data().try_to_vec::<f32>().unwrap()
+    };
+    assert_ne!(image(true), image(false), "without the mask an unseen object's term is not 0");
+}

@@ -134,6 +134,10 @@ impl SceneModel for GlassNet {
         true
     }
 
+    fn unseen_objects_add_nothing(&self) -> bool {
+        self.config.terms_masked_by_coverage
+    }
+
     fn check_objects(&self, objects: usize) -> Result<()> {
         if objects > MAX_EXACT_OBJECTS {
             return Err(Error::bad_input("inputs", "transparent", format!("{objects} transparency buffers; at most {MAX_EXACT_OBJECTS} sum exactly")));

@@ -85,6 +85,14 @@ pub trait SceneModel {
         buffer: &mut dyn FnMut(usize) -> Option<Tensor<4>>,
     ) -> Tensor<4>;
 
+    /// Whether an object that covers no pixel adds exactly nothing to the image, forward and
+    /// backward, so that a batch that does not show it may leave its buffer out: GlassNet with
+    /// its terms masked by coverage ([`NetConfig::terms_masked_by_coverage`]), whose term is
+    /// then 0 and whose sum is exact.
+    fn unseen_objects_add_nothing(&self) -> bool {
+        false
+    }
+
     /// The whole network on a batch.
     fn forward(&self, inputs: &NetInputs) -> Tensor<4> {
         let transparent = &inputs.transparent;
@@ -95,8 +103,16 @@ pub trait SceneModel {
 }
 
 impl<M: SceneModel + Module + ModuleSnapshot + Clone + 'static> Trainable for M {
+    /// Objects the batch does not show are left out where that changes nothing
+    /// ([`SceneModel::unseen_objects_add_nothing`]): a training batch of 32 px crops shows few of
+    /// a scene's objects, and each costs h forward and backward.
     fn predict(&self, batch: &HostBatch, device: &Device) -> Tensor<4> {
-        self.forward(&batch.inputs(device))
+        if !self.unseen_objects_add_nothing() {
+            return self.forward(&batch.inputs(device));
+        }
+        self.forward_streaming(batch.gbuffer_tensor(device), batch.light_coverage_tensor(device), batch.values_tensor(device), batch.objects(), &mut |k| {
+            batch.shows_object(k).then(|| batch.transparent_tensor(k, device))
+        })
     }
 
     fn target(&self, batch: &HostBatch, device: &Device) -> Result<Tensor<4>> {
