@@ -421,25 +421,35 @@ fn training_on_two_devices_follows_training_on_one() {
 #[test]
 fn objects_a_batch_does_not_show_are_left_out_without_changing_a_bit() {
     let device = Device::flex().autodiff();
-    let mut frames: Vec<_> = (0..2).map(|i| common::frame(60 + i, 16, 3, 1)).collect();
-    for frame in &mut frames {
-        // Object 1 covers nothing; its other channels stay as random as the others'.
-        frame.transparent[1].plane_mut(glassbake_core::layout::transparent::COVERAGE).fill(0.0);
-    }
-    let batch = common::batch(&frames);
-    assert!(batch.shows_object(0) && !batch.shows_object(1) && batch.shows_object(2));
-
     let config = common::small_net(ModelKind::Glassnet, 1, 3);
     assert!(config.terms_masked_by_coverage);
     let model = glassbake_net::init::initialize(GlassNet::new(&config, 8, &device).unwrap(), 8);
     assert!(model.unseen_objects_add_nothing());
-    let (loss, left_out) = batch_gradients(&model, &batch, &device, &[], 1.0).unwrap();
-    let whole_loss = glassbake_net::loss::training_loss(model.forward(&batch.inputs(&device)), model.target(&batch, &device).unwrap(), 1.0);
-    let whole_loss_value = whole_loss.clone().into_scalar::<f32>() as f64;
-    let whole = GradientsParams::from_grads(whole_loss.backward(), &model);
-    assert_eq!(loss.to_bits(), whole_loss_value.to_bits(), "loss {loss} against {whole_loss_value}");
-    let (difference, largest) = gradient_difference(&model, &whole, &left_out);
-    assert!(difference == 0.0 && largest > 0.0, "gradients differ by {difference} (largest {largest})");
+    // Object 1 unseen, then none of the three (every parameter, h's too, must still get its
+    // gradient: `gradient_difference` asks each for one).
+    for unseen in [vec![1], vec![0, 1, 2]] {
+        let mut frames: Vec<_> = (0..2).map(|i| common::frame(60 + i, 16, 3, 1)).collect();
+        for frame in &mut frames {
+            // They cover nothing; their other channels stay as random as the others'.
+            for &k in &unseen {
+                frame.transparent[k].plane_mut(glassbake_core::layout::transparent::COVERAGE).fill(0.0);
+            }
+        }
+        let batch = common::batch(&frames);
+        assert!((0..3).all(|k| batch.shows_object(k) != unseen.contains(&k)));
+        let (loss, left_out) = batch_gradients(&model, &batch, &device, &[], 1.0).unwrap();
+        let whole_loss = glassbake_net::loss::training_loss(model.forward(&batch.inputs(&device)), model.target(&batch, &device).unwrap(), 1.0);
+        let whole_loss_value = whole_loss.clone().into_scalar::<f32>() as f64;
+        let whole = GradientsParams::from_grads(whole_loss.backward(), &model);
+        assert_eq!(loss.to_bits(), whole_loss_value.to_bits(), "objects {unseen:?} unseen: loss {loss} against {whole_loss_value}");
+        let (difference, largest) = gradient_difference(&model, &whole, &left_out);
+        assert!(difference == 0.0 && largest > 0.0, "objects {unseen:?} unseen: gradients differ by {difference} (largest {largest})");
+    }
+    let batch = {
+        let mut frames: Vec<_> = (0..2).map(|i| common::frame(60 + i, 16, 3, 1)).collect();
+        frames.iter_mut().for_each(|f| f.transparent[1].plane_mut(glassbake_core::layout::transparent::COVERAGE).fill(0.0));
+        common::batch(&frames)
+    };
 
     let unmasked = NetConfig { terms_masked_by_coverage: false, ..config };
     let model = glassbake_net::init::initialize(GlassNet::new(&unmasked, 8, &device).unwrap(), 8);

@@ -105,13 +105,18 @@ pub trait SceneModel {
 impl<M: SceneModel + Module + ModuleSnapshot + Clone + 'static> Trainable for M {
     /// Objects the batch does not show are left out where that changes nothing
     /// ([`SceneModel::unseen_objects_add_nothing`]): a training batch of 32 px crops shows few of
-    /// a scene's objects, and each costs h forward and backward.
+    /// a scene's objects, and each costs h forward and backward. Where it shows none, the first
+    /// is kept: its term is 0 and h's gradient then 0, as the whole network's, where leaving h
+    /// out of the graph would give it no gradient, and AdamW moves a parameter with a zero
+    /// gradient (momentum, weight decay) but not one without.
     fn predict(&self, batch: &HostBatch, device: &Device) -> Tensor<4> {
         if !self.unseen_objects_add_nothing() {
             return self.forward(&batch.inputs(device));
         }
+        let shown: Vec<bool> = (0..batch.objects()).map(|k| batch.shows_object(k)).collect();
+        let none_shown = !shown.contains(&true);
         self.forward_streaming(batch.gbuffer_tensor(device), batch.light_coverage_tensor(device), batch.values_tensor(device), batch.objects(), &mut |k| {
-            batch.shows_object(k).then(|| batch.transparent_tensor(k, device))
+            (shown[k] || (none_shown && k == 0)).then(|| batch.transparent_tensor(k, device))
         })
     }
 
