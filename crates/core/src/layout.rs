@@ -79,40 +79,51 @@ pub mod light_coverage {
 }
 
 /// What the camera sees through one transparent object k, by ray casting: each pixel's camera
-/// ray refracted (Snell's law, the object's IOR) at every surface of object k it crosses, with
+/// rays refracted (Snell's law, the object's IOR) at every surface of object k they cross, with
 /// total internal reflection followed, ignoring the other transparent objects (so each buffer
 /// still depends on its own object only, as the permutation-invariant sum needs), up to the
-/// first opaque surface or light. 17 channels (`glassbake_rays::through`):
+/// first opaque surface or light. 18 channels (`glassbake_rays::through`):
 ///
-/// - `position`, `normal` (the hit's shading normal, on the ray's side), `albedo` (textured):
-///   the surface hit, as the opaque G-buffer would describe it if the glass did not bend;
-/// - `Ld`: the direct light there, read from the opaque G-buffer at the pixel the hit projects
-///   to where the camera sees the hit, a light's radiance for a light, 0 elsewhere;
-/// - `transmittance`: the share the Fresnel equations let through along the path (1 - F at
-///   each refraction; 1 at total internal reflection);
-/// - `length`: the distance travelled inside the object;
-/// - `screen_offset`: where the hit projects on the image, in pixels from this pixel's centre
-///   (right, down), and `on_screen`: 1 where the camera sees the hit there (it is in the frame
-///   and nothing opaque hides it), else 0. GlassNet reads its scene code at that pixel.
+/// - `position`, `normal` (the hit's shading normal, on the ray's side): the surface the ray
+///   from the pixel's centre reaches, as the opaque G-buffer would describe it if the glass did
+///   not bend;
+/// - `albedo` (textured) and `Ld`, the direct light there (read from the opaque G-buffer at the
+///   pixel the hit projects to where the camera sees the hit, a light's radiance for a light, 0
+///   elsewhere): their mean over the pixel's footprint, the rays from
+///   `glassbake_rays::through::FOOTPRINT`'s points of the pixel, each weighted by what its path
+///   lets through. A lens spreads a pixel over a large region behind it, which the ground
+///   truth averages and one ray would alias;
+/// - `transmittance`: the share the Fresnel equations let through along the paths (1 - F at
+///   each refraction; 1 at total internal reflection), the footprint's mean (a lost ray adds 0);
+/// - `length`: the distance the centre's ray travelled inside the object;
+/// - `spread`: how much the glass stretches the footprint, log2(1 + s) with s the RMS distance
+///   of the footprint's hits from their mean over what it would be on a surface facing the
+///   camera at the centre's path length with nothing between (1 behind a flat pane, below
+///   behind a magnifier, above where a lens shrinks the view or the surface is seen edge-on);
+/// - `screen_offset`: where the centre's hit projects on the image, in pixels from this pixel's
+///   centre (right, down), and `on_screen`: 1 where the camera sees the hit there (it is in the
+///   frame and nothing opaque hides it), else 0. GlassNet reads its scene code at that pixel.
 ///
-/// A thin pane does not bend the ray (its transmittance is (1 - R) / (1 + R), the pane's two
+/// A thin pane does not bend the rays (its transmittance is (1 - R) / (1 + R), the pane's two
 /// faces with their inter-reflections). Through rough glass the position, normal and screen
-/// offset are those of the mean direction of its lobe (the shading normal's), while albedo,
-/// L_d and transmittance are the mean over `glassbake_rays::through::LOBE_SAMPLES` rays drawn
-/// from its GGX lobe: a frosted pane shows what is behind it blurred. All 17 are 0 where the object does not cover the pixel, where
-/// the ray leaves the scene, and after `glassbake_rays::through::MAX_INTERFACES` surfaces.
-pub const THROUGH_ATTRIBUTES: [Attribute; 8] = [
+/// offset are those of the centre's mean direction of its lobe (the shading normal's), while
+/// the footprint is `glassbake_rays::through::LOBE_SAMPLES` rays drawn from its GGX lobe, from
+/// the footprint's points in turn: a frosted pane shows what is behind it blurred. All 18 are
+/// 0 where the object does not cover the pixel, where the centre's ray leaves the scene, and
+/// after `glassbake_rays::through::MAX_INTERFACES` surfaces.
+pub const THROUGH_ATTRIBUTES: [Attribute; 9] = [
     Attribute { name: "position", components: XYZ },
     Attribute { name: "normal", components: XYZ },
     Attribute { name: "albedo", components: RGB },
     Attribute { name: "Ld", components: RGB },
     Attribute { name: "transmittance", components: SCALAR },
     Attribute { name: "length", components: SCALAR },
+    Attribute { name: "spread", components: SCALAR },
     Attribute { name: "screen_offset", components: &["X", "Y"] },
     Attribute { name: "on_screen", components: SCALAR },
 ];
 
-pub const THROUGH_CHANNELS: usize = 17;
+pub const THROUGH_CHANNELS: usize = 18;
 
 /// Channel offsets within a through buffer.
 pub mod through {
@@ -122,8 +133,11 @@ pub mod through {
     pub const LD: usize = 9;
     pub const TRANSMITTANCE: usize = 12;
     pub const LENGTH: usize = 13;
-    pub const SCREEN_OFFSET: usize = 14;
-    pub const ON_SCREEN: usize = 16;
+    pub const SPREAD: usize = 14;
+    /// The channels from here on say where the hit is seen, not what it is: GlassNet reads
+    /// its scene code there rather than encoding them.
+    pub const SCREEN_OFFSET: usize = 15;
+    pub const ON_SCREEN: usize = 17;
 }
 
 /// Channel offsets within the opaque (and naive) G-buffer.
@@ -249,6 +263,7 @@ mod tests {
         assert_eq!(offset_of(r, "Ld"), through::LD);
         assert_eq!(offset_of(r, "transmittance"), through::TRANSMITTANCE);
         assert_eq!(offset_of(r, "length"), through::LENGTH);
+        assert_eq!(offset_of(r, "spread"), through::SPREAD);
         assert_eq!(offset_of(r, "screen_offset"), through::SCREEN_OFFSET);
         assert_eq!(offset_of(r, "on_screen"), through::ON_SCREEN);
         assert_eq!(through_channel_names(2)[0], "transparent.2.through.position.X");

@@ -14,10 +14,12 @@ use serde::{Deserialize, Serialize};
 /// light coverage (layers `opaque_light`, `naive_light`). 5: they gained each transparency
 /// buffer's through buffer (layers `transparent.k.through`). 6: the light coverage of scenes
 /// whose emitters are all rectangle lights is exact (the lights' outlines clipped to each
-/// pixel) instead of counted on 4x4 sub-samples. An older dataset is still read:
+/// pixel) instead of counted on 4x4 sub-samples. 7: through buffers gained `spread` (18
+/// channels), and their albedo and L_d became the mean over the pixel's footprint. An older
+/// dataset is still read:
 /// its ground truth is good, and its cached buffers, which are not today's, are rasterized
 /// again (or brought up to date in place by `glassbake dataset upgrade`).
-pub const FORMAT_VERSION: u32 = 6;
+pub const FORMAT_VERSION: u32 = 7;
 
 /// The most frames one dataset holds: its manifest lists every frame's camera and values
 /// (about 200 bytes each), and is planned in memory before any frame is traced.

@@ -30,8 +30,10 @@ pub const CONFIG_FILE: &str = "config.json";
 /// network it was trained as. 6: the image may be composited with the G-buffer's light
 /// coverage (`light_coverage`), an input older glassbakes do not give it. 7: GlassNet may read
 /// each transparency buffer's through buffer (`through`), an input older glassbakes do not
-/// make.
-pub const FORMAT_VERSION: u32 = 7;
+/// make. 8: through buffers gained `spread` (18 channels) and their albedo and L_d became the
+/// footprint's mean: a format-7 GlassNet that reads them must be retrained; one that does not
+/// still loads.
+pub const FORMAT_VERSION: u32 = 8;
 
 /// The network a directory holds.
 // Read once per run; boxing the larger config would buy nothing.
@@ -198,8 +200,15 @@ fn read_config(path: &Path) -> Result<ModelConfig> {
 pub fn parse_config(text: &str, label: &str) -> Result<ModelConfig> {
     let config: ModelConfig = serde_json::from_str(text).map_err(|e| Error::bad_input(label, "config", e.to_string()))?;
     let reads_transparency_buffers = matches!(&config.network, Network::Glassnet(n) if n.model.reads_transparency_buffers());
+    let reads_through = matches!(&config.network, Network::Glassnet(n) if n.through);
     match config.format_version {
         FORMAT_VERSION | 4..=6 => Ok(config),
+        7 if !reads_through => Ok(config),
+        7 => Err(Error::bad_input(
+            label,
+            "format_version",
+            "7: trained on 17-channel through buffers, before they gained `spread` and were averaged over the pixel's footprint; retrain it with `glassbake train`",
+        )),
         1..=3 if !reads_transparency_buffers => Ok(config),
         old @ (1 | 2) => Err(Error::bad_input(
             label,

@@ -457,6 +457,31 @@ fn a_format_4_model_opens_with_the_direct_rgb_renderer_it_was_trained_with() {
 }
 
 #[test]
+fn a_format_7_glassnet_that_reads_through_buffers_is_refused_and_one_that_does_not_opens() {
+    // Format 8's through buffers have a channel more and are averaged over the footprint: a
+    // network trained on format 7's would read them shifted by a channel.
+    for through in [false, true] {
+        let dir = tempfile::tempdir().unwrap();
+        let config = ModelConfig {
+            format_version: 7,
+            network: Network::Glassnet(NetConfig { through, ..common::small_net(ModelKind::Glassnet, 1, 2) }),
+            train: common::small_training(),
+            data: common::synthetic_source(),
+        };
+        std::fs::write(dir.path().join("config.json"), serde_json::to_vec(&config).unwrap()).unwrap();
+        std::fs::write(dir.path().join(config.network.weights_file()), b"").unwrap();
+        match ModelFiles::open(dir.path()) {
+            Ok(_) => assert!(!through, "a format-7 network reading through buffers opened"),
+            Err(e) => {
+                assert!(through, "a format-7 network without through buffers was refused: {e}");
+                let message = e.to_string();
+                assert!(message.contains("format_version") && message.contains("retrain"), "{message}");
+            }
+        }
+    }
+}
+
+#[test]
 fn position_grids_replace_the_positions_fourier_features_and_learn() {
     let device = Device::flex().autodiff();
     device.seed(6);

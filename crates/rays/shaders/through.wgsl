@@ -1,5 +1,5 @@
 // The through pass as one compute kernel: the GPU twin of `through.rs` (same rays, same
-// surfaces, same lobe points), one invocation per pixel of transparent object k. The BVHs of
+// surfaces, same footprint and lobe points), one invocation per pixel of transparent object k. The BVHs of
 // the opaque scene (with its lights) and of every transparent object alone share `nodes`
 // and `triangles`, each from its root. `through_gpu.rs` prepends the constants shared with
 // Rust, `bvh.wgsl`, `optics.wgsl` and `common.wgsl`, and writes the buffers.
@@ -26,7 +26,8 @@ struct Params {
     ld_offset: u32,
     coverage_offset: u32,
     through_offset: u32,
-    _pad0: u32,
+    // The side of a pixel at distance 1 from the camera: 2 tan(fov_y / 2) / height.
+    pixel_size: f32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -83,13 +84,14 @@ struct PathEnd {
     is_light: bool,
     transmittance: f32,
     length: f32,
+    path_length: f32,
 }
 
 fn lost() -> PathEnd {
-    return PathEnd(false, vec3f(0.0), vec3f(0.0), vec3f(0.0), vec3f(0.0), false, 0.0, 0.0);
+    return PathEnd(false, vec3f(0.0), vec3f(0.0), vec3f(0.0), vec3f(0.0), false, 0.0, 0.0, 0.0);
 }
 
-fn surface_end(hit: Hit, origin: vec3f, direction: vec3f, transmittance: f32, length: f32) -> PathEnd {
+fn surface_end(hit: Hit, origin: vec3f, direction: vec3f, transmittance: f32, length: f32, path_length: f32) -> PathEnd {
     var end: PathEnd;
     end.valid = true;
     end.position = origin + direction * hit.t;
@@ -97,6 +99,7 @@ fn surface_end(hit: Hit, origin: vec3f, direction: vec3f, transmittance: f32, le
     end.normal = select(n, -n, dot(n, direction) > 0.0);
     end.transmittance = transmittance;
     end.length = length;
+    end.path_length = path_length;
     let base = hit.triangle * ATTRIBUTE_VEC4S;
     let material_or_light = bitcast<u32>(attributes[base].w);
     if (bitcast<u32>(attributes[base + 2u].w) & ATTR_RECT_LIGHT) != 0u {
@@ -151,6 +154,7 @@ fn trace_path(origin_in: vec3f, direction_in: vec3f, pixel: vec2u, sample: u32) 
     var inside = false;
     var transmittance = 1.0;
     var travelled = 0.0;
+    var path_length = 0.0;
     var interfaces = 0u;
     var t_min = 0.0;
     loop {
@@ -161,7 +165,7 @@ fn trace_path(origin_in: vec3f, direction_in: vec3f, pixel: vec2u, sample: u32) 
             if inside {
                 travelled += opaque.t;
             }
-            return surface_end(opaque, origin, direction, transmittance, travelled);
+            return surface_end(opaque, origin, direction, transmittance, travelled, path_length + opaque.t);
         }
         if !glass.valid || interfaces == MAX_INTERFACES {
             return lost();
@@ -169,6 +173,7 @@ fn trace_path(origin_in: vec3f, direction_in: vec3f, pixel: vec2u, sample: u32) 
         if inside {
             travelled += glass.t;
         }
+        path_length += glass.t;
         let position = origin + direction * glass.t;
         let n = shading_normal(glass);
         var m = n;
@@ -231,6 +236,32 @@ fn light_at(end: PathEnd, view: vec4f) -> vec3f {
     return end.emitted;
 }
 
+// core::camera: PrimaryRays::ray, through the point `offset` pixels from the centre of `pixel`.
+fn pixel_ray(pixel: vec2u, offset: vec2f) -> vec3f {
+    let ndc_x = 2.0 * (f32(pixel.x) + 0.5 + offset.x) / f32(params.width) - 1.0;
+    let ndc_y = 1.0 - 2.0 * (f32(pixel.y) + 0.5 + offset.y) / f32(params.height);
+    return normalize(params.camera_forward.xyz + params.camera_right.xyz * ndc_x + params.camera_up.xyz * ndc_y);
+}
+
+// through.rs: footprint_spread, over the first `count` of `positions`.
+fn footprint_spread(positions: ptr<function, array<vec3f, LOBE_SAMPLES>>, count: u32, path_length: f32) -> f32 {
+    if count == 0u || !(path_length > 0.0) {
+        return 0.0;
+    }
+    var mean = vec3f(0.0);
+    for (var j = 0u; j < count; j++) {
+        mean += (*positions)[j];
+    }
+    mean /= f32(count);
+    var squares = 0.0;
+    for (var j = 0u; j < count; j++) {
+        let d = (*positions)[j] - mean;
+        squares += dot(d, d);
+    }
+    let rms = sqrt(squares / f32(count));
+    return log2(1.0 + rms / (FOOTPRINT_RMS * path_length * params.pixel_size));
+}
+
 @compute @workgroup_size(8, 8, 1)
 fn through_pass(@builtin(global_invocation_id) id: vec3u) {
     if id.x >= params.width || id.y >= params.height {
@@ -244,38 +275,36 @@ fn through_pass(@builtin(global_invocation_id) id: vec3u) {
     if object_planes[params.coverage_offset + i] <= 0.0 {
         return;
     }
-    // core::camera: Camera::pixel_center_ray.
-    let ndc_x = 2.0 * (f32(id.x) + 0.5) / f32(params.width) - 1.0;
-    let ndc_y = 1.0 - 2.0 * (f32(id.y) + 0.5) / f32(params.height);
-    let origin = params.camera_position.xyz;
-    let direction = normalize(params.camera_forward.xyz + params.camera_right.xyz * ndc_x + params.camera_up.xyz * ndc_y);
-    let end = trace_path(origin, direction, id.xy, NO_SAMPLE);
+    let end = trace_path(params.camera_position.xyz, pixel_ray(id.xy, vec2f(0.0)), id.xy, NO_SAMPLE);
     if !end.valid {
         return;
     }
     let view = on_screen(end.position);
-    var albedo = end.albedo;
-    var light = light_at(end, view);
-    var transmittance = end.transmittance;
-    if params.rough != 0u {
-        // Rough glass shows the mean over its lobe: a path a sample loses adds nothing.
-        albedo = vec3f(0.0);
-        light = vec3f(0.0);
-        transmittance = 0.0;
-        for (var s = 0u; s < LOBE_SAMPLES; s++) {
-            let h = trace_path(origin, direction, id.xy, s);
-            if h.valid {
-                albedo += h.albedo * h.transmittance;
-                light += light_at(h, on_screen(h.position)) * h.transmittance;
-                transmittance += h.transmittance;
-            }
+    // What the pixel shows is the mean over its footprint: a path a ray loses adds nothing.
+    var points = FOOTPRINT;
+    var positions: array<vec3f, LOBE_SAMPLES>;
+    var hits = 0u;
+    var albedo = vec3f(0.0);
+    var light = vec3f(0.0);
+    var transmittance = 0.0;
+    let paths = select(FOOTPRINT_POINTS, LOBE_SAMPLES, params.rough != 0u);
+    for (var s = 0u; s < paths; s++) {
+        let direction = pixel_ray(id.xy, points[s % FOOTPRINT_POINTS]);
+        let h = trace_path(params.camera_position.xyz, direction, id.xy, select(NO_SAMPLE, s, params.rough != 0u));
+        if h.valid {
+            albedo += h.albedo * h.transmittance;
+            light += light_at(h, on_screen(h.position)) * h.transmittance;
+            transmittance += h.transmittance;
+            positions[hits] = h.position;
+            hits += 1u;
         }
-        if transmittance > 0.0 {
-            albedo /= transmittance;
-            light /= transmittance;
-        }
-        transmittance /= f32(LOBE_SAMPLES);
     }
+    // Albedo and light as seen: weighted by what each path lets through.
+    if transmittance > 0.0 {
+        albedo /= transmittance;
+        light /= transmittance;
+    }
+    transmittance /= f32(paths);
     if view.z != 0.0 {
         object_planes[params.through_offset + (THROUGH_SCREEN_OFFSET) * pixels + i] = view.x - f32(id.x);
         object_planes[params.through_offset + (THROUGH_SCREEN_OFFSET + 1u) * pixels + i] = view.y - f32(id.y);
@@ -289,4 +318,5 @@ fn through_pass(@builtin(global_invocation_id) id: vec3u) {
     }
     object_planes[params.through_offset + THROUGH_TRANSMITTANCE * pixels + i] = transmittance;
     object_planes[params.through_offset + THROUGH_LENGTH * pixels + i] = end.length;
+    object_planes[params.through_offset + THROUGH_SPREAD * pixels + i] = footprint_spread(&positions, hits, end.path_length);
 }

@@ -1,6 +1,7 @@
-//! What each transparent object shows through itself: the camera ray of every pixel it
-//! covers, refracted at each of its surfaces (Snell's law with its IOR, total internal
-//! reflection followed), to the first opaque surface or light behind it. The other transparent
+//! What each transparent object shows through itself: camera rays from the centre and over
+//! the footprint of every pixel it covers, refracted at each of its surfaces (Snell's law with
+//! its IOR, total internal reflection followed), to the first opaque surface or light behind
+//! it. The other transparent
 //! objects are ignored, so a through buffer depends on its own object only, as GlassNet's
 //! permutation-invariant sum of per-object terms needs. Channels: `layout::THROUGH_ATTRIBUTES`.
 //!
@@ -84,6 +85,8 @@ pub struct ThroughHit {
     pub transmittance: f32,
     /// Distance travelled inside the object.
     pub length: f32,
+    /// Distance travelled from the ray's origin, inside the object and out.
+    pub path_length: f32,
     /// Surfaces of the object crossed or reflected from.
     pub interfaces: usize,
 }
@@ -115,6 +118,7 @@ fn trace_path(
     let glass = &geometry.objects[k];
     let (mut origin, mut direction) = (origin, direction);
     let (mut inside, mut transmittance, mut length, mut interfaces) = (false, 1.0f32, 0.0f32, 0usize);
+    let mut path_length = 0.0f32;
     let mut t_min = 0.0;
     loop {
         let glass_hit = glass.closest_hit(origin, direction, t_min, f32::INFINITY);
@@ -123,8 +127,9 @@ fn trace_path(
             if inside {
                 length += hit.t;
             }
+            let path = Path { transmittance, length, path_length: path_length + hit.t, interfaces };
             let triangle = &geometry.opaque.attributes[hit.triangle as usize];
-            return Some(surface_hit(scene, triangle, &hit, origin, direction, transmittance, length, interfaces));
+            return Some(surface_hit(scene, triangle, &hit, origin, direction, path));
         }
         let hit = glass_hit?;
         if interfaces == MAX_INTERFACES {
@@ -133,6 +138,7 @@ fn trace_path(
         if inside {
             length += hit.t;
         }
+        path_length += hit.t;
         let position = origin + direction * hit.t;
         let triangle = &glass.attributes[hit.triangle as usize];
         let n = triangle.shading_normal(&hit, triangle.face_normal());
@@ -165,6 +171,30 @@ fn trace_path(
 
 /// Rays per pixel through rough glass: what it shows is the mean over its lobe.
 pub const LOBE_SAMPLES: usize = 16;
+
+/// The points of a pixel its footprint's rays start from, in pixels from its centre (right,
+/// down): the rotated grid of Direct3D 11's standard 4x multisample pattern (sample positions
+/// (-2, -6), (6, -2), (-6, 2), (2, 6) in sixteenths of a pixel), which sees each quarter of
+/// the pixel once and no two points on one row or column. Rough glass's lobe samples start
+/// from them in turn.
+pub const FOOTPRINT: [[f32; 2]; 4] = [[-0.125, -0.375], [0.375, -0.125], [-0.375, 0.125], [0.125, 0.375]];
+
+/// The RMS distance of [`FOOTPRINT`]'s points from the pixel's centre, in pixels: the spread
+/// of their hits on a surface facing the camera with nothing between, per pixel of distance.
+pub const FOOTPRINT_RMS: f32 = 0.395_284_7;
+
+/// The `spread` channel (`layout::THROUGH_ATTRIBUTES`) for the footprint hits at `positions`
+/// of a pixel whose centre's path is `path_length` long, `pixel_size` the side of a pixel at
+/// distance 1 from the camera (2 tan(fov_y / 2) / height).
+pub fn footprint_spread(positions: &[Vec3], path_length: f32, pixel_size: f32) -> f32 {
+    if positions.is_empty() || path_length.is_nan() || path_length <= 0.0 {
+        return 0.0;
+    }
+    let n = positions.len() as f32;
+    let mean = positions.iter().fold(Vec3::ZERO, |sum, &p| sum + p) / n;
+    let rms = (positions.iter().map(|&p| (p - mean).length_squared()).sum::<f32>() / n).sqrt();
+    (1.0 + rms / (FOOTPRINT_RMS * path_length * pixel_size)).log2()
+}
 
 /// A GGX microfacet normal about `n` (alpha = roughness^2, the tracer's and the rasterizer's
 /// convention), from the distribution of normals D(m) cos(theta_m): tan^2 theta = alpha^2 u /
@@ -204,17 +234,16 @@ fn pcg4d(input: [u32; 4]) -> [u32; 4] {
     v
 }
 
-#[allow(clippy::too_many_arguments)]
-fn surface_hit(
-    scene: &Scene,
-    triangle: &TriangleAttributes,
-    hit: &Hit,
-    origin: Vec3,
-    direction: Vec3,
+/// What a path carried to the surface it ends on.
+struct Path {
     transmittance: f32,
     length: f32,
+    path_length: f32,
     interfaces: usize,
-) -> ThroughHit {
+}
+
+fn surface_hit(scene: &Scene, triangle: &TriangleAttributes, hit: &Hit, origin: Vec3, direction: Vec3, path: Path) -> ThroughHit {
+    let Path { transmittance, length, path_length, interfaces } = path;
     let position = origin + direction * hit.t;
     let n = triangle.shading_normal(hit, triangle.face_normal());
     let normal = if n.dot(direction) > 0.0 { -n } else { n };
@@ -231,12 +260,15 @@ fn surface_hit(
             (Vec3::ZERO, if front || light.two_sided { light.radiance } else { Vec3::ZERO }, true)
         }
     };
-    ThroughHit { position, normal, albedo, emitted, is_light, transmittance, length, interfaces }
+    ThroughHit { position, normal, albedo, emitted, is_light, transmittance, length, path_length, interfaces }
 }
 
 /// The through buffer of transparent object `k` for a frame: `layout::through_channel_names(k)`,
-/// cast for the pixels where its transparency buffer's `coverage` plane is above 0. L_d comes from `opaque_gbuffer` where
-/// the camera sees the hit, at the pixel it projects to; a light's is its radiance.
+/// cast for the pixels where its transparency buffer's `coverage` plane is above 0: the
+/// surface the pixel's centre sees, and its albedo and light averaged over the pixel's
+/// [`FOOTPRINT`] (or its lobe's samples through rough glass), with how far that footprint
+/// spreads. L_d comes from `opaque_gbuffer` where the camera sees the hit, at the pixel it
+/// projects to; a light's is its radiance.
 pub fn through_buffer(scene: &Scene, geometry: &ThroughScene, k: usize, camera: &Camera, opaque_gbuffer: &PlanarImage, coverage: &[f32]) -> PlanarImage {
     let (width, height) = (opaque_gbuffer.width(), opaque_gbuffer.height());
     let pixels = (width * height) as usize;
@@ -247,6 +279,12 @@ pub fn through_buffer(scene: &Scene, geometry: &ThroughScene, k: usize, camera: 
         _ if hit.is_light => hit.emitted,
         Some(((sx, sy), true)) => opaque_light(opaque_gbuffer, sx, sy),
         _ => hit.emitted,
+    };
+    let rays = camera.primary_rays(width, height);
+    let pixel_size = 2.0 * camera.tan_half_fov(width, height).1 / height as f32;
+    let footprint_ray = |x: u32, y: u32, point: usize| {
+        let [dx, dy] = FOOTPRINT[point % FOOTPRINT.len()];
+        rays.ray(x as f32 + 0.5 + dx, y as f32 + 0.5 + dy)
     };
     let rows: Vec<Vec<[f32; layout::THROUGH_CHANNELS]>> = (0..height)
         .into_par_iter()
@@ -260,27 +298,35 @@ pub fn through_buffer(scene: &Scene, geometry: &ThroughScene, k: usize, camera: 
                     let ray = camera.pixel_center_ray(x, y, width, height);
                     let Some(hit) = trace_through(scene, geometry, k, ray.origin, ray.direction) else { return out };
                     let view = on_screen(camera, geometry, opaque_gbuffer, hit.position);
-                    let (albedo, light, transmittance) = match alpha {
-                        None => (hit.albedo, light_at(&hit, view), hit.transmittance),
-                        Some(alpha) => {
-                            // Rough glass shows the mean over its lobe: a path a sample loses (it
-                            // leaves the scene, or is reflected away) adds nothing.
-                            let (mut albedo, mut light, mut transmittance) = (Vec3::ZERO, Vec3::ZERO, 0.0);
-                            for sample in 0..LOBE_SAMPLES {
-                                let mut microfacet = |n: Vec3, interface: usize| ggx_normal(n, alpha, lobe_point(sample, interface, x, y, k));
-                                if let Some(h) = trace_path(scene, geometry, k, ray.origin, ray.direction, &mut microfacet) {
-                                    albedo += h.albedo * h.transmittance;
-                                    light += light_at(&h, on_screen(camera, geometry, opaque_gbuffer, h.position)) * h.transmittance;
-                                    transmittance += h.transmittance;
-                                }
-                            }
-                            // Albedo and light as seen: weighted by what each path lets through.
-                            if transmittance > 0.0 {
-                                (albedo, light) = (albedo / transmittance, light / transmittance);
-                            }
-                            (albedo, light, transmittance / LOBE_SAMPLES as f32)
-                        }
+                    // What the pixel shows is the mean over its footprint: a path a ray loses
+                    // (it leaves the scene, or is reflected away) adds nothing.
+                    let paths = match alpha {
+                        None => FOOTPRINT.len(),
+                        Some(_) => LOBE_SAMPLES,
                     };
+                    let (mut albedo, mut light, mut transmittance) = (Vec3::ZERO, Vec3::ZERO, 0.0);
+                    let mut positions = Vec::with_capacity(paths);
+                    for sample in 0..paths {
+                        let ray = footprint_ray(x, y, sample);
+                        let end = match alpha {
+                            None => trace_through(scene, geometry, k, ray.origin, ray.direction),
+                            Some(alpha) => {
+                                let mut microfacet = |n: Vec3, interface: usize| ggx_normal(n, alpha, lobe_point(sample, interface, x, y, k));
+                                trace_path(scene, geometry, k, ray.origin, ray.direction, &mut microfacet)
+                            }
+                        };
+                        if let Some(h) = end {
+                            albedo += h.albedo * h.transmittance;
+                            light += light_at(&h, on_screen(camera, geometry, opaque_gbuffer, h.position)) * h.transmittance;
+                            transmittance += h.transmittance;
+                            positions.push(h.position);
+                        }
+                    }
+                    // Albedo and light as seen: weighted by what each path lets through.
+                    if transmittance > 0.0 {
+                        (albedo, light) = (albedo / transmittance, light / transmittance);
+                    }
+                    transmittance /= paths as f32;
                     if let Some(((sx, sy), shown)) = view {
                         out[through::SCREEN_OFFSET] = sx as f32 - x as f32;
                         out[through::SCREEN_OFFSET + 1] = sy as f32 - y as f32;
@@ -292,6 +338,7 @@ pub fn through_buffer(scene: &Scene, geometry: &ThroughScene, k: usize, camera: 
                     out[through::LD..through::LD + 3].copy_from_slice(&light.to_array());
                     out[through::TRANSMITTANCE] = transmittance;
                     out[through::LENGTH] = hit.length;
+                    out[through::SPREAD] = footprint_spread(&positions, hit.path_length, pixel_size);
                     out
                 })
                 .collect()

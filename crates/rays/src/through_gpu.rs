@@ -21,7 +21,7 @@ use crate::gpu_bvh::{GpuBvhs, GpuTriangle, COMMON_WGSL, OPTICS_WGSL};
 use crate::gpu_cache::Recent;
 use crate::gpu_scene::{self, bits, v4, ATTRIBUTE_VEC4S, NONE};
 use crate::gpu_stats::{created, GpuObject};
-use crate::through::{LOBE_SAMPLES, MAX_INTERFACES, SELF_HIT, VIEW_SLACK};
+use crate::through::{FOOTPRINT, FOOTPRINT_RMS, LOBE_SAMPLES, MAX_INTERFACES, SELF_HIT, VIEW_SLACK};
 
 /// Record sizes in vec4s of the through pass's own records (the triangles' are
 /// `gpu_scene`'s): these constants reach the shader (`shader_source`).
@@ -51,11 +51,12 @@ struct Params {
     ld_offset: u32,
     coverage_offset: u32,
     through_offset: u32,
-    _pad: [u32; 3],
+    pixel_size: f32,
+    _pad: [u32; 2],
 }
 
 fn shader_source() -> String {
-    let integers: [(&str, usize); 12] = [
+    let integers: [(&str, usize); 14] = [
         ("MATERIAL_VEC4S", MATERIAL_VEC4S),
         ("LIGHT_VEC4S", LIGHT_VEC4S),
         ("NO_SAMPLE", NONE as usize),
@@ -68,6 +69,8 @@ fn shader_source() -> String {
         ("THROUGH_LD", through::LD),
         ("THROUGH_TRANSMITTANCE", through::TRANSMITTANCE),
         ("THROUGH_LENGTH", through::LENGTH),
+        ("THROUGH_SPREAD", through::SPREAD),
+        ("FOOTPRINT_POINTS", FOOTPRINT.len()),
     ];
     let mut source = gpu_scene::wgsl_constants();
     source.extend(integers.iter().map(|(name, value)| format!("const {name}: u32 = {value}u;\n")));
@@ -75,6 +78,13 @@ fn shader_source() -> String {
         "const THROUGH_SCREEN_OFFSET: u32 = {}u;\nconst THROUGH_ON_SCREEN: u32 = {}u;\nconst SELF_HIT: f32 = {SELF_HIT:e};\nconst VIEW_SLACK: f32 = {VIEW_SLACK:e};\n",
         through::SCREEN_OFFSET,
         through::ON_SCREEN
+    ));
+    let points: Vec<String> = FOOTPRINT.iter().map(|[x, y]| format!("vec2f({x:?}, {y:?})")).collect();
+    source.push_str(&format!(
+        "const FOOTPRINT: array<vec2f, {}> = array<vec2f, {}>({});\nconst FOOTPRINT_RMS: f32 = {FOOTPRINT_RMS:?};\n",
+        FOOTPRINT.len(),
+        FOOTPRINT.len(),
+        points.join(", ")
     ));
     for part in [GpuBvhs::wgsl().as_str(), OPTICS_WGSL, COMMON_WGSL, include_str!("../shaders/through.wgsl")] {
         source.push_str(part);
@@ -391,7 +401,8 @@ impl GpuThroughPass {
             ld_offset: 0,
             coverage_offset: element(object_offset + coverage * pixels)?,
             through_offset: element(object_offset + through * pixels)?,
-            _pad: [0; 3],
+            pixel_size: 2.0 * ty / height as f32,
+            _pad: [0; 2],
         };
         let key = (scene.arrays.clone(), ld_copy.clone(), object.clone(), object_binding.offset, object_binding.size.map_or(0, |s| s.get()));
         let mut refused = None;

@@ -203,6 +203,9 @@ fn a_frame_reads_the_gbuffer_light_only_where_the_camera_sees_the_hit() {
             t0 <= t1
         })
     };
+    // Where a hit projects in the frame, if it does.
+    let pixel_of =
+        |p: Vec3| camera.project(p, w, h).filter(|&(px, py)| px >= 0.0 && py >= 0.0 && px < w as f32 && py < h as f32).map(|(px, py)| (px as u32, py as u32));
     let (mut seen, mut hidden) = (0, 0);
     for y in 0..h {
         for x in 0..w {
@@ -214,24 +217,37 @@ fn a_frame_reads_the_gbuffer_light_only_where_the_camera_sees_the_hit() {
             let ray = camera.pixel_center_ray(x, y, w, h);
             let Some(hit) = trace_through(&scene, &geometry, 0, ray.origin, ray.direction) else { continue };
             assert_eq!(Vec3::new(get(through::POSITION), get(through::POSITION + 1), get(through::POSITION + 2)), hit.position);
-            let Some((px, py)) = camera.project(hit.position, w, h).filter(|&(px, py)| px >= 0.0 && py >= 0.0 && px < w as f32 && py < h as f32) else {
+            // L_d is the footprint's: each of its rays reads the G-buffer where its own hit
+            // projects if the camera sees that hit there, else adds 0, weighted by what it
+            // lets through.
+            let (mut light, mut transmittance) = (0.0f64, 0.0f64);
+            for [dx, dy] in glassbake_rays::through::FOOTPRINT {
+                let ray = camera.ray(x as f32 + 0.5 + dx, y as f32 + 0.5 + dy, w, h);
+                let Some(end) = trace_through(&scene, &geometry, 0, ray.origin, ray.direction) else { continue };
+                let t = f64::from(end.transmittance);
+                transmittance += t;
+                match pixel_of(end.position) {
+                    Some((sx, sy)) if !hidden_from_camera(end.position) => {
+                        seen += 1;
+                        light += t * f64::from(sy * w + sx);
+                    }
+                    Some(_) => hidden += 1,
+                    None => {}
+                }
+            }
+            let expected = if transmittance > 0.0 { light / transmittance } else { 0.0 };
+            assert!((f64::from(get(through::LD)) - expected).abs() <= 1e-5 * expected.max(1.0), "({x}, {y}): L_d {} vs {expected}", get(through::LD));
+            // Where the hit is seen is the centre's.
+            let Some((sx, sy)) = pixel_of(hit.position) else {
                 assert_eq!(get(through::ON_SCREEN), 0.0);
                 continue;
             };
-            let (sx, sy) = (px as u32, py as u32);
             assert_eq!((get(through::SCREEN_OFFSET), get(through::SCREEN_OFFSET + 1)), (sx as f32 - x as f32, sy as f32 - y as f32));
             let blocked = hidden_from_camera(hit.position);
             assert_eq!(get(through::ON_SCREEN), if blocked { 0.0 } else { 1.0 }, "({x}, {y}) -> ({sx}, {sy})");
-            if blocked {
-                hidden += 1;
-                assert_eq!(get(through::LD), 0.0);
-            } else {
-                seen += 1;
-                assert_eq!(get(through::LD), (sy * w + sx) as f32, "({x}, {y}) reads the G-buffer at ({sx}, {sy})");
-            }
         }
     }
-    assert!(seen > 20 && hidden > 20, "seen {seen}, hidden {hidden}");
+    assert!(seen > 80 && hidden > 80, "footprint rays seen {seen}, hidden {hidden}");
 }
 
 /// Through a frosted pane the albedo is the mean over its lobe: beside the edge between a black
@@ -270,4 +286,119 @@ fn a_rough_pane_blurs_the_albedo_behind_it() {
         assert!(grey(&frosted, x) > 0.05 && grey(&frosted, x) < 0.95, "column {x}: {}", grey(&frosted, x));
     }
     assert!(frosted.get(through::TRANSMITTANCE, 16, 4) > 0.0 && frosted.get(through::TRANSMITTANCE, 16, 4) <= 1.0);
+}
+
+/// The through buffer of object 0 for a `w` x `h` frame it covers whole, the G-buffer's L_d 0.
+fn covered_frame(scene: &Scene, camera: &glassbake_core::camera::Camera, w: u32, h: u32) -> glassbake_core::image::PlanarImage {
+    use glassbake_core::image::PlanarImage;
+    use glassbake_core::layout::{self, transparent};
+    let geometry = ThroughScene::build(scene);
+    let mut coverage = PlanarImage::new(w, h, layout::transparent_channel_names(0));
+    coverage.plane_mut(transparent::COVERAGE).fill(1.0);
+    let gbuffer = PlanarImage::new(w, h, layout::opaque_channel_names());
+    glassbake_rays::through::through_buffer(scene, &geometry, 0, camera, &gbuffer, coverage.plane(transparent::COVERAGE))
+}
+
+/// The directions of pixel (x, y)'s footprint rays in a `w` x `h` frame of `camera`.
+fn footprint_directions(camera: &glassbake_core::camera::Camera, x: u32, y: u32, w: u32, h: u32) -> Vec<DVec3> {
+    glassbake_rays::through::FOOTPRINT.iter().map(|[dx, dy]| camera.ray(x as f32 + 0.5 + dx, y as f32 + 0.5 + dy, w, h).direction.as_dvec3()).collect()
+}
+
+/// The spread channel's definition, in f64: log2(1 + s), s the RMS distance of `hits` from
+/// their mean over the footprint's RMS radius at `path_length` with nothing between.
+fn expected_spread(hits: &[DVec3], path_length: f64, camera: &glassbake_core::camera::Camera, w: u32, h: u32) -> f64 {
+    let mean = hits.iter().sum::<DVec3>() / hits.len() as f64;
+    let rms = (hits.iter().map(|p| (*p - mean).length_squared()).sum::<f64>() / hits.len() as f64).sqrt();
+    let pixel_size = 2.0 * f64::from(camera.tan_half_fov(w, h).1) / f64::from(h);
+    let footprint_rms = glassbake_rays::through::FOOTPRINT.iter().map(|[x, y]| f64::from(x * x + y * y)).sum::<f64>() / 4.0;
+    (1.0 + rms / (footprint_rms.sqrt() * path_length * pixel_size)).log2()
+}
+
+/// Through a flat pane the footprint lands on the wall as it would with nothing between: a
+/// spread of log2(1 + 1) where the wall faces the camera, and exactly what the footprint's
+/// rays' hits on the wall give at every pixel.
+#[test]
+fn a_flat_pane_leaves_the_footprint_as_the_open_view_spreads_it() {
+    use glassbake_core::camera::Camera;
+    use glassbake_core::layout::through;
+    let pane = shapes::rect(Vec3::ZERO, Vec3::X * 8.0, Vec3::Y * 8.0, Vec2::ONE);
+    let scene = scene_with(pane, true);
+    let (w, h) = (5u32, 5u32);
+    let camera = Camera::look_at(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, 30.0);
+    let cast = covered_frame(&scene, &camera, w, h);
+    let origin = camera.position.as_dvec3();
+    for (x, y) in [(2, 2), (0, 0), (4, 1)] {
+        let hits: Vec<DVec3> = footprint_directions(&camera, x, y, w, h).into_iter().map(|d| wall_hit(origin, d)).collect();
+        let centre = wall_hit(origin, camera.pixel_center_ray(x, y, w, h).direction.as_dvec3());
+        let expected = expected_spread(&hits, (centre - origin).length(), &camera, w, h);
+        let spread = f64::from(cast.get(through::SPREAD, x, y));
+        assert!((spread - expected).abs() < 1e-4, "({x}, {y}): {spread} vs {expected}");
+        if (x, y) == (2, 2) {
+            assert!((spread - 1.0).abs() < 1e-3, "the wall faces the camera: {spread}");
+        }
+    }
+}
+
+/// A glass ball in front of the wall gathers the footprint's rays, which cross behind it and
+/// land on the wall closer together than they left (paraxially a quarter as far apart here):
+/// the spread is what Snell's law in closed form gives for the footprint's four rays.
+#[test]
+fn a_ball_lens_shrinks_the_footprint_as_snell_says() {
+    use glassbake_core::camera::Camera;
+    use glassbake_core::layout::through;
+    let radius = 1.0;
+    let scene = scene_with(shapes::uv_sphere(radius as f32, 512, 256), false);
+    let (w, h) = (3u32, 3u32);
+    let camera = Camera::look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, 20.0);
+    let cast = covered_frame(&scene, &camera, w, h);
+    let origin = camera.position.as_dvec3();
+    // Entry, exit and wall hit of a ray from the camera through the ball.
+    let path = |d: DVec3| {
+        let b = origin.dot(d);
+        let entry = origin + d * (-b - (b * b - origin.length_squared() + radius * radius).sqrt());
+        let (inside, _, _) = snell(d, entry / radius, 1.0, IOR);
+        let exit = entry + inside * (-2.0 * entry.dot(inside));
+        let (out, _, _) = snell(inside, -exit / radius, IOR, 1.0);
+        let hit = wall_hit(exit, out);
+        (hit, (entry - origin).length() + (exit - entry).length() + (hit - exit).length())
+    };
+    let hits: Vec<DVec3> = footprint_directions(&camera, 1, 1, w, h).into_iter().map(|d| path(d).0).collect();
+    let (_, path_length) = path(camera.pixel_center_ray(1, 1, w, h).direction.as_dvec3());
+    let expected = expected_spread(&hits, path_length, &camera, w, h);
+    let spread = f64::from(cast.get(through::SPREAD, 1, 1));
+    assert!((spread - expected).abs() < 0.01 * expected, "{spread} vs {expected}");
+    // Paraxially: the ball's focal length n r / (2 (n - 1)) from its centre, the camera 5 in
+    // front of it and the wall 3 behind: the wall sees |5 + 3 - 5 x 3 / 1.5| / 8 = 0.25 of the
+    // spread. The footprint's rays pass 0.18 radii from the axis, where spherical aberration
+    // focuses them a little shorter, so a little more.
+    let stretch = expected.exp2() - 1.0;
+    assert!((0.25..0.3).contains(&stretch), "{stretch}");
+}
+
+/// The footprint averages what the pixel's area sees: with the edge between a black and a white
+/// wall through the middle of a column, that column's albedo is grey (two of the footprint's
+/// four rays on each side) where its centre's ray alone sees white.
+#[test]
+fn the_footprint_averages_an_edge_inside_the_pixel() {
+    use glassbake_core::camera::Camera;
+    use glassbake_core::layout::through;
+    let mut scene = Scene::empty("edge");
+    let wall = |x: f32| shapes::rect(Vec3::new(x, 0.0, WALL_Z as f32), Vec3::X * 20.0, Vec3::Y * 40.0, Vec2::ONE);
+    add(&mut scene, "black", wall(-10.0), Material::diffuse("black", Vec3::ZERO), Vec3::ZERO, false);
+    add(&mut scene, "white", wall(10.0), Material::diffuse("white", Vec3::ONE), Vec3::ZERO, false);
+    let pane = shapes::rect(Vec3::ZERO, Vec3::X * 8.0, Vec3::Y * 8.0, Vec2::ONE);
+    add(&mut scene, "pane", pane, Material::glass("pane", Vec3::ONE, 0.0, IOR as f32, true), Vec3::ZERO, true);
+    let (w, h) = (32u32, 8u32);
+    // The camera 0.45 pixel (at the wall) to the left of the edge, so that the edge runs down
+    // column 16, 0.05 pixel left of its centre.
+    let shift = 0.45 * 2.0 * (20f32.to_radians()).tan() * (4.0 - WALL_Z as f32) / w as f32;
+    let camera = Camera::look_at(Vec3::new(-shift, 0.0, 4.0), Vec3::new(-shift, 0.0, 0.0), 40.0);
+    let cast = covered_frame(&scene, &camera, w, h);
+    let geometry = ThroughScene::build(&scene);
+    let ray = camera.pixel_center_ray(16, 4, w, h);
+    let centre = trace_through(&scene, &geometry, 0, ray.origin, ray.direction).unwrap();
+    assert_eq!(centre.albedo, Vec3::ONE, "the centre's ray sees the white wall");
+    let albedo = |x: u32| cast.get(through::ALBEDO, x, 4);
+    assert!((albedo(16) - 0.5).abs() < 1e-6, "column 16: {}", albedo(16));
+    assert_eq!((albedo(15), albedo(17)), (0.0, 1.0));
 }
