@@ -295,7 +295,7 @@ pub fn through_buffer(scene: &Scene, geometry: &ThroughScene, k: usize, camera: 
                     if coverage[(y * width + x) as usize] <= 0.0 {
                         return out;
                     }
-                    let ray = camera.pixel_center_ray(x, y, width, height);
+                    let ray = rays.ray(x as f32 + 0.5, y as f32 + 0.5);
                     let Some(hit) = trace_through(scene, geometry, k, ray.origin, ray.direction) else { return out };
                     let view = on_screen(camera, geometry, opaque_gbuffer, hit.position);
                     // What the pixel shows is the mean over its footprint: a path a ray loses

@@ -58,6 +58,27 @@ fn close(a: Vec3, b: DVec3, tolerance: f64) -> bool {
     (a.as_dvec3() - b).length() <= tolerance
 }
 
+/// A ray from `origin` along unit `d` through a ball of `radius` at the origin: where it enters
+/// and leaves, the direction it leaves in, and the cosines of incidence and transmission at
+/// the entry and the exit.
+struct BallPath {
+    entry: DVec3,
+    exit: DVec3,
+    out: DVec3,
+    cosines: [f64; 4],
+}
+
+fn through_ball(origin: DVec3, d: DVec3, radius: f64) -> BallPath {
+    // |o + t d| = r, nearer root.
+    let b = origin.dot(d);
+    let entry = origin + d * (-b - (b * b - origin.length_squared() + radius * radius).sqrt());
+    let (inside, cos_i, cos_t) = snell(d, entry / radius, 1.0, IOR);
+    // The chord from `entry` along `inside` ends at t = -2 (entry . inside).
+    let exit = entry + inside * (-2.0 * entry.dot(inside));
+    let (out, cos_i2, cos_t2) = snell(inside, -exit / radius, IOR, 1.0);
+    BallPath { entry, exit, out, cosines: [cos_i, cos_t, cos_i2, cos_t2] }
+}
+
 #[test]
 fn a_slab_shifts_the_ray_sideways_as_snell_says() {
     let half_thickness = 0.5;
@@ -93,13 +114,7 @@ fn a_sphere_focuses_the_ray_as_snell_says() {
     let origin = DVec3::new(0.0, 0.0, 5.0);
     for target in [DVec3::new(0.3, 0.0, 0.0), DVec3::new(-0.2, 0.45, 0.0), DVec3::new(0.05, -0.6, 0.0)] {
         let d = (target - origin).normalize();
-        // |o + t d| = r, nearer root.
-        let b = origin.dot(d);
-        let entry = origin + d * (-b - (b * b - origin.length_squared() + radius * radius).sqrt());
-        let (inside, cos_i, cos_t) = snell(d, entry / radius, 1.0, IOR);
-        // The chord from `entry` along `inside` ends at t = -2 (entry . inside).
-        let exit = entry + inside * (-2.0 * entry.dot(inside));
-        let (out, cos_i2, cos_t2) = snell(inside, -exit / radius, IOR, 1.0);
+        let BallPath { entry, exit, out, cosines: [cos_i, cos_t, cos_i2, cos_t2] } = through_ball(origin, d, radius);
         let expected = wall_hit(exit, out);
         let transmittance = (1.0 - fresnel(1.0, IOR, cos_i, cos_t)) * (1.0 - fresnel(IOR, 1.0, cos_i2, cos_t2));
 
@@ -354,11 +369,7 @@ fn a_ball_lens_shrinks_the_footprint_as_snell_says() {
     let origin = camera.position.as_dvec3();
     // Entry, exit and wall hit of a ray from the camera through the ball.
     let path = |d: DVec3| {
-        let b = origin.dot(d);
-        let entry = origin + d * (-b - (b * b - origin.length_squared() + radius * radius).sqrt());
-        let (inside, _, _) = snell(d, entry / radius, 1.0, IOR);
-        let exit = entry + inside * (-2.0 * entry.dot(inside));
-        let (out, _, _) = snell(inside, -exit / radius, IOR, 1.0);
+        let BallPath { entry, exit, out, .. } = through_ball(origin, d, radius);
         let hit = wall_hit(exit, out);
         (hit, (entry - origin).length() + (exit - entry).length() + (hit - exit).length())
     };
