@@ -109,17 +109,20 @@ impl Preset {
                 renderer: RendererConfig { width: 16, large_kernel: 5, layers: 1, pointwise_layers: 1 },
                 pixel_generator: PixelGeneratorConfig { width: 64, layers: 6, skip_at: 3 },
             },
-            // Batch 4 of 32 px crops, ~0.27 s a GlassNet step on a slow 2-core box with 4
-            // objects (docs/benchmarks.md, `--example train_step`). 3,000 steps of GlassNet and
-            // naive: the default cornellbox bake took 32.7 min on that box (about 29 with
-            // 2,000). At 2,000 GlassNet on cornellbox8 was still improving, one seed 1.0 dB
-            // T.PSNR behind the other; at 3,000 the two gained 1.0 and 1.3 dB (docs/benchmarks.md,
-            // 2026-11-27). Learning rate 1e-3, not 2e-3: at 2e-3 the naive baseline on the
+            // Batch 4 of 32 px crops, 50-100 ms a GlassNet step on a 2-core box with 4 objects
+            // (docs/benchmarks.md, `--example train_step`). 6,000 steps of GlassNet and naive:
+            // on cornellbox's dataset GlassNet at 3,000 steps was still gaining 0.4 dB of
+            // validation PSNR over its last 900; at 6,000 seeds 0 and 1 score 1.5 and 1.3 dB
+            // more PSNR, 1.4 and 0.6 more T.PSNR, naive 1.2 / 1.6, and the halo GlassNet drew
+            // beside the lights mostly goes; the bake takes about 8 min more on cornellbox
+            // (docs/benchmarks.md, 2026-12-03). At 2,000 GlassNet on cornellbox8 was still
+            // improving; at 3,000 its two seeds gained 1.0 and 1.3 dB T.PSNR (2026-11-27).
+            // Learning rate 1e-3, not 2e-3: at 2e-3 the naive baseline on the
             // default cornellbox dataset stalled at validation loss 0.18 with seed 0 (drawing
             // glass as flat dark blocks) and reached 0.118 with seed 1; at 1e-3 seed 0 trains
             // normally (docs/history/benchmarks-2026-11.md, 2026-11-24).
             training: TrainConfig {
-                steps: 3000,
+                steps: 6000,
                 batch_size: 4,
                 crop: Some(32),
                 learning_rate: 1e-3,
