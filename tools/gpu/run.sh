@@ -155,10 +155,13 @@ train_pair() { # train_pair SUFFIX PRESET DEVICE EXTRA...: the few-step and the 
   memory_stop
   cp "$work/$suffix/train_log.csv" "$out/train_log_$suffix.csv" 2>/dev/null
 }
+# Each also with the convolutions as matrix products (`--gpu-convolutions matmul`), which
+# decides the default.
 for device in "${devices[@]}"; do
   for preset in quick paper; do
     suffix="$preset"; [ "$device" = wgpu ] || suffix="${preset}_$device"
     train_pair "$suffix" "$preset" "$device"
+    train_pair "${suffix}_matmul" "$preset" "$device" --gpu-convolutions matmul
   done
 done
 # Data parallelism on a machine with several GPUs: the `paper` batch shared by all of them.

@@ -110,14 +110,19 @@ def training_table(out):
     lines = [
         "### Training steps per second",
         "",
-        "`glassbake train --device D --steps N` (batch and crop of the preset; quick: 4 x 32 px crops, 4 objects) and the same `quick`"
+        "`glassbake train --device D --steps N` (batch and crop of the preset; quick: 4 x 32 px crops, 4 objects), also with"
+        " `--gpu-convolutions matmul` (im2col and matrix products instead of burn's convolution kernels), and the same `quick`"
         " and `paper` steps in PyTorch on the same GPU (`tools/torch-compare/glassnet_step.py --device cuda`), with `--devices N`"
         " where the machine has several GPUs; GPU memory as nvidia-smi sampled it every 100 ms.",
         "",
         "| network | device | steps | seconds | steps/s | ms/step | 100k steps (h) | GPU memory (MiB, peak) |",
         "|---|---|---|---|---|---|---|---|",
     ]
-    runs = [(p, d, p if d == "wgpu" else f"{p}_{d}") for p in ["quick", "paper"] for d in ["wgpu", "cuda"]]
+    runs = []
+    for preset in ["quick", "paper"]:
+        for device in ["wgpu", "cuda"]:
+            suffix = preset if device == "wgpu" else f"{preset}_{device}"
+            runs += [(preset, device, suffix), (preset, f"{device}, matmul convolutions", f"{suffix}_matmul")]
     # Data-parallel runs (`--devices N`) where the machine had several GPUs.
     for log in sorted(out.glob("train_log_paper*_x*_few.csv")):
         suffix = log.name[len("train_log_") : -len("_few.csv")]
@@ -126,7 +131,7 @@ def training_table(out):
     for preset, device, suffix in runs:
         few, many = last_log_row(out / f"train_log_{suffix}_few.csv"), last_log_row(out / f"train_log_{suffix}.csv")
         if few is None or many is None or many[0] <= few[0]:
-            if device == "wgpu" or (out / f"train_{suffix}.txt").is_file():
+            if device.startswith("wgpu") or (out / f"train_{suffix}.txt").is_file():
                 lines.append(f"| {preset} | burn {device} | - | - | not measured (see train_{suffix}_few.txt, train_{suffix}.txt) | - | - | - |")
             continue
         steps, seconds = many[0] - few[0], many[1] - few[1]

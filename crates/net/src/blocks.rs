@@ -7,10 +7,11 @@ use burn::prelude::*;
 use burn::tensor::{DType, TensorData};
 
 use crate::config::{CnnConfig, PixelGeneratorConfig, RendererConfig, UNetConfig};
+pub use crate::convolution::apply_conv;
+use crate::convolution::apply_conv_transpose;
 use crate::device::is_cpu;
 #[cfg(not(target_arch = "wasm32"))]
-use crate::flex_ops::{leaky_relu, shift_stack};
-use crate::precision::activation;
+use crate::flex_ops::leaky_relu;
 #[cfg(target_arch = "wasm32")]
 use burn::tensor::activation::leaky_relu;
 
@@ -19,47 +20,6 @@ const LEAK: f64 = 0.1;
 
 fn conv(in_channels: usize, out_channels: usize, kernel: usize, device: &Device) -> Conv2d {
     Conv2dConfig::new([in_channels, out_channels], [kernel, kernel]).with_padding(PaddingConfig2d::Same).init(device)
-}
-
-/// `conv` applied to `x`, as matrix products where burn's flex backend is slow. burn takes a
-/// convolution's weight gradient as another convolution whose kernel is the whole image, which
-/// made the backward pass of the wide 1x1 input projections (156 channels into h, 157 into F)
-/// ~75x slower than their forward pass, and of the 3x3 layers ~9x
-/// (`cargo run --release -p glassbake-bake --example train_step`). So a 1x1 convolution is
-/// computed as the matrix product over channels it is, and a stride-1 k x k convolution with
-/// "same" padding, when training on flex, as one product over the k*k shifted copies of the
-/// input (im2col); the backward passes are then matrix products too. Without gradients flex's
-/// own k x k forward pass is faster than im2col and is kept, as are strided convolutions; GPU
-/// backends keep their convolution kernels, where the k*k copies would only cost memory. The
-/// parameters are the same `Conv2d` either way, so saved models are unchanged. Its input and
-/// output are rounded to f16 while `precision::set_f16_activations` is on.
-pub fn apply_conv(conv: &Conv2d, x: Tensor<4>) -> Tensor<4> {
-    activation(convolve(conv, activation(x)))
-}
-
-fn convolve(conv: &Conv2d, x: Tensor<4>) -> Tensor<4> {
-    let [k, k2] = conv.kernel_size;
-    let same = k == 1 || matches!(conv.padding, PaddingConfig2d::Same);
-    let training_on_flex = conv.weight.val().is_require_grad() && is_cpu(conv.weight.device());
-    if k != k2 || k % 2 == 0 || !same || (k > 1 && !training_on_flex) || conv.stride != [1, 1] || conv.dilation != [1, 1] || conv.groups != 1 {
-        return conv.forward(x);
-    }
-    let [n, c, h, w] = x.dims();
-    let out = conv.weight.dims()[0];
-    let columns = if k == 1 { x } else { shift_stack(x, k) };
-    // [out, c, k, k] -> [out, k, k, c]: the column order of `columns` (shift-major).
-    let weight = conv.weight.val().permute([0, 2, 3, 1]).reshape([1, out, k * k * c]).expand([n, out, k * k * c]);
-    let mut y = weight.matmul(columns.reshape([n, k * k * c, h * w]));
-    if let Some(bias) = &conv.bias {
-        y = y + bias.val().reshape([1, out, 1]);
-    }
-    y.reshape([n, out, h, w])
-}
-
-// A wasm32 build has no CPU backend, so `convolve` never takes the im2col path there.
-#[cfg(target_arch = "wasm32")]
-fn shift_stack(_: Tensor<4>, _: usize) -> Tensor<4> {
-    unreachable!("im2col runs only when training on the CPU backend")
 }
 
 /// Convolution followed by a leaky ReLU.
@@ -156,7 +116,7 @@ impl UNet {
         }
         for (up, block) in self.up.iter().zip(&self.decoder) {
             let skip = skips.pop().expect("one skip per decoder level");
-            x = block.forward(Tensor::cat(vec![activation(up.forward(x)), skip], 1));
+            x = block.forward(Tensor::cat(vec![apply_conv_transpose(up, x), skip], 1));
         }
         apply_conv(&self.head, x)
     }
@@ -319,36 +279,6 @@ mod tests {
         t.into_data().try_to_vec::<f32>().unwrap()
     }
 
-    /// The matrix-product paths (1x1, and 3x3 / 5x5 by im2col) against burn's own convolution:
-    /// same output, same gradients for the input, the weights and the bias.
-    #[test]
-    fn convolutions_as_matrix_products_match_burns_convolution() {
-        let device = Device::flex().autodiff();
-        device.seed(5);
-        for kernel in [1, 3, 5] {
-            let conv = conv(7, 5, kernel, &device);
-            let x = Tensor::<4>::random([3, 7, 6, 9], Distribution::Uniform(-1.0, 1.0), &device).require_grad();
-            let r = Tensor::<4>::random([3, 5, 6, 9], Distribution::Uniform(-1.0, 1.0), &device);
-            let ours = apply_conv(&conv, x.clone());
-            let reference = conv.forward(x.clone());
-            assert_eq!(ours.dims(), reference.dims());
-            let close = |a: Vec<f32>, b: Vec<f32>, what: &str| {
-                assert_eq!(a.len(), b.len());
-                for (i, (a, b)) in a.iter().zip(&b).enumerate() {
-                    assert!((a - b).abs() <= 1e-5 * (1.0 + b.abs()), "{kernel}x{kernel} {what} element {i}: {a} vs {b}");
-                }
-            };
-            close(values(ours.clone().inner()), values(reference.clone().inner()), "output");
-            let grads_ours = (ours * r.clone()).sum().backward();
-            let grads_reference = (reference * r).sum().backward();
-            close(values(x.grad(&grads_ours).unwrap()), values(x.grad(&grads_reference).unwrap()), "input gradient");
-            close(values(conv.weight.grad(&grads_ours).unwrap()), values(conv.weight.grad(&grads_reference).unwrap()), "weight gradient");
-            let bias = conv.bias.as_ref().unwrap();
-            let (b_ours, b_ref) = (bias.grad(&grads_ours).unwrap(), bias.grad(&grads_reference).unwrap());
-            close(b_ours.into_data().try_to_vec::<f32>().unwrap(), b_ref.into_data().try_to_vec::<f32>().unwrap(), "bias gradient");
-        }
-    }
-
     /// The host encoding against sin and cos in f64 of the same f32 inputs, and against the
     /// tensor encoding (taken when the input needs gradients) for the layout: every part in
     /// its place. Each frequency may err by the rounding of its argument 2^k pi x (a few ulp
@@ -383,15 +313,5 @@ mod tests {
                 }
             }
         }
-    }
-
-    /// Strided convolutions keep burn's path.
-    #[test]
-    fn strided_convolutions_are_burns() {
-        let device = Device::flex();
-        device.seed(6);
-        let conv = Conv2dConfig::new([3, 4], [3, 3]).with_stride([2, 2]).with_padding(PaddingConfig2d::Explicit(1, 1, 1, 1)).init(&device);
-        let x = Tensor::<4>::random([1, 3, 5, 5], Distribution::Uniform(-1.0, 1.0), &device);
-        assert_eq!(values(apply_conv(&conv, x.clone())), values(conv.forward(x)));
     }
 }

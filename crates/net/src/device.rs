@@ -49,6 +49,18 @@ impl DeviceChoice {
     }
 }
 
+/// Parses a `--device` value; the error is the one-line reason (for clap).
+impl std::str::FromStr for DeviceChoice {
+    type Err = String;
+
+    fn from_str(name: &str) -> std::result::Result<DeviceChoice, String> {
+        DeviceChoice::parse(name).map_err(|e| match e {
+            Error::BadInput { message, .. } => message,
+            other => other.to_string(),
+        })
+    }
+}
+
 /// The device for `choice`, seeded, with autodiff when `training`.
 pub fn select_device(choice: DeviceChoice, seed: u64, training: bool) -> Device {
     let device = match choice {

@@ -3,7 +3,7 @@
 //! reads (im2col) and the leaky ReLU.
 //!
 //! Training on flex computes a stride-1 k x k convolution as a matrix product over the k*k
-//! shifted copies of its input (see `blocks::apply_conv`). Built from tensor operations
+//! shifted copies of its input (see `convolution`). Built from tensor operations
 //! (pad, k*k narrows, cat) the copies cost twice the product itself, and their backward pass
 //! more: every narrow's gradient is a zero tensor of the padded input's size with the slice
 //! written into it, and the k*k of them are summed. Here the forward pass writes the copies

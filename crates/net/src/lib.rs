@@ -2,14 +2,16 @@
 //! the permutation-invariant transparency encoder T with its exact order-independent sum,
 //! blending B, renderer R, positional encoding — the `naive` and `concat` baselines, the x2
 //! super-sampler, the L1 + SSIM loss, the training loop with checkpoints and exact resume, the
-//! model directory format, and inference, with the operations it runs as single passes on the
-//! CPU backend (`flex_ops`). It reads frames as `glassbake_core` images and knows nothing of
-//! how they were made (the CLI connects the dataset loader to it).
+//! model directory format, and inference, with the convolutions' matrix-product paths
+//! (`convolution`) and the operations it runs as single passes on the CPU backend (`flex_ops`).
+//! It reads frames as `glassbake_core` images and knows nothing of how they were made (the CLI
+//! connects the dataset loader to it).
 
 pub mod allocator;
 pub mod batch;
 pub mod blocks;
 pub mod config;
+pub mod convolution;
 pub mod device;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod flex_ops;

@@ -22,11 +22,14 @@ pub struct BakeArgs {
     /// cpu (burn's flex backend), wgpu (Vulkan) or cuda (a build with the `cuda` feature) for
     /// training and evaluation; wgpu also
     /// path-traces the dataset's ground truth on the GPU (`dataset --device wgpu`).
-    #[arg(long, default_value = "cpu", value_parser = super::parse_device)]
+    #[arg(long, default_value = "cpu")]
     pub device: DeviceChoice,
     /// GPUs of --device's kind that share each training batch (data parallelism).
     #[arg(long, default_value_t = 1)]
     pub devices: usize,
+    /// On a GPU, the training convolutions as burn's `kernels` or as `matmul` (im2col, products).
+    #[arg(long, default_value = "kernels")]
+    pub gpu_convolutions: glassbake_net::convolution::GpuConvolutions,
     /// Also train and evaluate the paper's ablations (no positional encoding; L1 loss only).
     #[arg(long)]
     pub ablations: bool,
@@ -58,6 +61,7 @@ pub struct BakeArgs {
 }
 
 pub fn run(args: BakeArgs) -> Result<()> {
+    glassbake_net::convolution::set_gpu_convolutions(args.gpu_convolutions);
     let request = BakeRequest {
         scene: args.scene,
         preset: args.preset.with_seed(args.seed),

@@ -27,7 +27,7 @@ pub struct EvalArgs {
     #[arg(long)]
     pub lpips_weights: Option<PathBuf>,
     /// cpu (burn's flex backend), wgpu (Vulkan) or, in a build with the `cuda` feature, cuda.
-    #[arg(long, default_value = "cpu", value_parser = super::parse_device)]
+    #[arg(long, default_value = "cpu")]
     pub device: DeviceChoice,
     /// Frame-reading/rasterizing worker threads.
     #[arg(long, default_value_t = 2)]

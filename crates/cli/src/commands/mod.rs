@@ -8,14 +8,6 @@ pub mod scene;
 pub mod trace;
 pub mod train;
 
-/// clap's parser for `--device` of the commands that run the networks.
-pub fn parse_device(name: &str) -> Result<glassbake_net::DeviceChoice, String> {
-    glassbake_net::DeviceChoice::parse(name).map_err(|e| match e {
-        glassbake_core::Error::BadInput { message, .. } => message,
-        other => other.to_string(),
-    })
-}
-
 /// A progress bar counting `{pos}/{len}` of what `label` names, and the `(done, total)` callback
 /// the libraries report through.
 pub fn counting_bar(label: &str) -> (indicatif::ProgressBar, impl Fn(u64, u64)) {

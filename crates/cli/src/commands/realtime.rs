@@ -30,7 +30,7 @@ pub struct PipelineArgs {
     pub scene: Option<String>,
     /// cpu (burn's flex backend), wgpu (Vulkan) or cuda (a build with the `cuda` feature) for the networks. With wgpu the rasterizer
     /// and the networks share one device and buffers never leave the GPU.
-    #[arg(long, default_value = "cpu", value_parser = super::parse_device)]
+    #[arg(long, default_value = "cpu")]
     pub device: DeviceChoice,
     /// With --device wgpu: keep separate devices and pass buffers through host memory (for
     /// comparison).

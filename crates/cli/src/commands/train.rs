@@ -22,11 +22,14 @@ pub struct CommonTrainArgs {
     #[arg(long, default_value_t = Preset::quick())]
     pub preset: Preset,
     /// cpu (burn's flex backend), wgpu (Vulkan) or, in a build with the `cuda` feature, cuda.
-    #[arg(long, default_value = "cpu", value_parser = super::parse_device)]
+    #[arg(long, default_value = "cpu")]
     pub device: DeviceChoice,
     /// GPUs of --device's kind that share each batch (data parallelism; at most the batch size).
     #[arg(long, default_value_t = 1)]
     pub devices: usize,
+    /// On a GPU, the convolutions as burn's `kernels` or as `matmul` (im2col and matrix products).
+    #[arg(long, default_value = "kernels")]
+    pub gpu_convolutions: glassbake_net::convolution::GpuConvolutions,
     /// Override the preset's number of optimizer steps.
     #[arg(long)]
     pub steps: Option<u64>,
@@ -112,11 +115,13 @@ impl TrainArgs {
 }
 
 pub fn run(args: TrainArgs) -> Result<()> {
+    glassbake_net::convolution::set_gpu_convolutions(args.common.gpu_convolutions);
     let request = args.request()?;
     Progress::printing_while(|progress| train_model(&request, progress)).map(|_| ()).map_err(Into::into)
 }
 
 pub fn run_super_sampler(args: TrainSrArgs) -> Result<()> {
+    glassbake_net::convolution::set_gpu_convolutions(args.common.gpu_convolutions);
     let request = SuperSamplerRequest {
         dataset: args.common.dataset.clone(),
         glassnet: args.glassnet,
