@@ -15,11 +15,13 @@ use serde::{Deserialize, Serialize};
 /// buffer's through buffer (layers `transparent.k.through`). 6: the light coverage of scenes
 /// whose emitters are all rectangle lights is exact (the lights' outlines clipped to each
 /// pixel) instead of counted on 4x4 sub-samples. 7: through buffers gained `spread` (18
-/// channels), and their albedo and L_d became the mean over the pixel's footprint. An older
-/// dataset is still read:
+/// channels), and their albedo and L_d became the mean over the pixel's footprint. 8: that
+/// albedo reads each footprint ray's texture at the mip level of its share of the pixel
+/// (`glassbake_rays::through::footprint_lod`) instead of at one point. An older dataset is
+/// still read:
 /// its ground truth is good, and its cached buffers, which are not today's, are rasterized
 /// again (or brought up to date in place by `glassbake dataset upgrade`).
-pub const FORMAT_VERSION: u32 = 7;
+pub const FORMAT_VERSION: u32 = 8;
 
 /// The most frames one dataset holds: its manifest lists every frame's camera and values
 /// (about 200 bytes each), and is planned in memory before any frame is traced.

@@ -80,6 +80,9 @@ struct PathEnd {
     position: vec3f,
     normal: vec3f,
     albedo: vec3f,
+    // Where the end reads a texture: its material (NONE elsewhere) and UV.
+    material: u32,
+    uv: vec2f,
     emitted: vec3f,
     is_light: bool,
     transmittance: f32,
@@ -88,7 +91,7 @@ struct PathEnd {
 }
 
 fn lost() -> PathEnd {
-    return PathEnd(false, vec3f(0.0), vec3f(0.0), vec3f(0.0), vec3f(0.0), false, 0.0, 0.0, 0.0);
+    return PathEnd(false, vec3f(0.0), vec3f(0.0), vec3f(0.0), NONE, vec2f(0.0), vec3f(0.0), false, 0.0, 0.0, 0.0);
 }
 
 fn surface_end(hit: Hit, origin: vec3f, direction: vec3f, transmittance: f32, length: f32, path_length: f32) -> PathEnd {
@@ -102,6 +105,7 @@ fn surface_end(hit: Hit, origin: vec3f, direction: vec3f, transmittance: f32, le
     end.path_length = path_length;
     let base = hit.triangle * ATTRIBUTE_VEC4S;
     let material_or_light = bitcast<u32>(attributes[base].w);
+    end.material = NONE;
     if (bitcast<u32>(attributes[base + 2u].w) & ATTR_RECT_LIGHT) != 0u {
         let normal = lights[material_or_light * LIGHT_VEC4S];
         let front = dot(normal.xyz, direction) < 0.0;
@@ -118,6 +122,8 @@ fn surface_end(hit: Hit, origin: vec3f, direction: vec3f, transmittance: f32, le
         let uv01 = attributes[base + 6u];
         let uv = uv01.xy * b0 + uv01.zw * hit.b1 + attributes[base + 7u].xy * hit.b2;
         albedo *= sample_texture(texture, uv).xyz;
+        end.material = material_or_light;
+        end.uv = uv;
     }
     end.albedo = albedo;
     end.emitted = materials[material_or_light * MATERIAL_VEC4S + 1u].xyz;
@@ -243,19 +249,58 @@ fn pixel_ray(pixel: vec2u, offset: vec2f) -> vec3f {
     return normalize(params.camera_forward.xyz + params.camera_right.xyz * ndc_x + params.camera_up.xyz * ndc_y);
 }
 
+// through.rs: footprint_lod, for the hit on `material` among the first `count` ends.
+fn footprint_lod(ends: ptr<function, array<PathEnd, LOBE_SAMPLES>>, count: u32, material: u32, size: vec2f, paths: u32) -> f32 {
+    var n = 0u;
+    var mean = vec2f(0.0);
+    for (var j = 0u; j < count; j++) {
+        if (*ends)[j].material == material {
+            mean += (*ends)[j].uv;
+            n += 1u;
+        }
+    }
+    if n < 2u {
+        return 0.0;
+    }
+    mean /= f32(n);
+    var squares = 0.0;
+    for (var j = 0u; j < count; j++) {
+        if (*ends)[j].material == material {
+            let d = ((*ends)[j].uv - mean) * size;
+            squares += dot(d, d);
+        }
+    }
+    let rms = sqrt(squares / f32(n));
+    let side = rms / (FOOTPRINT_RMS * sqrt(f32(paths)));
+    return log2(max(side, 1.0));
+}
+
+// through.rs: footprint_albedos, for end `j` of the first `count`.
+fn footprint_albedo(ends: ptr<function, array<PathEnd, LOBE_SAMPLES>>, count: u32, j: u32, paths: u32) -> vec3f {
+    let end = (*ends)[j];
+    if end.material == NONE {
+        return end.albedo;
+    }
+    let material = materials[end.material * MATERIAL_VEC4S];
+    let texture = bitcast<u32>(material.w);
+    let record = bitcast<vec4u>(materials[params.texture_table + texture]);
+    let lod = footprint_lod(ends, count, end.material, vec2f(f32(record.y), f32(record.z)), paths);
+    return material.xyz * sample_texture_lod(texture, end.uv, lod).xyz;
+}
+
 // through.rs: footprint_spread, over the first `count` of `positions`.
-fn footprint_spread(positions: ptr<function, array<vec3f, LOBE_SAMPLES>>, count: u32, path_length: f32) -> f32 {
+fn footprint_spread(ends: ptr<function, array<PathEnd, LOBE_SAMPLES>>, count: u32, path_length: f32) -> f32 {
     if count == 0u || !(path_length > 0.0) {
         return 0.0;
     }
     var mean = vec3f(0.0);
     for (var j = 0u; j < count; j++) {
-        mean += (*positions)[j];
+        mean += (*ends)[j].position;
     }
     mean /= f32(count);
     var squares = 0.0;
     for (var j = 0u; j < count; j++) {
-        let d = (*positions)[j] - mean;
+        let d = (*ends)[j].position - mean;
         squares += dot(d, d);
     }
     let rms = sqrt(squares / f32(count));
@@ -282,7 +327,7 @@ fn through_pass(@builtin(global_invocation_id) id: vec3u) {
     let view = on_screen(end.position);
     // What the pixel shows is the mean over its footprint: a path a ray loses adds nothing.
     var points = FOOTPRINT;
-    var positions: array<vec3f, LOBE_SAMPLES>;
+    var ends: array<PathEnd, LOBE_SAMPLES>;
     var hits = 0u;
     var albedo = vec3f(0.0);
     var light = vec3f(0.0);
@@ -292,12 +337,14 @@ fn through_pass(@builtin(global_invocation_id) id: vec3u) {
         let direction = pixel_ray(id.xy, points[s % FOOTPRINT_POINTS]);
         let h = trace_path(params.camera_position.xyz, direction, id.xy, select(NO_SAMPLE, s, params.rough != 0u));
         if h.valid {
-            albedo += h.albedo * h.transmittance;
             light += light_at(h, on_screen(h.position)) * h.transmittance;
             transmittance += h.transmittance;
-            positions[hits] = h.position;
+            ends[hits] = h;
             hits += 1u;
         }
+    }
+    for (var j = 0u; j < hits; j++) {
+        albedo += footprint_albedo(&ends, hits, j, paths) * ends[j].transmittance;
     }
     // Albedo and light as seen: weighted by what each path lets through.
     if transmittance > 0.0 {
@@ -318,5 +365,5 @@ fn through_pass(@builtin(global_invocation_id) id: vec3u) {
     }
     object_planes[params.through_offset + THROUGH_TRANSMITTANCE * pixels + i] = transmittance;
     object_planes[params.through_offset + THROUGH_LENGTH * pixels + i] = end.length;
-    object_planes[params.through_offset + THROUGH_SPREAD * pixels + i] = footprint_spread(&positions, hits, end.path_length);
+    object_planes[params.through_offset + THROUGH_SPREAD * pixels + i] = footprint_spread(&ends, hits, end.path_length);
 }

@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 use glassbake_core::wgsl::{constants, Value};
-use glassbake_scene::Scene;
+use glassbake_scene::{MipChain, Scene};
 
 use crate::triangle::{Owner, TriangleAttributes};
 
@@ -59,6 +59,22 @@ pub fn push_textures(scene: &Scene, materials: &mut Vec<[f32; 4]>, texels: &mut 
     for t in &scene.textures {
         materials.push([bits(texels.len() as u32), bits(t.width), bits(t.height), 0.0]);
         texels.extend(t.texels.iter().map(|c| c.to_array()));
+    }
+    table
+}
+
+/// Appends the through pass's texture table (one `(texel offset, width, height, levels)` a
+/// texture, its mip levels one after another from the offset, each half the one before:
+/// `MipChain`) to `materials` and the levels' texels to `texels`; returns where the table
+/// starts in `materials`, in vec4s. Level 0 is laid out as [`push_textures`] lays it out.
+pub fn push_mip_textures(chains: &[MipChain], materials: &mut Vec<[f32; 4]>, texels: &mut Vec<[f32; 4]>) -> u32 {
+    let table = materials.len() as u32;
+    for chain in chains {
+        let full = &chain.levels[0];
+        materials.push([bits(texels.len() as u32), bits(full.width), bits(full.height), bits(chain.levels.len() as u32)]);
+        for level in &chain.levels {
+            texels.extend(level.texels.iter().map(|c| c.to_array()));
+        }
     }
     table
 }

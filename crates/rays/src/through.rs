@@ -1,19 +1,21 @@
 //! What each transparent object shows through itself: camera rays from the centre and over
 //! the footprint of every pixel it covers, refracted at each of its surfaces (Snell's law with
 //! its IOR, total internal reflection followed), to the first opaque surface or light behind
-//! it. The other transparent
-//! objects are ignored, so a through buffer depends on its own object only, as GlassNet's
+//! it, reading textures over each ray's share of the footprint (mip levels). The other
+//! transparent objects are ignored, so a through buffer depends on its own object only, as GlassNet's
 //! permutation-invariant sum of per-object terms needs. Channels: `layout::THROUGH_ATTRIBUTES`.
 //!
 //! The pass casts rays on the CPU in two BVHs per ray (the opaque scene with its lights, and
 //! the object alone), so neither the BVHs nor the rays depend on the other transparent objects.
+
+use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
 use glassbake_core::camera::Camera;
 use glassbake_core::image::PlanarImage;
 use glassbake_core::layout::{self, opaque, through, transparent};
 use glassbake_scene::model::SMOOTH_ROUGHNESS;
-use glassbake_scene::Scene;
+use glassbake_scene::{MipChain, Scene, Texture};
 use rayon::prelude::*;
 
 use crate::geometry::{scene_triangles, SceneGeometry};
@@ -38,6 +40,10 @@ pub struct ThroughScene {
     opaque: SceneGeometry,
     objects: Vec<SceneGeometry>,
     object_indices: Vec<usize>,
+    /// `Scene::textures`' mip chains, for lookups over a footprint, and the textures they
+    /// were made from.
+    mips: Vec<MipChain>,
+    textures: Vec<Arc<Texture>>,
 }
 
 impl ThroughScene {
@@ -45,7 +51,8 @@ impl ThroughScene {
         let object_indices = scene.transparent_objects();
         let opaque = SceneGeometry::from_triangles(scene_triangles(scene, &|o| !scene.objects[o].transparent, true, &|_, _| None));
         let objects = object_indices.iter().map(|&k| SceneGeometry::from_triangles(scene_triangles(scene, &|o| o == k, false, &|_, _| None))).collect();
-        ThroughScene { opaque, objects, object_indices }
+        let mips = scene.textures.iter().map(|t| MipChain::new(t)).collect();
+        ThroughScene { opaque, objects, object_indices, mips, textures: scene.textures.clone() }
     }
 
     /// [`Self::build`] for a new instance of the same scene (a variable moved an object or a
@@ -63,7 +70,10 @@ impl ThroughScene {
             .zip(&object_indices)
             .map(|(geometry, &k)| geometry.refit_or_build(scene_triangles(scene, &|o| o == k, false, &|_, _| None)))
             .collect();
-        ThroughScene { opaque, objects, object_indices }
+        // An instance shares its textures with the scene it came from; a new set is new mips.
+        let same_textures = self.textures.len() == scene.textures.len() && self.textures.iter().zip(&scene.textures).all(|(a, b)| Arc::ptr_eq(a, b));
+        let mips = if same_textures { self.mips } else { scene.textures.iter().map(|t| MipChain::new(t)).collect() };
+        ThroughScene { opaque, objects, object_indices, mips, textures: scene.textures.clone() }
     }
 
     pub fn object_count(&self) -> usize {
@@ -77,7 +87,10 @@ pub struct ThroughHit {
     pub position: Vec3,
     /// The shading normal, on the side the ray arrives from.
     pub normal: Vec3,
+    /// The base colour times the full-size texture's colour at the hit.
     pub albedo: Vec3,
+    /// Where the hit reads a texture: its material and UV.
+    pub textured: Option<(usize, Vec2)>,
     /// A light's radiance where the ray meets a light's emitting side; for a surface, its
     /// emission (the G-buffer's L_d is looked up separately, see [`through_buffer`]).
     pub emitted: Vec3,
@@ -247,20 +260,55 @@ fn surface_hit(scene: &Scene, triangle: &TriangleAttributes, hit: &Hit, origin: 
     let position = origin + direction * hit.t;
     let n = triangle.shading_normal(hit, triangle.face_normal());
     let normal = if n.dot(direction) > 0.0 { -n } else { n };
-    let (albedo, emitted, is_light) = match triangle.owner {
-        Owner::Object { material, .. } => {
-            let material = &scene.materials[material as usize];
+    let (albedo, textured, emitted, is_light) = match triangle.owner {
+        Owner::Object { material: index, .. } => {
+            let material = &scene.materials[index as usize];
             let uv = triangle.uv(hit);
             let texture = material.base_color_texture.map_or(Vec3::ONE, |t| scene.textures[t].sample(uv).truncate());
-            (material.base_color * texture, material.emission, false)
+            let textured = material.base_color_texture.map(|_| (index as usize, uv));
+            (material.base_color * texture, textured, material.emission, false)
         }
         Owner::RectLight { light } => {
             let light = &scene.rect_lights[light as usize];
             let front = light.normal().dot(direction) < 0.0;
-            (Vec3::ZERO, if front || light.two_sided { light.radiance } else { Vec3::ZERO }, true)
+            (Vec3::ZERO, None, if front || light.two_sided { light.radiance } else { Vec3::ZERO }, true)
         }
     };
-    ThroughHit { position, normal, albedo, emitted, is_light, transmittance, length, path_length, interfaces }
+    ThroughHit { position, normal, albedo, textured, emitted, is_light, transmittance, length, path_length, interfaces }
+}
+
+/// The mip level a hit reads its texture at so that it averages its share of the pixel: the
+/// footprint's `paths` paths each stand for 1/`paths` of its area, whose side in texels is
+/// estimated from how far the hits `uvs` on the same material spread (their RMS distance from
+/// their mean over the footprint's own, [`FOOTPRINT_RMS`] pixels), over `size` texels.
+/// Level 0 where fewer than two hits share the material, or where the footprint spans less
+/// than a texel a path. The GPU pass (`shaders/through.wgsl`) computes the same.
+pub fn footprint_lod(uvs: &[Vec2], size: Vec2, paths: usize) -> f32 {
+    if uvs.len() < 2 {
+        return 0.0;
+    }
+    let n = uvs.len() as f32;
+    let mean = uvs.iter().fold(Vec2::ZERO, |sum, &uv| sum + uv) / n;
+    let rms = (uvs.iter().map(|&uv| ((uv - mean) * size).length_squared()).sum::<f32>() / n).sqrt();
+    let side = rms / (FOOTPRINT_RMS * (paths as f32).sqrt());
+    side.max(1.0).log2()
+}
+
+/// The albedo of `hit`, one of a pixel's footprint `hits`, its texture read over its share
+/// of the footprint ([`footprint_lod`]) rather than at one point.
+fn footprint_albedo(scene: &Scene, mips: &[MipChain], hit: &ThroughHit, hits: &[ThroughHit], paths: usize) -> Vec3 {
+    let Some((index, uv)) = hit.textured else { return hit.albedo };
+    let material = &scene.materials[index];
+    let Some(texture) = material.base_color_texture else { return hit.albedo };
+    let mut uvs = [Vec2::ZERO; LOBE_SAMPLES];
+    let mut count = 0;
+    for (_, uv) in hits.iter().filter_map(|h| h.textured).filter(|&(m, _)| m == index) {
+        uvs[count] = uv;
+        count += 1;
+    }
+    let chain = &mips[texture];
+    let size = Vec2::new(chain.levels[0].width as f32, chain.levels[0].height as f32);
+    material.base_color * chain.sample(uv, footprint_lod(&uvs[..count], size, paths)).truncate()
 }
 
 /// The through buffer of transparent object `k` for a frame: `layout::through_channel_names(k)`,
@@ -304,8 +352,7 @@ pub fn through_buffer(scene: &Scene, geometry: &ThroughScene, k: usize, camera: 
                         None => FOOTPRINT.len(),
                         Some(_) => LOBE_SAMPLES,
                     };
-                    let (mut albedo, mut light, mut transmittance) = (Vec3::ZERO, Vec3::ZERO, 0.0);
-                    let mut positions = Vec::with_capacity(paths);
+                    let mut hits = Vec::with_capacity(paths);
                     for sample in 0..paths {
                         let ray = footprint_ray(x, y, sample);
                         let end = match alpha {
@@ -315,13 +362,17 @@ pub fn through_buffer(scene: &Scene, geometry: &ThroughScene, k: usize, camera: 
                                 trace_path(scene, geometry, k, ray.origin, ray.direction, &mut microfacet)
                             }
                         };
-                        if let Some(h) = end {
-                            albedo += h.albedo * h.transmittance;
-                            light += light_at(&h, on_screen(camera, geometry, opaque_gbuffer, h.position)) * h.transmittance;
-                            transmittance += h.transmittance;
-                            positions.push(h.position);
-                        }
+                        hits.extend(end);
                     }
+                    let (mut albedo, mut light, mut transmittance) = (Vec3::ZERO, Vec3::ZERO, 0.0);
+                    let mut positions = [Vec3::ZERO; LOBE_SAMPLES];
+                    for (j, h) in hits.iter().enumerate() {
+                        albedo += footprint_albedo(scene, &geometry.mips, h, &hits, paths) * h.transmittance;
+                        light += light_at(h, on_screen(camera, geometry, opaque_gbuffer, h.position)) * h.transmittance;
+                        transmittance += h.transmittance;
+                        positions[j] = h.position;
+                    }
+                    let positions = &positions[..hits.len()];
                     // Albedo and light as seen: weighted by what each path lets through.
                     if transmittance > 0.0 {
                         (albedo, light) = (albedo / transmittance, light / transmittance);
@@ -338,7 +389,7 @@ pub fn through_buffer(scene: &Scene, geometry: &ThroughScene, k: usize, camera: 
                     out[through::LD..through::LD + 3].copy_from_slice(&light.to_array());
                     out[through::TRANSMITTANCE] = transmittance;
                     out[through::LENGTH] = hit.length;
-                    out[through::SPREAD] = footprint_spread(&positions, hit.path_length, pixel_size);
+                    out[through::SPREAD] = footprint_spread(positions, hit.path_length, pixel_size);
                     out
                 })
                 .collect()

@@ -6,6 +6,8 @@
 //! as the CPU pass does; [`GpuThroughPass::cast_into`] reads and writes GPU buffers (the
 //! real-time frame's zero-copy path: the network's input tensors).
 
+use std::sync::Arc;
+
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use glassbake_core::camera::Camera;
@@ -13,7 +15,7 @@ use glassbake_core::image::PlanarImage;
 use glassbake_core::layout::{self, opaque, through};
 use glassbake_core::{Error, Result};
 use glassbake_scene::model::SMOOTH_ROUGHNESS;
-use glassbake_scene::Scene;
+use glassbake_scene::{MipChain, Scene, Texture};
 use wgpu::util::DeviceExt;
 
 use crate::geometry::{scene_triangles, TriangleAttributes};
@@ -123,6 +125,7 @@ pub struct GpuThroughScene {
     objects: Vec<ObjectParams>,
     texture_table: u32,
     geometry: BuiltGeometry,
+    textures: PackedTextures,
 }
 
 /// The host's copy of an upload's BVHs, kept so that the next instance of the scene can
@@ -205,12 +208,18 @@ impl GpuThroughPass {
             sets.push((scene_triangles(scene, &|o| o == index, false, &|_, _| None), name));
         }
         let triangle_counts: Vec<usize> = sets.iter().map(|(triangles, _)| triangles.len()).collect();
-        let (previous_arrays, refittable) = match previous {
+        let (previous_arrays, refittable, previous_textures) = match previous {
             Some(p) => {
                 let refittable = (p.geometry.triangle_counts == triangle_counts).then_some(p.geometry);
-                (Some(p.arrays), refittable)
+                (Some(p.arrays), refittable, Some(p.textures))
             }
-            None => (None, None),
+            None => (None, None, None),
+        };
+        // An instance shares its textures with the scene it came from: their mip chains are
+        // packed once, and their buffer written once.
+        let (textures, textures_unchanged) = match previous_textures {
+            Some(packed) if packed.made_from(scene) => (packed, true),
+            _ => (PackedTextures::new(scene), false),
         };
         let (attributes, firsts) = triangle_attributes(&sets);
         let geometry = match refittable {
@@ -248,7 +257,8 @@ impl GpuThroughPass {
             });
         }
 
-        let PackedMaterials { materials, texture_table, texels, lights } = pack_materials(scene);
+        let PackedMaterials { materials, texture_table, lights } = pack_materials(scene, &textures);
+        let texels = &textures.texels;
 
         let limit = self.device.limits().max_storage_buffer_binding_size.min(self.device.limits().max_buffer_size);
         for (what, data) in [
@@ -256,7 +266,7 @@ impl GpuThroughPass {
             ("triangles", &geometry.bvhs.triangles),
             ("triangle attributes", &attributes),
             ("materials", &materials),
-            ("texels", &texels),
+            ("texels", texels),
         ] {
             let bytes = (data.len() * 16) as u64;
             if bytes > limit {
@@ -264,13 +274,15 @@ impl GpuThroughPass {
             }
         }
         let mut kept = previous_arrays.map(|arrays| arrays.map(Some));
-        let mut storage = |array: usize, label: &str, data: &[[f32; 4]]| {
+        let mut storage = |array: usize, label: &str, data: &[[f32; 4]], unchanged: bool| {
             // Bindings cannot be empty: an empty array travels as one unused vec4.
             let padded: &[[f32; 4]] = if data.is_empty() { &[[0.0; 4]] } else { data };
             let bytes: &[u8] = bytemuck::cast_slice(padded);
             match kept.as_mut().and_then(|k| k[array].take()).filter(|b| b.size() >= bytes.len() as u64) {
                 Some(buffer) => {
-                    self.queue.write_buffer(&buffer, 0, bytes);
+                    if !unchanged {
+                        self.queue.write_buffer(&buffer, 0, bytes);
+                    }
                     buffer
                 }
                 None => {
@@ -289,17 +301,18 @@ impl GpuThroughPass {
         };
         Ok(GpuThroughScene {
             arrays: [
-                storage(0, "through BVH nodes", &geometry.bvhs.nodes),
-                storage(1, "through triangles", &geometry.bvhs.triangles),
-                storage(2, "through attributes", &attributes),
-                storage(3, "through materials", &materials),
-                storage(4, "through texels", &texels),
-                storage(5, "through lights", &lights),
+                storage(0, "through BVH nodes", &geometry.bvhs.nodes, false),
+                storage(1, "through triangles", &geometry.bvhs.triangles, false),
+                storage(2, "through attributes", &attributes, false),
+                storage(3, "through materials", &materials, false),
+                storage(4, "through texels", texels, textures_unchanged),
+                storage(5, "through lights", &lights, false),
             ],
             opaque_root,
             objects,
             texture_table,
             geometry,
+            textures,
         })
     }
 
@@ -497,24 +510,45 @@ fn triangle_attributes(sets: &[(Vec<TriangleAttributes>, String)]) -> (Vec<[f32;
     (attributes, firsts)
 }
 
-/// The scene's materials (base colour and texture, emission), texture table and texels, and
+/// The scene's materials (base colour and texture, emission) and texture table, and
 /// rectangle lights, as the through kernel reads them.
 struct PackedMaterials {
     materials: Vec<[f32; 4]>,
     /// Where the texture table starts in `materials`.
     texture_table: u32,
-    texels: Vec<[f32; 4]>,
     lights: Vec<[f32; 4]>,
 }
 
-fn pack_materials(scene: &Scene) -> PackedMaterials {
+/// The scene's textures with their mip chains, as the kernel reads them
+/// (`gpu_scene::push_mip_textures`): the table's records and the texels, and the textures
+/// they were packed from.
+struct PackedTextures {
+    sources: Vec<Arc<Texture>>,
+    table: Vec<[f32; 4]>,
+    texels: Vec<[f32; 4]>,
+}
+
+impl PackedTextures {
+    fn new(scene: &Scene) -> PackedTextures {
+        let chains: Vec<MipChain> = scene.textures.iter().map(|t| MipChain::new(t)).collect();
+        let (mut table, mut texels) = (Vec::new(), Vec::new());
+        gpu_scene::push_mip_textures(&chains, &mut table, &mut texels);
+        PackedTextures { sources: scene.textures.clone(), table, texels }
+    }
+
+    fn made_from(&self, scene: &Scene) -> bool {
+        self.sources.len() == scene.textures.len() && self.sources.iter().zip(&scene.textures).all(|(a, b)| Arc::ptr_eq(a, b))
+    }
+}
+
+fn pack_materials(scene: &Scene, textures: &PackedTextures) -> PackedMaterials {
     let mut materials = Vec::with_capacity(scene.materials.len() * MATERIAL_VEC4S + scene.textures.len());
     for m in &scene.materials {
         let texture = m.base_color_texture.filter(|&t| t < scene.textures.len()).map_or(NONE, |t| t as u32);
         materials.extend([v4(m.base_color, bits(texture)), v4(m.emission, 0.0)]);
     }
-    let mut texels = Vec::new();
-    let texture_table = gpu_scene::push_textures(scene, &mut materials, &mut texels);
+    let texture_table = materials.len() as u32;
+    materials.extend_from_slice(&textures.table);
     let lights: Vec<[f32; 4]> = scene.rect_lights.iter().flat_map(|l| [v4(l.normal(), if l.two_sided { 1.0 } else { 0.0 }), v4(l.radiance, 0.0)]).collect();
-    PackedMaterials { materials, texture_table, texels, lights }
+    PackedMaterials { materials, texture_table, lights }
 }

@@ -413,3 +413,21 @@ fn the_footprint_averages_an_edge_inside_the_pixel() {
     assert!((albedo(16) - 0.5).abs() < 1e-6, "column 16: {}", albedo(16));
     assert_eq!((albedo(15), albedo(17)), (0.0, 1.0));
 }
+
+/// A footprint whose four points land 1:1 on a texture `s` texels a pixel apart reads level
+/// log2(s / 2): each point stands for a quarter of the pixel, half its side. A single hit on
+/// the material, or a footprint finer than a texel a point, reads the full-size texture.
+#[test]
+fn the_footprint_reads_the_mip_level_of_its_share_of_the_pixel() {
+    use glam::Vec2;
+    use glassbake_rays::through::{footprint_lod, FOOTPRINT};
+    let size = Vec2::new(512.0, 256.0);
+    for s in [4.0f32, 16.0, 64.0] {
+        let uvs: Vec<Vec2> = FOOTPRINT.iter().map(|&[x, y]| Vec2::new(0.5, 0.5) + Vec2::new(x, y) * s / size).collect();
+        let lod = footprint_lod(&uvs, size, FOOTPRINT.len());
+        assert!((lod - (s / 2.0).log2()).abs() < 1e-4, "{s} texels a pixel: level {lod}");
+    }
+    assert_eq!(footprint_lod(&[Vec2::new(0.1, 0.2)], size, 4), 0.0);
+    let fine: Vec<Vec2> = FOOTPRINT.iter().map(|&[x, y]| Vec2::new(0.5, 0.5) + Vec2::new(x, y) / size).collect();
+    assert_eq!(footprint_lod(&fine, size, 4), 0.0);
+}

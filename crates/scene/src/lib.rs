@@ -24,5 +24,5 @@ pub mod variables;
 pub use camera_spec::{CameraPosition, CameraSpec, Interval};
 pub use instance::Sample;
 pub use load::load_scene;
-pub use model::{DielectricKind, Material, Mesh, Object, RectLight, Scene, Texture, Transmission};
+pub use model::{DielectricKind, Material, Mesh, MipChain, Object, RectLight, Scene, Texture, Transmission};
 pub use variables::{Variable, VariableTarget};

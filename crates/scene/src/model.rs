@@ -132,6 +132,49 @@ impl Texture {
     }
 }
 
+/// A texture's mip levels: the texture, then each level half the one before on each side
+/// (at least one texel), its texels the mean of the 2x2 they cover (the last row or column
+/// of an odd side read twice). What a lookup over a footprint many texels wide reads
+/// instead of a few point samples of the full-size texture, which alias.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MipChain {
+    pub levels: Vec<Texture>,
+}
+
+impl MipChain {
+    pub fn new(texture: &Texture) -> MipChain {
+        let mut levels = vec![texture.clone()];
+        while let Some(last) = levels.last().filter(|t| t.width > 1 || t.height > 1) {
+            let (width, height) = ((last.width / 2).max(1), (last.height / 2).max(1));
+            let mut texels = Vec::with_capacity((width * height) as usize);
+            let at = |x: u32, y: u32| last.texels[(y.min(last.height - 1) * last.width + x.min(last.width - 1)) as usize];
+            for y in 0..height {
+                for x in 0..width {
+                    let (x2, y2) = (2 * x, 2 * y);
+                    texels.push((at(x2, y2) + at(x2 + 1, y2) + at(x2, y2 + 1) + at(x2 + 1, y2 + 1)) * 0.25);
+                }
+            }
+            let name = format!("{} (mip {})", texture.name, levels.len());
+            levels.push(Texture { name, width, height, texels, is_color: texture.is_color });
+        }
+        MipChain { levels }
+    }
+
+    /// Trilinear: bilinear in the two levels about `lod` (0 the full-size texture, clamped to
+    /// the chain), blended by its fraction.
+    pub fn sample(&self, uv: Vec2, lod: f32) -> Vec4 {
+        let top = (self.levels.len() - 1) as f32;
+        let lod = if lod.is_nan() { 0.0 } else { lod.clamp(0.0, top) };
+        let level = lod.floor();
+        let blend = lod - level;
+        let below = self.levels[level as usize].sample(uv);
+        if blend == 0.0 {
+            return below;
+        }
+        below.lerp(self.levels[level as usize + 1].sample(uv), blend)
+    }
+}
+
 /// `i` and `i + 1` wrapped into `0..n` (repeat), as [`Texture::texel`] wraps them. Without a
 /// division where both already lie inside, as they do for all but a texture's last row and
 /// column: path tracers sample textures at every hit, and 64-bit divisions made up most of
@@ -439,6 +482,36 @@ mod tests {
         let seam = (texture.texels[0] + texture.texels[3]) * 0.5;
         assert_eq!(texture.sample(Vec2::new(0.0, 0.5 / 2.0)), seam);
         assert_eq!(texture.sample(Vec2::new(-3.0, 1.0 + 0.5 / 2.0)), seam);
+    }
+
+    #[test]
+    fn a_mip_chain_halves_to_one_texel_keeping_the_mean() {
+        // A 4x2 checker of 0 and 1 (odd texel sums): level 1 is 2x1 of 0.5, level 2 one texel.
+        let texture = Texture::from_fn("checker", 4, 2, false, |u, v| Vec4::splat((((u * 4.0) as u32 + (v * 2.0) as u32) % 2) as f32));
+        let chain = MipChain::new(&texture);
+        let sizes: Vec<(u32, u32)> = chain.levels.iter().map(|l| (l.width, l.height)).collect();
+        assert_eq!(sizes, [(4, 2), (2, 1), (1, 1)]);
+        assert!(chain.levels[1].texels.iter().chain(&chain.levels[2].texels).all(|&t| t == Vec4::splat(0.5)));
+        // An odd side: 3x3 of its indices; level 1 is one texel over the first 2x2.
+        let odd = Texture::from_fn("odd", 3, 3, false, |u, v| Vec4::splat((u * 3.0).floor() + 3.0 * (v * 3.0).floor()));
+        let odd_chain = MipChain::new(&odd);
+        assert_eq!(odd_chain.levels.len(), 2);
+        assert_eq!(odd_chain.levels[1].texels, [Vec4::splat((0.0 + 1.0 + 3.0 + 4.0) / 4.0)]);
+    }
+
+    #[test]
+    fn a_mip_lookup_blends_the_two_levels_about_its_level_and_clamps() {
+        let texture = Texture::from_fn("ramp", 8, 8, false, |u, v| Vec4::new(u, v, u * v, 1.0));
+        let chain = MipChain::new(&texture);
+        let uv = Vec2::new(0.3, 0.6);
+        assert_eq!(chain.sample(uv, 0.0), texture.sample(uv));
+        assert_eq!(chain.sample(uv, -3.0), texture.sample(uv));
+        let (one, two) = (chain.levels[1].sample(uv), chain.levels[2].sample(uv));
+        assert!((chain.sample(uv, 1.25) - (one * 0.75 + two * 0.25)).abs().max_element() < 1e-6);
+        // Past the last level: the texture's mean, one texel.
+        let mean = texture.texels.iter().fold(Vec4::ZERO, |s, &t| s + t) / 64.0;
+        assert!((chain.sample(uv, 9.0) - mean).abs().max_element() < 1e-6);
+        assert_eq!(chain.sample(uv, f32::NAN), texture.sample(uv));
     }
 
     #[test]
