@@ -249,8 +249,18 @@ fn pixel_ray(pixel: vec2u, offset: vec2f) -> vec3f {
     return normalize(params.camera_forward.xyz + params.camera_right.xyz * ndc_x + params.camera_up.xyz * ndc_y);
 }
 
+// What the footprint's mean needs of each path's end, kept for all of them before the albedo
+// (a whole PathEnd each would be twice the registers).
+struct FootprintEnd {
+    position: vec3f,
+    transmittance: f32,
+    albedo: vec3f,
+    material: u32,
+    uv: vec2f,
+}
+
 // through.rs: footprint_lod, for the hit on `material` among the first `count` ends.
-fn footprint_lod(ends: ptr<function, array<PathEnd, LOBE_SAMPLES>>, count: u32, material: u32, size: vec2f, paths: u32) -> f32 {
+fn footprint_lod(ends: ptr<function, array<FootprintEnd, LOBE_SAMPLES>>, count: u32, material: u32, size: vec2f, paths: u32) -> f32 {
     var n = 0u;
     var mean = vec2f(0.0);
     for (var j = 0u; j < count; j++) {
@@ -276,7 +286,7 @@ fn footprint_lod(ends: ptr<function, array<PathEnd, LOBE_SAMPLES>>, count: u32, 
 }
 
 // through.rs: footprint_albedos, for end `j` of the first `count`.
-fn footprint_albedo(ends: ptr<function, array<PathEnd, LOBE_SAMPLES>>, count: u32, j: u32, paths: u32) -> vec3f {
+fn footprint_albedo(ends: ptr<function, array<FootprintEnd, LOBE_SAMPLES>>, count: u32, j: u32, paths: u32) -> vec3f {
     let end = (*ends)[j];
     if end.material == NONE {
         return end.albedo;
@@ -289,7 +299,7 @@ fn footprint_albedo(ends: ptr<function, array<PathEnd, LOBE_SAMPLES>>, count: u3
 }
 
 // through.rs: footprint_spread, over the first `count` of `positions`.
-fn footprint_spread(ends: ptr<function, array<PathEnd, LOBE_SAMPLES>>, count: u32, path_length: f32) -> f32 {
+fn footprint_spread(ends: ptr<function, array<FootprintEnd, LOBE_SAMPLES>>, count: u32, path_length: f32) -> f32 {
     if count == 0u || !(path_length > 0.0) {
         return 0.0;
     }
@@ -327,7 +337,7 @@ fn through_pass(@builtin(global_invocation_id) id: vec3u) {
     let view = on_screen(end.position);
     // What the pixel shows is the mean over its footprint: a path a ray loses adds nothing.
     var points = FOOTPRINT;
-    var ends: array<PathEnd, LOBE_SAMPLES>;
+    var ends: array<FootprintEnd, LOBE_SAMPLES>;
     var hits = 0u;
     var albedo = vec3f(0.0);
     var light = vec3f(0.0);
@@ -339,7 +349,7 @@ fn through_pass(@builtin(global_invocation_id) id: vec3u) {
         if h.valid {
             light += light_at(h, on_screen(h.position)) * h.transmittance;
             transmittance += h.transmittance;
-            ends[hits] = h;
+            ends[hits] = FootprintEnd(h.position, h.transmittance, h.albedo, h.material, h.uv);
             hits += 1u;
         }
     }
