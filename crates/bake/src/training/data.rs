@@ -32,6 +32,21 @@ pub fn open_dataset(dir: &Path) -> Result<(DatasetStore, DatasetInfo, Option<Sce
     Ok((store, info, scene))
 }
 
+/// A line for a dataset whose cached buffers an older glassbake wrote: they are rasterized
+/// again for every batch, which trains several times slower, until `dataset upgrade`.
+pub fn outdated_buffers_notice(dir: &Path, store: &DatasetStore) -> Option<String> {
+    let manifest = &store.manifest;
+    (manifest.spec.cache_buffers && !manifest.reads_cached_buffers()).then(|| {
+        format!(
+            "{}: its cached buffers are dataset format {}'s, not this glassbake's {}, so they are rasterized again for every batch, which is slower; `glassbake dataset upgrade {}` brings them up to date in place and keeps the ground truth",
+            dir.display(),
+            manifest.format_version,
+            glassbake_dataset::FORMAT_VERSION,
+            dir.display()
+        )
+    })
+}
+
 /// What a model directory records of the dataset it was trained on.
 pub fn data_source(dir: &Path, store: &DatasetStore) -> Result<DataSource> {
     Ok(DataSource {

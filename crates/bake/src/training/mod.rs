@@ -20,7 +20,7 @@ use glassbake_net::{
 use glassbake_scene::load_scene;
 use indicatif::{ProgressBar, ProgressStyle};
 
-pub use data::{data_source, loaders, open_dataset, DatasetData};
+pub use data::{data_source, loaders, open_dataset, outdated_buffers_notice, DatasetData};
 
 use crate::{Ablation, Preset, Progress};
 
@@ -202,6 +202,9 @@ pub fn train_model(request: &TrainRequest, progress: &Progress) -> Result<bool> 
         train_config.check("--ssim-weight")?;
     }
     let (store, info, scene) = open_dataset(&request.dataset)?;
+    if let Some(notice) = outdated_buffers_notice(&request.dataset, &store) {
+        progress.say(&notice);
+    }
     let variables = store.manifest.samples.first().map_or(0, |s| s.values.len());
     let net_config = network_config(request, variables, info.transparent_objects, &store.manifest.spec.scene)?;
     let side = train_config.crop.unwrap_or(info.resolution) as usize;
@@ -291,6 +294,9 @@ pub struct SuperSamplerRequest {
 pub fn train_super_sampler(request: &SuperSamplerRequest, progress: &Progress) -> Result<()> {
     let train_config = request.overrides.apply(&request.preset)?;
     let (store, _, scene) = open_dataset(&request.dataset)?;
+    if let Some(notice) = outdated_buffers_notice(&request.dataset, &store) {
+        progress.say(&notice);
+    }
     let inference_device = select_device(request.device, train_config.seed, false);
     let glassnet = TrainedModel::load(&request.glassnet, &inference_device)?;
     let side = train_config.crop.unwrap_or(store.manifest.spec.resolution) as usize;
