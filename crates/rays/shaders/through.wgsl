@@ -285,7 +285,7 @@ fn footprint_lod(ends: ptr<function, array<FootprintEnd, LOBE_SAMPLES>>, count: 
     return log2(max(side, 1.0));
 }
 
-// through.rs: footprint_albedos, for end `j` of the first `count`.
+// through.rs: footprint_albedo, for end `j` of the first `count`.
 fn footprint_albedo(ends: ptr<function, array<FootprintEnd, LOBE_SAMPLES>>, count: u32, j: u32, paths: u32) -> vec3f {
     let end = (*ends)[j];
     if end.material == NONE {
