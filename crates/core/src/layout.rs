@@ -108,9 +108,11 @@ pub mod light_coverage {
 /// faces with their inter-reflections). Through rough glass the position, normal and screen
 /// offset are those of the centre's mean direction of its lobe (the shading normal's), while
 /// the footprint is `glassbake_rays::through::LOBE_SAMPLES` rays drawn from its GGX lobe, from
-/// the footprint's points in turn: a frosted pane shows what is behind it blurred. All 18 are
-/// 0 where the object does not cover the pixel, where the centre's ray leaves the scene, and
-/// after `glassbake_rays::through::MAX_INTERFACES` surfaces.
+/// the footprint's points in turn: a frosted pane shows what is behind it blurred. A ray that
+/// leaves the scene ends on the background: its radiance is the L_d, the albedo 0, the
+/// position where the ray left the object and the normal against its direction. All 18 are 0
+/// where the object does not cover the pixel and where the centre's ray crosses more than
+/// `glassbake_rays::through::MAX_INTERFACES` surfaces.
 pub const THROUGH_ATTRIBUTES: [Attribute; 9] = [
     Attribute { name: "position", components: XYZ },
     Attribute { name: "normal", components: XYZ },

@@ -17,11 +17,12 @@ use serde::{Deserialize, Serialize};
 /// pixel) instead of counted on 4x4 sub-samples. 7: through buffers gained `spread` (18
 /// channels), and their albedo and L_d became the mean over the pixel's footprint. 8: that
 /// albedo reads each footprint ray's texture at the mip level of its share of the pixel
-/// (`glassbake_rays::through::footprint_lod`) instead of at one point. An older dataset is
-/// still read:
-/// its ground truth is good, and its cached buffers, which are not today's, are rasterized
-/// again (or brought up to date in place by `glassbake dataset upgrade`).
-pub const FORMAT_VERSION: u32 = 8;
+/// (`glassbake_rays::through::footprint_lod`) instead of at one point. 9: a through buffer's
+/// ray that leaves the scene ends on the background and brings its light, where it brought
+/// nothing, and one is given up after 32 surfaces, not 8. An older dataset is still read: its ground truth is good, and its cached buffers,
+/// which are not today's, are rasterized again (or brought up to date in place by
+/// `glassbake dataset upgrade`).
+pub const FORMAT_VERSION: u32 = 9;
 
 /// The most frames one dataset holds: its manifest lists every frame's camera and values
 /// (about 200 bytes each), and is planned in memory before any frame is traced.

@@ -11,6 +11,8 @@ struct Params {
     // right * tan(fov_x / 2) and up * tan(fov_y / 2).
     camera_right: vec4f,
     camera_up: vec4f,
+    // The scene's background radiance (xyz), which a ray leaving the scene brings.
+    background: vec4f,
     width: u32,
     height: u32,
     opaque_root: u32,
@@ -84,19 +86,28 @@ struct PathEnd {
     material: u32,
     uv: vec2f,
     emitted: vec3f,
+    // A rectangle light or the background.
     is_light: bool,
+    // The path left the scene (through.rs: ThroughHit::background).
+    background: bool,
     transmittance: f32,
     length: f32,
     path_length: f32,
 }
 
 fn lost() -> PathEnd {
-    return PathEnd(false, vec3f(0.0), vec3f(0.0), vec3f(0.0), NONE, vec2f(0.0), vec3f(0.0), false, 0.0, 0.0, 0.0);
+    return PathEnd(false, vec3f(0.0), vec3f(0.0), vec3f(0.0), NONE, vec2f(0.0), vec3f(0.0), false, false, 0.0, 0.0, 0.0);
+}
+
+// through.rs: background_end.
+fn background_end(origin: vec3f, direction: vec3f, transmittance: f32, length: f32, path_length: f32) -> PathEnd {
+    return PathEnd(true, origin, -direction, vec3f(0.0), NONE, vec2f(0.0), params.background.xyz, true, true, transmittance, length, path_length);
 }
 
 fn surface_end(hit: Hit, origin: vec3f, direction: vec3f, transmittance: f32, length: f32, path_length: f32) -> PathEnd {
     var end: PathEnd;
     end.valid = true;
+    end.background = false;
     end.position = origin + direction * hit.t;
     let n = shading_normal(hit);
     end.normal = select(n, -n, dot(n, direction) > 0.0);
@@ -173,7 +184,10 @@ fn trace_path(origin_in: vec3f, direction_in: vec3f, pixel: vec2u, sample: u32) 
             }
             return surface_end(opaque, origin, direction, transmittance, travelled, path_length + opaque.t);
         }
-        if !glass.valid || interfaces == MAX_INTERFACES {
+        if !glass.valid {
+            return background_end(origin, direction, transmittance, travelled, path_length);
+        }
+        if interfaces == MAX_INTERFACES {
             return lost();
         }
         if inside {
@@ -334,7 +348,11 @@ fn through_pass(@builtin(global_invocation_id) id: vec3u) {
     if !end.valid {
         return;
     }
-    let view = on_screen(end.position);
+    // The background is nowhere on screen.
+    var view = vec4f(0.0);
+    if !end.background {
+        view = on_screen(end.position);
+    }
     // What the pixel shows is the mean over its footprint: a path a ray loses adds nothing.
     var points = FOOTPRINT;
     var ends: array<FootprintEnd, LOBE_SAMPLES>;
@@ -347,7 +365,11 @@ fn through_pass(@builtin(global_invocation_id) id: vec3u) {
         let direction = pixel_ray(id.xy, points[s % FOOTPRINT_POINTS]);
         let h = trace_path(params.camera_position.xyz, direction, id.xy, select(NO_SAMPLE, s, params.rough != 0u));
         if h.valid {
-            light += light_at(h, on_screen(h.position)) * h.transmittance;
+            var h_view = vec4f(0.0);
+            if !h.is_light {
+                h_view = on_screen(h.position);
+            }
+            light += light_at(h, h_view) * h.transmittance;
             transmittance += h.transmittance;
             ends[hits] = FootprintEnd(h.position, h.transmittance, h.albedo, h.material, h.uv);
             hits += 1u;

@@ -40,6 +40,7 @@ struct Params {
     camera_forward: [f32; 4],
     camera_right: [f32; 4],
     camera_up: [f32; 4],
+    background: [f32; 4],
     width: u32,
     height: u32,
     opaque_root: u32,
@@ -118,12 +119,13 @@ const KEPT_GROUPS: usize = 16;
 
 /// One scene instance uploaded for the kernel: the BVHs of the opaque scene and of each
 /// transparent object (in `Scene::transparent_objects` order), their triangles' attributes,
-/// the materials, textures and rectangle lights.
+/// the materials, textures and rectangle lights, and the background's radiance.
 pub struct GpuThroughScene {
     arrays: [wgpu::Buffer; 6],
     opaque_root: u32,
     objects: Vec<ObjectParams>,
     texture_table: u32,
+    background: Vec3,
     geometry: BuiltGeometry,
     textures: PackedTextures,
 }
@@ -311,6 +313,7 @@ impl GpuThroughPass {
             opaque_root,
             objects,
             texture_table,
+            background: scene.background,
             geometry,
             textures,
         })
@@ -401,6 +404,7 @@ impl GpuThroughPass {
             camera_forward: v4(f.forward, 0.0),
             camera_right: v4(f.right * tx, 0.0),
             camera_up: v4(f.up * ty, 0.0),
+            background: v4(scene.background, 0.0),
             width,
             height,
             opaque_root: scene.opaque_root,

@@ -162,11 +162,29 @@ fn other_transparent_objects_are_ignored() {
     assert_eq!(through_block.interfaces, 2);
 }
 
+/// A ray that leaves the scene ends on the background, which it sees from where it left the
+/// glass: near the sphere's axis (off the vertices of its mesh), almost straight through both
+/// faces (Fresnel at normal incidence, R = ((n - 1) / (n + 1))^2, at each; the mesh's facets lie
+/// within 0.5% of the sphere).
 #[test]
-fn a_ray_that_misses_the_scene_gives_nothing() {
-    let scene = scene_with(shapes::uv_sphere(1.0, 64, 32), false);
+fn a_ray_that_leaves_the_scene_ends_on_the_background() {
+    let mut scene = scene_with(shapes::uv_sphere(1.0, 64, 32), false);
+    scene.background = Vec3::new(0.2, 0.3, 0.4);
     let geometry = ThroughScene::build(&scene);
-    assert!(trace_through(&scene, &geometry, 0, Vec3::new(0.0, 0.0, 5.0), Vec3::Z).is_none());
+    let hit = trace_through(&scene, &geometry, 0, Vec3::new(0.011, 0.007, -2.0), Vec3::Z).expect("the background ends the ray");
+    assert!(hit.background && hit.is_light);
+    assert_eq!(hit.emitted, scene.background);
+    assert_eq!(hit.albedo, Vec3::ZERO);
+    assert!(close(hit.position, DVec3::Z, 1e-2), "where it left the sphere: {}", hit.position);
+    assert!(hit.normal.dot(Vec3::Z) < -0.999 && (hit.normal.length() - 1.0).abs() < 1e-5, "faces back along the ray: {}", hit.normal);
+    let r = ((IOR - 1.0) / (IOR + 1.0)).powi(2);
+    assert!((hit.transmittance as f64 - (1.0 - r) * (1.0 - r)).abs() < 1e-4, "{}", hit.transmittance);
+    assert!((hit.length - 2.0).abs() < 1e-2, "{}", hit.length);
+    assert_eq!(hit.interfaces, 2);
+    // One that never meets the glass sees the background from where it starts.
+    let origin = Vec3::new(0.0, 0.0, 5.0);
+    let missed = trace_through(&scene, &geometry, 0, origin, Vec3::Z).unwrap();
+    assert!(missed.background && missed.position == origin && missed.transmittance == 1.0 && missed.interfaces == 0);
 }
 
 /// A frame's through buffer: nothing where the object covers nothing; where it does, the
