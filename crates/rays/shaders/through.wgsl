@@ -81,6 +81,7 @@ struct PathEnd {
     valid: bool,
     position: vec3f,
     normal: vec3f,
+    // The base colour; a texture, read over the footprint, multiplies it there.
     albedo: vec3f,
     // Where the end reads a texture: its material (NONE elsewhere) and UV.
     material: u32,
@@ -126,17 +127,13 @@ fn surface_end(hit: Hit, origin: vec3f, direction: vec3f, transmittance: f32, le
         return end;
     }
     let material = materials[material_or_light * MATERIAL_VEC4S];
-    var albedo = material.xyz;
-    let texture = bitcast<u32>(material.w);
-    if texture != NONE {
+    if bitcast<u32>(material.w) != NONE {
         let b0 = 1.0 - hit.b1 - hit.b2;
         let uv01 = attributes[base + 6u];
-        let uv = uv01.xy * b0 + uv01.zw * hit.b1 + attributes[base + 7u].xy * hit.b2;
-        albedo *= sample_texture(texture, uv).xyz;
         end.material = material_or_light;
-        end.uv = uv;
+        end.uv = uv01.xy * b0 + uv01.zw * hit.b1 + attributes[base + 7u].xy * hit.b2;
     }
-    end.albedo = albedo;
+    end.albedo = material.xyz;
     end.emitted = materials[material_or_light * MATERIAL_VEC4S + 1u].xyz;
     end.is_light = false;
     return end;
@@ -299,17 +296,21 @@ fn footprint_lod(ends: ptr<function, array<FootprintEnd, LOBE_SAMPLES>>, count: 
     return log2(max(side, 1.0));
 }
 
-// through.rs: footprint_albedo, for end `j` of the first `count`.
-fn footprint_albedo(ends: ptr<function, array<FootprintEnd, LOBE_SAMPLES>>, count: u32, j: u32, paths: u32) -> vec3f {
-    let end = (*ends)[j];
+// The size in texels of the texture of `material`, which has one.
+fn texture_size(material: u32) -> vec2f {
+    let texture = bitcast<u32>(materials[material * MATERIAL_VEC4S].w);
+    let record = bitcast<vec4u>(materials[params.texture_table + texture]);
+    return vec2f(f32(record.y), f32(record.z));
+}
+
+// through.rs: footprint_albedo, for `end` at mip level `lod` of its material's texture; an
+// end without one keeps its base colour.
+fn footprint_albedo(end: FootprintEnd, lod: f32) -> vec3f {
     if end.material == NONE {
         return end.albedo;
     }
-    let material = materials[end.material * MATERIAL_VEC4S];
-    let texture = bitcast<u32>(material.w);
-    let record = bitcast<vec4u>(materials[params.texture_table + texture]);
-    let lod = footprint_lod(ends, count, end.material, vec2f(f32(record.y), f32(record.z)), paths);
-    return material.xyz * sample_texture_lod(texture, end.uv, lod).xyz;
+    let texture = bitcast<u32>(materials[end.material * MATERIAL_VEC4S].w);
+    return end.albedo * sample_texture_lod(texture, end.uv, lod).xyz;
 }
 
 // through.rs: footprint_spread, over the first `count` of `positions`.
@@ -375,8 +376,16 @@ fn through_pass(@builtin(global_invocation_id) id: vec3u) {
             hits += 1u;
         }
     }
+    // Each material's level depends on all its ends: computed once for a run of them.
+    var lod_material = NONE;
+    var lod = 0.0;
     for (var j = 0u; j < hits; j++) {
-        albedo += footprint_albedo(&ends, hits, j, paths) * ends[j].transmittance;
+        let e = ends[j];
+        if e.material != NONE && e.material != lod_material {
+            lod_material = e.material;
+            lod = footprint_lod(&ends, hits, e.material, texture_size(e.material), paths);
+        }
+        albedo += footprint_albedo(e, lod) * e.transmittance;
     }
     // Albedo and light as seen: weighted by what each path lets through.
     if transmittance > 0.0 {

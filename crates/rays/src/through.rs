@@ -327,20 +327,30 @@ pub fn footprint_lod(uvs: &[Vec2], size: Vec2, paths: usize) -> f32 {
 }
 
 /// The albedo of `hit`, one of a pixel's footprint `hits`, its texture read over its share
-/// of the footprint ([`footprint_lod`]) rather than at one point.
-fn footprint_albedo(scene: &Scene, mips: &[MipChain], hit: &ThroughHit, hits: &[ThroughHit], paths: usize) -> Vec3 {
+/// of the footprint ([`footprint_lod`]) rather than at one point. `last_lod` keeps the level
+/// of the last material asked for: a footprint's hits mostly share one, whose level depends
+/// on all of them and is the same for each.
+fn footprint_albedo(scene: &Scene, mips: &[MipChain], hit: &ThroughHit, hits: &[ThroughHit], paths: usize, last_lod: &mut Option<(usize, f32)>) -> Vec3 {
     let Some((index, uv)) = hit.textured else { return hit.albedo };
     let material = &scene.materials[index];
     let Some(texture) = material.base_color_texture else { return hit.albedo };
-    let mut uvs = [Vec2::ZERO; LOBE_SAMPLES];
-    let mut count = 0;
-    for (_, uv) in hits.iter().filter_map(|h| h.textured).filter(|&(m, _)| m == index) {
-        uvs[count] = uv;
-        count += 1;
-    }
     let chain = &mips[texture];
-    let size = Vec2::new(chain.levels[0].width as f32, chain.levels[0].height as f32);
-    material.base_color * chain.sample(uv, footprint_lod(&uvs[..count], size, paths)).truncate()
+    let lod = match *last_lod {
+        Some((m, lod)) if m == index => lod,
+        _ => {
+            let mut uvs = [Vec2::ZERO; LOBE_SAMPLES];
+            let mut count = 0;
+            for (_, uv) in hits.iter().filter_map(|h| h.textured).filter(|&(m, _)| m == index) {
+                uvs[count] = uv;
+                count += 1;
+            }
+            let size = Vec2::new(chain.levels[0].width as f32, chain.levels[0].height as f32);
+            let lod = footprint_lod(&uvs[..count], size, paths);
+            *last_lod = Some((index, lod));
+            lod
+        }
+    };
+    material.base_color * chain.sample(uv, lod).truncate()
 }
 
 /// The through buffer of transparent object `k` for a frame: `layout::through_channel_names(k)`,
@@ -399,8 +409,9 @@ pub fn through_buffer(scene: &Scene, geometry: &ThroughScene, k: usize, camera: 
                     }
                     let (mut albedo, mut light, mut transmittance) = (Vec3::ZERO, Vec3::ZERO, 0.0);
                     let mut positions = [Vec3::ZERO; LOBE_SAMPLES];
+                    let mut last_lod = None;
                     for (j, h) in hits.iter().enumerate() {
-                        albedo += footprint_albedo(scene, &geometry.mips, h, &hits, paths) * h.transmittance;
+                        albedo += footprint_albedo(scene, &geometry.mips, h, &hits, paths, &mut last_lod) * h.transmittance;
                         let view = if h.is_light { None } else { on_screen(camera, geometry, opaque_gbuffer, h.position) };
                         light += light_at(h, view) * h.transmittance;
                         transmittance += h.transmittance;
