@@ -19,9 +19,9 @@ use serde::{Deserialize, Serialize};
 /// albedo reads each footprint ray's texture at the mip level of its share of the pixel
 /// (`glassbake_rays::through::footprint_lod`) instead of at one point. 9: a through buffer's
 /// ray that leaves the scene ends on the background and brings its light, where it brought
-/// nothing, and one is given up after 32 surfaces, not 8. An older dataset is still read: its ground truth is good, and its cached buffers,
-/// which are not today's, are rasterized again (or brought up to date in place by
-/// `glassbake dataset upgrade`).
+/// nothing, and one is given up after 32 surfaces, not 8. An older dataset is still read: its
+/// ground truth is good, and its cached buffers, which are not today's, are rasterized again
+/// (or brought up to date in place by `glassbake dataset upgrade`).
 pub const FORMAT_VERSION: u32 = 9;
 
 /// The most frames one dataset holds: its manifest lists every frame's camera and values
