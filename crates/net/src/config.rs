@@ -96,6 +96,15 @@ pub struct PixelGeneratorConfig {
     pub skip_at: usize,
 }
 
+/// What one of R's output terms multiplies its predicted light by ([`NetConfig::term_modulator`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Modulator {
+    /// The opaque G-buffer's albedo.
+    GbufferAlbedo,
+    /// The through buffers' albedo, summed over the objects.
+    ThroughAlbedo,
+}
+
 /// The whole GlassNet (and baselines) architecture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -137,6 +146,15 @@ pub struct NetConfig {
     /// configs saved before this existed, so those models render as they were trained.
     #[serde(default)]
     pub demodulated: bool,
+    /// Whether R's two transmitted terms (b1, b2: what the camera sees through the glass)
+    /// each predict, beside their RGB, the light that multiplies the through buffers' albedo
+    /// (the surface each object's refracted rays reach, averaged over the pixel's footprint
+    /// and weighted by their Fresnel transmittance and coverage, summed over the objects), so
+    /// text seen through a lens takes its contrast from the through buffer in its refracted
+    /// place instead of from the weights. Only for GlassNet reading through buffers
+    /// ([`Self::through`]). False in configs saved before this existed.
+    #[serde(default)]
+    pub through_demodulated: bool,
     /// Whether pixels whose rasterized direct light (seen through the glass in front, for the
     /// models that read transparency buffers) reaches 1 in every channel are drawn as 1, the
     /// tone map's white, whatever the network predicts there: the emitters, whose hard edges
@@ -223,6 +241,7 @@ impl NetConfig {
             // Demodulated lost 0.4 dB against RGB on the default cornellbox bake, with or
             // without the saturation (docs/history/benchmarks-2026-11.md, 2026-11-25).
             demodulated: false,
+            through_demodulated: false,
             // The light coverage composite supersedes the saturation (the pixelgen baseline
             // keeps the paper's plain output).
             saturate_direct_light: false,
@@ -301,6 +320,9 @@ impl NetConfig {
             }
             grid.check(origin)?;
         }
+        if self.through_demodulated && !(self.model == ModelKind::Glassnet && self.through) {
+            return bad("through_demodulated", "only GlassNet reading through buffers has a through albedo to demodulate by".into());
+        }
         if self.model == ModelKind::Concat && self.transparent_objects == 0 {
             return bad("transparent_objects", "the concat baseline needs at least one transparent object".into());
         }
@@ -315,21 +337,42 @@ impl NetConfig {
         1 << (self.scene_encoder.levels.max(self.blending.levels) - 1)
     }
 
-    /// Channels of one of R's output terms: RGB, and with [`NetConfig::demodulated`] the RGB
-    /// light the albedo multiplies.
-    pub fn renderer_term_channels(&self) -> usize {
-        if self.demodulated {
+    /// Channels of R's output term `k` (0: direct, 1 and 2: transmitted): RGB, and the RGB
+    /// light its albedo multiplies where the term is demodulated ([`Self::term_modulator`]).
+    pub fn renderer_term_channels(&self, k: usize) -> usize {
+        if self.term_modulator(k).is_some() {
             6
         } else {
             3
         }
     }
 
-    /// R's output channels: one term for the models that read no transparency buffer, three
-    /// (direct, transmitted, transmitted twice) for those that do.
+    /// The albedo R's output term `k` is demodulated by, if any: the G-buffer's
+    /// ([`Self::demodulated`]) or, for the transmitted terms, the through buffers'
+    /// ([`Self::through_demodulated`]), which replaces the G-buffer's there.
+    pub fn term_modulator(&self, k: usize) -> Option<Modulator> {
+        if k > 0 && self.through_demodulated {
+            Some(Modulator::ThroughAlbedo)
+        } else if self.demodulated {
+            Some(Modulator::GbufferAlbedo)
+        } else {
+            None
+        }
+    }
+
+    /// R's output terms: one for the models that read no transparency buffer, three (direct,
+    /// transmitted, transmitted twice) for those that do.
+    pub fn renderer_terms(&self) -> usize {
+        if self.model.reads_transparency_buffers() {
+            3
+        } else {
+            1
+        }
+    }
+
+    /// R's output channels: its terms' one after the other.
     pub fn renderer_outputs(&self) -> usize {
-        let terms = if self.model.reads_transparency_buffers() { 3 } else { 1 };
-        terms * self.renderer_term_channels()
+        (0..self.renderer_terms()).map(|k| self.renderer_term_channels(k)).sum()
     }
 
     /// Channels of each transparent object's input: its transparency buffer, and with

@@ -32,8 +32,10 @@ pub const CONFIG_FILE: &str = "config.json";
 /// each transparency buffer's through buffer (`through`), an input older glassbakes do not
 /// make. 8: through buffers gained `spread` (18 channels) and their albedo and L_d became the
 /// footprint's mean: a format-7 GlassNet that reads them must be retrained; one that does not
-/// still loads.
-pub const FORMAT_VERSION: u32 = 8;
+/// still loads. 9: GlassNet's transmitted terms may be demodulated by the through buffers'
+/// albedo (`NetConfig::through_demodulated`); a format-8 config has no such field and loads as
+/// the network it was trained as.
+pub const FORMAT_VERSION: u32 = 9;
 
 /// The network a directory holds.
 // Read once per run; boxing the larger config would buy nothing.
@@ -202,7 +204,7 @@ pub fn parse_config(text: &str, label: &str) -> Result<ModelConfig> {
     let reads_transparency_buffers = matches!(&config.network, Network::Glassnet(n) if n.model.reads_transparency_buffers());
     let reads_through = matches!(&config.network, Network::Glassnet(n) if n.through);
     match config.format_version {
-        FORMAT_VERSION | 4..=6 => Ok(config),
+        FORMAT_VERSION | 4..=6 | 8 => Ok(config),
         7 if !reads_through => Ok(config),
         7 => Err(Error::bad_input(
             label,

@@ -140,10 +140,11 @@ fn a_new_glassnet_starts_as_the_naive_network_on_the_opaque_gbuffer_and_learns_t
     let gradient: Vec<f32> = r.grad(&grads).expect("R has a gradient").narrow(1, inputs - light, light).into_data().try_to_vec::<f32>().unwrap();
     assert!(gradient.iter().any(|g| g.abs() > 1e-6), "R's glass-light weights get no gradient");
     let head = &net.renderer.head.weight;
-    let term = net.config.renderer_term_channels();
-    let transmitted: Vec<f32> = head.val().narrow(0, term, 2 * term).into_data().try_to_vec::<f32>().unwrap();
+    let term = net.config.renderer_term_channels(0);
+    let transmitted_channels = net.config.renderer_outputs() - term;
+    let transmitted: Vec<f32> = head.val().narrow(0, term, transmitted_channels).into_data().try_to_vec::<f32>().unwrap();
     assert!(transmitted.iter().all(|&w| w == 0.0), "R's transmitted outputs start at {transmitted:?}");
-    let gradient: Vec<f32> = head.grad(&grads).expect("R's head has a gradient").narrow(0, term, 2 * term).into_data().try_to_vec::<f32>().unwrap();
+    let gradient: Vec<f32> = head.grad(&grads).expect("R's head has a gradient").narrow(0, term, transmitted_channels).into_data().try_to_vec::<f32>().unwrap();
     assert!(gradient.iter().any(|g| g.abs() > 1e-6), "R's transmitted outputs get no gradient");
 }
 
@@ -178,6 +179,56 @@ fn the_transmitted_outputs_are_multiplied_by_the_product_of_the_tints_in_front()
             }
         }
         assert!(checked_below_one > size * size, "the synthetic tints barely attenuate: the check would not see a missing t");
+    }
+}
+
+#[test]
+fn through_demodulated_transmitted_terms_multiply_the_through_albedo() {
+    // R's head set so b1's light is 1 and everything else 0 (then b2's): the output is
+    // t * A (then t^2 * A), A = sum_k through albedo_k * Fresnel transmittance_k * coverage_k,
+    // t the tints' product, both computed here independently in f64 from the buffers' planes.
+    use glassbake_core::layout::{through, transparent, TRANSPARENT_CHANNELS};
+    let device = Device::flex();
+    let (size, objects) = (8, 2);
+    let frames = vec![common::frame(62, size, objects, 1)];
+    let batch = common::batch(&frames);
+    let inputs = batch.inputs(&device);
+    let config = NetConfig { through_demodulated: true, ..common::small_net(ModelKind::Glassnet, 1, objects) };
+    assert_eq!(config.renderer_outputs(), 3 + 6 + 6);
+    let mut net = random_glassnet(&config, 8, &device);
+    for power in [1, 2] {
+        let mut bias = [0.0f32; 15];
+        let light = if power == 1 { 3 + 3 } else { 3 + 6 + 3 };
+        bias[light..light + 3].fill(1.0);
+        let head = &mut net.renderer.head;
+        head.weight = head.weight.clone().map(|w| w.zeros_like());
+        head.bias = Some(burn::module::Param::from_tensor(Tensor::<1>::from_floats(bias, &device)));
+        let out = values(net.forward(&inputs));
+        let mut textured = 0;
+        for c in 0..3 {
+            for i in 0..size * size {
+                let (mut log_t, mut albedo) = (0.0f64, 0.0f64);
+                for b in &frames[0].transparent {
+                    let coverage = b.plane(transparent::COVERAGE)[i] as f64;
+                    log_t += coverage * (b.plane(transparent::ALBEDO + c)[i] as f64).clamp(1.0 / 256.0, 1.0).ln();
+                    let fresnel = b.plane(TRANSPARENT_CHANNELS + through::TRANSMITTANCE)[i] as f64;
+                    albedo += b.plane(TRANSPARENT_CHANNELS + through::ALBEDO + c)[i] as f64 * fresnel * coverage;
+                }
+                let expected = (log_t * power as f64).exp() * albedo;
+                let got = out[c * size * size + i] as f64;
+                assert!((got - expected).abs() <= 1e-4 * (1.0 + expected), "t^{power} A, channel {c}, pixel {i}: {got} vs {expected}");
+                textured += (expected > 0.05) as usize;
+            }
+        }
+        assert!(textured > size * size, "the synthetic through albedo is too faint for the check to see it");
+    }
+    // Only GlassNet reading through buffers has a through albedo.
+    for config in [
+        NetConfig { through_demodulated: true, through: false, ..common::small_net(ModelKind::Glassnet, 1, objects) },
+        NetConfig { through_demodulated: true, ..common::small_net(ModelKind::Naive, 1, objects) },
+    ] {
+        let error = config.check("test").unwrap_err().to_string();
+        assert!(error.contains("through_demodulated"), "{error}");
     }
 }
 

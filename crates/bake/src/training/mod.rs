@@ -76,6 +76,12 @@ pub enum RendererOutput {
     Rgb,
     /// Light that multiplies the G-buffer's albedo, plus a free RGB term.
     Demodulated,
+    /// GlassNet's transmitted terms as light that multiplies the through buffers' albedo,
+    /// plus a free RGB term; the direct term RGB.
+    ThroughDemodulated,
+    /// The direct term demodulated by the G-buffer's albedo, the transmitted terms by the
+    /// through buffers'.
+    DemodulatedThrough,
 }
 
 impl RendererOutput {
@@ -83,7 +89,13 @@ impl RendererOutput {
         match text {
             "rgb" => Ok(RendererOutput::Rgb),
             "demodulated" => Ok(RendererOutput::Demodulated),
-            other => Err(Error::bad_input("--renderer-output", "renderer_output", format!("{other:?} is not demodulated or rgb"))),
+            "through-demodulated" => Ok(RendererOutput::ThroughDemodulated),
+            "demodulated-through" => Ok(RendererOutput::DemodulatedThrough),
+            other => Err(Error::bad_input(
+                "--renderer-output",
+                "renderer_output",
+                format!("{other:?} is not rgb, demodulated, through-demodulated or demodulated-through"),
+            )),
         }
     }
 }
@@ -163,12 +175,16 @@ fn network_config(request: &TrainRequest, variables: usize, transparent_objects:
         Some(PositionEncoding::Fourier) => config.position_grid = None,
         Some(PositionEncoding::HashGrid) => config.position_grid = Some(position_grid(scene)?),
     }
-    config.check("command line")?;
-    match request.renderer_output {
-        None => {}
-        Some(RendererOutput::Demodulated) => config.demodulated = true,
-        Some(RendererOutput::Rgb) => config.demodulated = false,
+    if let Some(output) = request.renderer_output {
+        (config.demodulated, config.through_demodulated) = match output {
+            RendererOutput::Rgb => (false, false),
+            RendererOutput::Demodulated => (true, false),
+            RendererOutput::ThroughDemodulated => (false, true),
+            RendererOutput::DemodulatedThrough => (true, true),
+        };
+        config.check("--renderer-output")?;
     }
+    config.check("command line")?;
     Ok(config)
 }
 

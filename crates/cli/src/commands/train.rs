@@ -69,8 +69,11 @@ pub struct TrainArgs {
     /// without the through buffers, as the paper's: what seeing through the glass adds).
     #[arg(long)]
     pub ablation: Option<String>,
-    /// What the renderer R predicts: `rgb` (the image directly, as the paper; the default) or
-    /// `demodulated` (light that multiplies the G-buffer's albedo, plus a free RGB term).
+    /// What the renderer R predicts: `rgb` (the image directly, as the paper; the default),
+    /// `demodulated` (light that multiplies the G-buffer's albedo, plus a free RGB term),
+    /// `through-demodulated` (GlassNet: what it sees through the glass as light that
+    /// multiplies the through buffers' albedo, plus a free RGB term) or `demodulated-through`
+    /// (both: the G-buffer's albedo for the direct term, the through buffers' behind glass).
     #[arg(long)]
     pub renderer_output: Option<String>,
     /// How world positions enter F and h: `fourier` (the paper's sinusoids, as every other

@@ -200,7 +200,7 @@ fn start_tau_at_zero(t: &mut PlainCnn) {
 /// reads transparency buffers still renders what the naive one would.
 fn start_glass_inputs_at_zero(r: &mut Renderer, config: &NetConfig) {
     let glass_direct = glass_direct_channels(config);
-    let transmitted = config.renderer_outputs() - config.renderer_term_channels();
+    let transmitted = config.renderer_outputs() - config.renderer_term_channels(0);
     r.large.conv.weight = r.large.conv.weight.clone().map(|w| zero_last(w, 1, glass_direct));
     r.head.weight = r.head.weight.clone().map(|w| zero_last(w, 0, transmitted));
     r.head.bias = r.head.bias.take().map(|b| b.map(|b| zero_last(b, 0, transmitted)));

@@ -11,7 +11,7 @@ use glassbake_core::layout;
 
 use super::{composite_light, glass_direct_channels, SceneCode, GLASS_DIRECT_CHANNELS, GLASS_LIGHT_CHANNELS, THROUGH_DIRECT_CHANNELS};
 use crate::blocks::{positional_encoding, Renderer, UNet};
-use crate::config::NetConfig;
+use crate::config::{Modulator, NetConfig};
 use crate::hash_grid::HashGrid;
 
 /// F, B and R of one network, borrowed from its fields.
@@ -134,13 +134,16 @@ impl Skeleton<'_> {
     /// With [`NetConfig::demodulated`] each of R's terms is `free + albedo * light`, the
     /// albedo the G-buffer's (for GlassNet that of the opaque surface, also behind glass), so
     /// texture detail comes from the G-buffer instead of from the weights; the free part
-    /// carries emitters and what the albedo does not explain.
+    /// carries emitters and what the albedo does not explain. With
+    /// [`NetConfig::through_demodulated`] b1 and b2 are demodulated by the through buffers'
+    /// albedo instead: what the glass shows is the surface its refracted rays reach, not the
+    /// one behind it on screen.
     pub fn decode(&self, scene: &SceneCode, tau: Option<Tensor<4>>) -> Tensor<4> {
         let (b, r) = (self.blending, self.renderer);
         let Some(tau) = tau else {
             let phi = b.forward(scene.sigma.clone());
             let out = r.forward(Tensor::cat(vec![phi, scene.direct_light.clone()], 1));
-            return self.finish(self.term(&out, scene, 0), scene, None);
+            return self.finish(self.term(&out, scene, None, 0), scene, None);
         };
         let features = tau.dims()[1] - glass_direct_channels(self.config);
         let light = tau.clone().narrow(1, features, GLASS_LIGHT_CHANNELS);
@@ -149,10 +152,11 @@ impl Skeleton<'_> {
         if self.config.through {
             r_inputs.push(tau.clone().narrow(1, features + GLASS_DIRECT_CHANNELS, THROUGH_DIRECT_CHANNELS));
         }
+        let through_albedo = self.config.through.then(|| tau.clone().narrow(1, features + GLASS_DIRECT_CHANNELS, 3));
         let phi = b.forward(Tensor::cat(vec![scene.sigma.clone(), tau.narrow(1, 0, features)], 1));
         r_inputs.insert(0, phi);
         let out = r.forward(Tensor::cat(r_inputs, 1));
-        let [a, b1, b2] = [0, 1, 2].map(|k| self.term(&out, scene, k));
+        let [a, b1, b2] = [0, 1, 2].map(|k| self.term(&out, scene, through_albedo.as_ref(), k));
         self.finish(a + (b1 + b2 * transmittance.clone()) * transmittance.clone(), scene, Some(transmittance))
     }
 
@@ -183,16 +187,18 @@ impl Skeleton<'_> {
         image * saturated.clone().neg().add_scalar(1.0) + saturated
     }
 
-    /// Term `k` of R's output `out`: its 3 channels, or with [`NetConfig::demodulated`] its
-    /// free 3 plus the albedo times the next 3.
-    fn term(&self, out: &Tensor<4>, scene: &SceneCode, k: usize) -> Tensor<4> {
-        let width = self.config.renderer_term_channels();
-        let free = out.clone().narrow(1, k * width, 3);
-        if self.config.demodulated {
-            free + scene.albedo.clone() * out.clone().narrow(1, k * width + 3, 3)
-        } else {
-            free
-        }
+    /// Term `k` of R's output `out`: its 3 channels, or where the term is demodulated
+    /// ([`NetConfig::term_modulator`]) its free 3 plus the albedo times the next 3.
+    /// `through_albedo` is the summed through buffers' ([`THROUGH_DIRECT_CHANNELS`]' first 3).
+    fn term(&self, out: &Tensor<4>, scene: &SceneCode, through_albedo: Option<&Tensor<4>>, k: usize) -> Tensor<4> {
+        let start: usize = (0..k).map(|j| self.config.renderer_term_channels(j)).sum();
+        let free = out.clone().narrow(1, start, 3);
+        let albedo = match self.config.term_modulator(k) {
+            None => return free,
+            Some(Modulator::GbufferAlbedo) => scene.albedo.clone(),
+            Some(Modulator::ThroughAlbedo) => through_albedo.expect("a through-demodulated GlassNet reads through buffers").clone(),
+        };
+        free + albedo * out.clone().narrow(1, start + 3, 3)
     }
 }
 
