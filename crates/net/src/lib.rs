@@ -28,7 +28,7 @@ pub mod train;
 
 pub use allocator::keep_freed_memory;
 pub use batch::{FrameRef, HostBatch};
-pub use config::{Modulator, ModelKind, NetConfig, NetShape, TrainConfig};
+pub use config::{ModelKind, Modulator, NetConfig, NetShape, TrainConfig};
 pub use device::{is_cpu, select_device, select_devices, DeviceChoice};
 pub use infer::{TrainedModel, TrainedSuperSampler};
 pub use model::{load_model, new_model, with_new_model, Concat, GlassNet, ModelTask, Naive, NetInputs, PixelGen, SceneModel};
