@@ -172,7 +172,7 @@ fn an_exported_site_draws_in_the_browser_what_render_draws() {
         let (mean, p99) = difference(&canvas, &native);
         eprintln!("draw {i}: |page - render| {mean:.3} / 255 on average, 99th percentile {p99}");
         // The two frames' inputs differ where SwiftShader and lavapipe filter textures
-        // differently (anisotropic filtering is the implementation's to define) and the network
+        // differently (a mip level's rounding is the implementation's to define) and the network
         // sums in other orders on the GPU than on the CPU: on the default cornellbox bake's
         // frame 0.78 / 255 on average, 10 at the 99th percentile, up to 54 at a few glyph and
         // grout edges (docs/benchmarks.md). A wrong frame (black, shifted, another camera or

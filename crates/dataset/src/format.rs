@@ -19,10 +19,12 @@ use serde::{Deserialize, Serialize};
 /// albedo reads each footprint ray's texture at the mip level of its share of the pixel
 /// (`glassbake_rays::through::footprint_lod`) instead of at one point. 9: a through buffer's
 /// ray that leaves the scene ends on the background and brings its light, where it brought
-/// nothing, and one is given up after 32 surfaces, not 8. An older dataset is still read: its
+/// nothing, and one is given up after 32 surfaces, not 8. 10: the G-buffers read textures as the
+/// mean of 4x4 lookups over the pixel's footprint instead of one anisotropic lookup, which on
+/// lavapipe blurred fine print to grey. An older dataset is still read: its
 /// ground truth is good, and its cached buffers, which are not today's, are rasterized again
 /// (or brought up to date in place by `glassbake dataset upgrade`).
-pub const FORMAT_VERSION: u32 = 9;
+pub const FORMAT_VERSION: u32 = 10;
 
 /// The most frames one dataset holds: its manifest lists every frame's camera and values
 /// (about 200 bytes each), and is planned in memory before any frame is traced.

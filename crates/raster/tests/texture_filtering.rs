@@ -68,6 +68,8 @@ fn the_albedo_is_the_footprints_mean_on_desk() {
     let e = albedo_errors(&[0, 1, 2, 3, 4, 5]);
     println!("desk: {} detailed pixels, albedo RMS error {:.4} against a footprint spread of {:.4}", e.pixels, e.detailed, e.detail);
     assert!(e.pixels > 500, "too few textured pixels to judge: {}", e.pixels);
-    // Measured 0.34 of the spread on lavapipe; reading a mip level and a half too coarse, 0.62.
-    assert!(e.detailed < 0.45 * e.detail, "RMS error {:.4}, spread {:.4}", e.detailed, e.detail);
+    // Measured on lavapipe: 0.23 of the spread with the 4x4 footprint lookups; 0.34 with one
+    // anisotropic lookup a pixel, the filter before them; reading a mip level and a half too
+    // coarse, 0.62.
+    assert!(e.detailed < 0.28 * e.detail, "RMS error {:.4}, spread {:.4}", e.detailed, e.detail);
 }

@@ -73,8 +73,8 @@ const TRANSPARENT_MAP: [(usize, usize, u32, u32); 10] = [
 /// with [`Rasterizer::begin_frame`] (streaming) or [`Rasterizer::render`] (all at once).
 ///
 /// Channel semantics (docs/raster.md has the full list): normals are world-space, unit and
-/// flipped to face the camera; positions world-space; albedo linear and textured (mipmapped,
-/// anisotropic; the tint for glass); depth is the Euclidean distance to the camera; w_o points to
+/// flipped to face the camera; positions world-space; albedo linear and textured (the texture's
+/// mean over the pixel's footprint; the tint for glass); depth is the Euclidean distance to the camera; w_o points to
 /// the camera; L_d is direct light from the rectangle lights (exact polygon form factor for
 /// diffuse, LTC for GGX, hemicube shadow maps) plus emission. Background is 0. A transparency
 /// buffer holds its object's front-most surface in front of the opaque surface (hidden glass
@@ -546,7 +546,7 @@ fn pipelines(
     Pipelines { gbuffer_pipeline, transparency_pipeline, transparency_far_pipeline, shadow_pipeline }
 }
 
-/// The materials' sampler (trilinear, anisotropic, repeating) and the shadow maps' (comparing).
+/// The materials' sampler (trilinear, repeating) and the shadow maps' (comparing).
 fn samplers(device: &wgpu::Device) -> (wgpu::Sampler, wgpu::Sampler) {
     let material_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
         label: Some("material"),
@@ -556,8 +556,11 @@ fn samplers(device: &wgpu::Device) -> (wgpu::Sampler, wgpu::Sampler) {
         mag_filter: wgpu::FilterMode::Linear,
         min_filter: wgpu::FilterMode::Linear,
         mipmap_filter: wgpu::MipmapFilterMode::Linear,
-        // 16x anisotropic where the device supports it (wgpu falls back to trilinear).
-        anisotropy_clamp: 16,
+        // Trilinear, not anisotropic: the G-buffer reads each texture over the pixel's
+        // footprint in 4x4 lookups of its own (`footprint_sample` in gbuffer.wgsl), which
+        // give the same mean on every device; lavapipe's anisotropic filter ignores their
+        // explicit gradients and blurs over the whole footprint again.
+        anisotropy_clamp: 1,
         ..Default::default()
     });
     let shadow_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
