@@ -115,11 +115,6 @@ struct Surface {
     raw_normal: vec3<f32>,
 };
 
-// A texture's mean over the pixel's footprint, as the path tracer's pixel (a box) averages it.
-// One filtered lookup at the centre blurs over about twice the footprint: its mip level is
-// chosen for the footprint's longer side, then blended bilinearly and with the next level up,
-// which on desk's page at 96 px turns the print's rows into an even grey. Four lookups on the
-// 2x2 sub-pixel grid, each filtered over its quarter of the footprint, come near the box mean.
 // A texture's mean over the pixel's footprint: what the path tracer's pixel (a box) averages.
 // One trilinear lookup at the centre blurs over about twice the footprint (its mip level is
 // chosen for the footprint's longer side, then blended bilinearly and with the next level),
