@@ -73,10 +73,11 @@ const TRANSPARENT_MAP: [(usize, usize, u32, u32); 10] = [
 /// with [`Rasterizer::begin_frame`] (streaming) or [`Rasterizer::render`] (all at once).
 ///
 /// Channel semantics (docs/raster.md has the full list): normals are world-space, unit and
-/// flipped to face the camera; positions world-space; albedo linear and textured (the texture's
-/// mean over the pixel's footprint; the tint for glass); depth is the Euclidean distance to the camera; w_o points to
-/// the camera; L_d is direct light from the rectangle lights (exact polygon form factor for
-/// diffuse, LTC for GGX, hemicube shadow maps) plus emission. Background is 0. A transparency
+/// flipped to face the camera; positions world-space; albedo linear and textured (the
+/// texture's mean over the pixel's footprint; the tint for glass); depth is the Euclidean
+/// distance to the camera; w_o points to the camera; L_d is direct light from the rectangle
+/// lights (exact polygon form factor for diffuse, LTC for GGX, hemicube shadow maps) plus
+/// emission. Background is 0. A transparency
 /// buffer holds its object's front-most surface in front of the opaque surface (hidden glass
 /// is not drawn), relative depth = opaque depth - depth (0 where no opaque surface is behind)
 /// and coverage. Rectangle lights' quads are drawn into the opaque and naive G-buffers.
