@@ -21,10 +21,13 @@ use serde::{Deserialize, Serialize};
 /// ray that leaves the scene ends on the background and brings its light, where it brought
 /// nothing, and one is given up after 32 surfaces, not 8. 10: the G-buffers read textures as the
 /// mean of 4x4 lookups over the pixel's footprint instead of one anisotropic lookup, which on
-/// lavapipe blurred fine print to grey. An older dataset is still read: its
+/// lavapipe blurred fine print to grey. 11: a through buffer's footprint rays that reach one
+/// textured material read it over the 2x2 sub-cells of their quarters of the pixel, through the
+/// footprint's ray differential (`glassbake_rays::through::footprint_cell_sample`), instead of
+/// one lookup each at their quarter's level. An older dataset is still read: its
 /// ground truth is good, and its cached buffers, which are not today's, are rasterized again
 /// (or brought up to date in place by `glassbake dataset upgrade`).
-pub const FORMAT_VERSION: u32 = 10;
+pub const FORMAT_VERSION: u32 = 11;
 
 /// The most frames one dataset holds: its manifest lists every frame's camera and values
 /// (about 200 bytes each), and is planned in memory before any frame is traced.

@@ -303,14 +303,60 @@ fn texture_size(material: u32) -> vec2f {
     return vec2f(f32(record.y), f32(record.z));
 }
 
-// through.rs: footprint_albedo, for `end` at mip level `lod` of its material's texture; an
-// end without one keeps its base colour.
+// through.rs: footprint_gradients, of the ends of all FOOTPRINT_POINTS rays, in their order.
+fn footprint_gradients(ends: ptr<function, array<FootprintEnd, LOBE_SAMPLES>>, size: vec2f) -> mat2x2f {
+    var points = FOOTPRINT;
+    let n = f32(FOOTPRINT_POINTS);
+    var mean_offset = vec2f(0.0);
+    var mean_uv = vec2f(0.0);
+    for (var j = 0u; j < FOOTPRINT_POINTS; j++) {
+        mean_offset += points[j];
+        mean_uv += (*ends)[j].uv;
+    }
+    mean_offset /= n;
+    mean_uv /= n;
+    var spread = mat2x2f(0.0, 0.0, 0.0, 0.0);
+    var moved = mat2x2f(0.0, 0.0, 0.0, 0.0);
+    for (var j = 0u; j < FOOTPRINT_POINTS; j++) {
+        let d = points[j] - mean_offset;
+        let uv = ((*ends)[j].uv - mean_uv) * size;
+        spread += mat2x2f(d * d.x, d * d.y);
+        moved += mat2x2f(uv * d.x, uv * d.y);
+    }
+    let det = spread[0].x * spread[1].y - spread[1].x * spread[0].y;
+    let inverse = mat2x2f(vec2f(spread[1].y, -spread[0].y), vec2f(-spread[1].x, spread[0].x)) * (1.0 / det);
+    return moved * inverse;
+}
+
+// through.rs: footprint_cell_sample, of `texture` over the quarter of the pixel that the ray
+// through offset `ray` stands for.
+fn footprint_cell_sample(texture: u32, uv: vec2f, ray: vec2f, gradients: mat2x2f, size: vec2f) -> vec4f {
+    var taps = CELL_TAPS;
+    let quarter = vec2f(select(-0.25, 0.25, ray.x >= 0.0), select(-0.25, 0.25, ray.y >= 0.0));
+    let half_cell = 0.125 * max(length(gradients[0]), length(gradients[1]));
+    let lod = log2(max(half_cell, 1.0));
+    var sum = vec4f(0.0);
+    for (var t = 0u; t < 4u; t++) {
+        sum += sample_texture_lod(texture, uv + gradients * (quarter + taps[t] - ray) / size, lod);
+    }
+    return sum * 0.25;
+}
+
+// through.rs: footprint_albedo's point lookup, for `end` at mip level `lod` of its material's
+// texture; an end without one keeps its base colour.
 fn footprint_albedo(end: FootprintEnd, lod: f32) -> vec3f {
     if end.material == NONE {
         return end.albedo;
     }
     let texture = bitcast<u32>(materials[end.material * MATERIAL_VEC4S].w);
     return end.albedo * sample_texture_lod(texture, end.uv, lod).xyz;
+}
+
+// through.rs: footprint_albedo over the cells, for the end of the ray through `point`.
+fn footprint_cell_albedo(end: FootprintEnd, point: u32, gradients: mat2x2f) -> vec3f {
+    var points = FOOTPRINT;
+    let texture = bitcast<u32>(materials[end.material * MATERIAL_VEC4S].w);
+    return end.albedo * footprint_cell_sample(texture, end.uv, points[point], gradients, texture_size(end.material)).xyz;
 }
 
 // through.rs: footprint_spread, over the first `count` of `positions`.
@@ -376,16 +422,29 @@ fn through_pass(@builtin(global_invocation_id) id: vec3u) {
             hits += 1u;
         }
     }
-    // Each material's level depends on all its ends: computed once for a run of them.
-    var lod_material = NONE;
-    var lod = 0.0;
-    for (var j = 0u; j < hits; j++) {
-        let e = ends[j];
-        if e.material != NONE && e.material != lod_material {
-            lod_material = e.material;
-            lod = footprint_lod(&ends, hits, e.material, texture_size(e.material), paths);
+    // Where every footprint ray reached the same textured material, each reads it over its
+    // quarter of the pixel; otherwise each material's level depends on all its ends, and is
+    // computed once for a run of them.
+    var one_material = paths == FOOTPRINT_POINTS && hits == paths && ends[0].material != NONE;
+    for (var j = 1u; j < hits; j++) {
+        one_material = one_material && ends[j].material == ends[0].material;
+    }
+    if one_material {
+        let gradients = footprint_gradients(&ends, texture_size(ends[0].material));
+        for (var j = 0u; j < hits; j++) {
+            albedo += footprint_cell_albedo(ends[j], j, gradients) * ends[j].transmittance;
         }
-        albedo += footprint_albedo(e, lod) * e.transmittance;
+    } else {
+        var lod_material = NONE;
+        var lod = 0.0;
+        for (var j = 0u; j < hits; j++) {
+            let e = ends[j];
+            if e.material != NONE && e.material != lod_material {
+                lod_material = e.material;
+                lod = footprint_lod(&ends, hits, e.material, texture_size(e.material), paths);
+            }
+            albedo += footprint_albedo(e, lod) * e.transmittance;
+        }
     }
     // Albedo and light as seen: weighted by what each path lets through.
     if transmittance > 0.0 {

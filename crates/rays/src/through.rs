@@ -2,7 +2,7 @@
 //! the footprint of every pixel it covers, refracted at each of its surfaces (Snell's law with
 //! its IOR, total internal reflection followed), to the first opaque surface or light behind
 //! it, or the background where it leaves the scene, reading textures over each ray's share of
-//! the footprint (mip levels). The other transparent objects are ignored, so a through buffer
+//! the footprint (through the footprint's ray differential, or at a mip level). The other transparent objects are ignored, so a through buffer
 //! depends on its own object only, as GlassNet's permutation-invariant sum of per-object terms
 //! needs. Channels: `layout::THROUGH_ATTRIBUTES`.
 //!
@@ -11,7 +11,7 @@
 
 use std::sync::Arc;
 
-use glam::{Vec2, Vec3};
+use glam::{Mat2, Vec2, Vec3, Vec4};
 use glassbake_core::camera::Camera;
 use glassbake_core::image::PlanarImage;
 use glassbake_core::layout::{self, opaque, through, transparent};
@@ -326,17 +326,62 @@ pub fn footprint_lod(uvs: &[Vec2], size: Vec2, paths: usize) -> f32 {
     side.max(1.0).log2()
 }
 
+/// How a footprint's texture coordinates move across the pixel, per pixel right and down:
+/// the least-squares affine map from [`FOOTPRINT`]'s offsets to the `uvs` its rays hit, one
+/// each in its order, in texels of a texture `size` texels large. A ray differential measured
+/// on the rays themselves, so it holds through every refraction the paths took.
+pub fn footprint_gradients(uvs: &[Vec2; 4], size: Vec2) -> Mat2 {
+    let n = FOOTPRINT.len() as f32;
+    let offsets = FOOTPRINT.map(Vec2::from_array);
+    let (mean_offset, mean_uv) = (offsets.iter().sum::<Vec2>() / n, uvs.iter().sum::<Vec2>() / n);
+    let outer = |a: Vec2, b: Vec2| Mat2::from_cols(a * b.x, a * b.y);
+    let (mut spread, mut moved) = (Mat2::ZERO, Mat2::ZERO);
+    for (&d, &uv) in offsets.iter().zip(uvs) {
+        spread += outer(d - mean_offset, d - mean_offset);
+        moved += outer((uv - mean_uv) * size, d - mean_offset);
+    }
+    moved * spread.inverse()
+}
+
+/// The sub-cells a footprint ray's texture is read over: the four quarters of its own quarter
+/// of the pixel, each read with half its side's gradients so that the 16 lookups' filters
+/// tile the pixel rather than overlap (the G-buffers read textures the same way,
+/// `glassbake_raster`'s `footprint_sample`). Offsets in pixels from the ray's quarter's centre.
+pub const CELL_TAPS: [[f32; 2]; 4] = [[-0.125, -0.125], [0.125, -0.125], [-0.125, 0.125], [0.125, 0.125]];
+
+/// The mean of `chain` over quarter `point` of a pixel whose footprint ray there hit `uv`, the
+/// pixel's texture coordinates moving by `gradients` (texels per pixel, [`footprint_gradients`]).
+pub fn footprint_cell_sample(chain: &MipChain, uv: Vec2, point: usize, gradients: Mat2) -> Vec4 {
+    let size = Vec2::new(chain.levels[0].width as f32, chain.levels[0].height as f32);
+    let ray = Vec2::from_array(FOOTPRINT[point]);
+    let quarter = Vec2::new(0.25_f32.copysign(ray.x), 0.25_f32.copysign(ray.y));
+    let half_cell = 0.125 * gradients.x_axis.length().max(gradients.y_axis.length());
+    let lod = half_cell.max(1.0).log2();
+    CELL_TAPS.iter().map(|&tap| chain.sample(uv + gradients * (quarter + Vec2::from_array(tap) - ray) / size, lod)).sum::<Vec4>() / CELL_TAPS.len() as f32
+}
+
 /// The albedo of `hit`, one of a pixel's footprint `hits`, its texture read over its share
-/// of the footprint ([`footprint_lod`]) rather than at one point. `last_lod` keeps the level
-/// of the last material asked for: a footprint's hits mostly share one, whose level depends
-/// on all of them and is the same for each.
-fn footprint_albedo(scene: &Scene, mips: &[MipChain], hit: &ThroughHit, hits: &[ThroughHit], paths: usize, last_lod: &mut Option<(usize, f32)>) -> Vec3 {
+/// of the footprint rather than at one point. Where all [`FOOTPRINT`]'s rays reach the same
+/// textured material, over its quarter's sub-cells through the rays' own differential
+/// ([`footprint_cell_sample`]); otherwise (rough glass's lobe, lost rays, an edge between
+/// materials) at the mip level of its share ([`footprint_lod`]). `last` keeps what was worked
+/// out for the last material asked for: a footprint's hits mostly share one, and it depends on
+/// all of them.
+fn footprint_albedo(
+    scene: &Scene,
+    mips: &[MipChain],
+    point: usize,
+    hit: &ThroughHit,
+    hits: &[ThroughHit],
+    paths: usize,
+    last: &mut Option<(usize, TextureRead)>,
+) -> Vec3 {
     let Some((index, uv)) = hit.textured else { return hit.albedo };
     let material = &scene.materials[index];
     let Some(texture) = material.base_color_texture else { return hit.albedo };
     let chain = &mips[texture];
-    let lod = match *last_lod {
-        Some((m, lod)) if m == index => lod,
+    let read = match *last {
+        Some((m, read)) if m == index => read,
         _ => {
             let mut uvs = [Vec2::ZERO; LOBE_SAMPLES];
             let mut count = 0;
@@ -345,12 +390,29 @@ fn footprint_albedo(scene: &Scene, mips: &[MipChain], hit: &ThroughHit, hits: &[
                 count += 1;
             }
             let size = Vec2::new(chain.levels[0].width as f32, chain.levels[0].height as f32);
-            let lod = footprint_lod(&uvs[..count], size, paths);
-            *last_lod = Some((index, lod));
-            lod
+            let read = if paths == FOOTPRINT.len() && count == paths {
+                TextureRead::Cells(footprint_gradients(&[uvs[0], uvs[1], uvs[2], uvs[3]], size))
+            } else {
+                TextureRead::Level(footprint_lod(&uvs[..count], size, paths))
+            };
+            *last = Some((index, read));
+            read
         }
     };
-    material.base_color * chain.sample(uv, lod).truncate()
+    let texel = match read {
+        TextureRead::Cells(gradients) => footprint_cell_sample(chain, uv, point, gradients),
+        TextureRead::Level(lod) => chain.sample(uv, lod),
+    };
+    material.base_color * texel.truncate()
+}
+
+/// How a footprint's hits on one material read its texture.
+#[derive(Clone, Copy)]
+enum TextureRead {
+    /// Over each ray's quarter of the pixel, with the footprint's uv gradients.
+    Cells(Mat2),
+    /// At one point, at this mip level.
+    Level(f32),
 }
 
 /// The through buffer of transparent object `k` for a frame: `layout::through_channel_names(k)`,
@@ -409,9 +471,9 @@ pub fn through_buffer(scene: &Scene, geometry: &ThroughScene, k: usize, camera: 
                     }
                     let (mut albedo, mut light, mut transmittance) = (Vec3::ZERO, Vec3::ZERO, 0.0);
                     let mut positions = [Vec3::ZERO; LOBE_SAMPLES];
-                    let mut last_lod = None;
+                    let mut last_read = None;
                     for (j, h) in hits.iter().enumerate() {
-                        albedo += footprint_albedo(scene, &geometry.mips, h, &hits, paths, &mut last_lod) * h.transmittance;
+                        albedo += footprint_albedo(scene, &geometry.mips, j, h, &hits, paths, &mut last_read) * h.transmittance;
                         let view = if h.is_light { None } else { on_screen(camera, geometry, opaque_gbuffer, h.position) };
                         light += light_at(h, view) * h.transmittance;
                         transmittance += h.transmittance;

@@ -23,7 +23,7 @@ use crate::gpu_bvh::{GpuBvhs, GpuTriangle, COMMON_WGSL, OPTICS_WGSL};
 use crate::gpu_cache::Recent;
 use crate::gpu_scene::{self, bits, v4, ATTRIBUTE_VEC4S, NONE};
 use crate::gpu_stats::{created, GpuObject};
-use crate::through::{FOOTPRINT, FOOTPRINT_RMS, LOBE_SAMPLES, MAX_INTERFACES, SELF_HIT, VIEW_SLACK};
+use crate::through::{CELL_TAPS, FOOTPRINT, FOOTPRINT_RMS, LOBE_SAMPLES, MAX_INTERFACES, SELF_HIT, VIEW_SLACK};
 
 /// Record sizes in vec4s of the through pass's own records (the triangles' are
 /// `gpu_scene`'s): these constants reach the shader (`shader_source`).
@@ -82,13 +82,11 @@ fn shader_source() -> String {
         through::SCREEN_OFFSET,
         through::ON_SCREEN
     ));
-    let points: Vec<String> = FOOTPRINT.iter().map(|[x, y]| format!("vec2f({x:?}, {y:?})")).collect();
-    source.push_str(&format!(
-        "const FOOTPRINT: array<vec2f, {}> = array<vec2f, {}>({});\nconst FOOTPRINT_RMS: f32 = {FOOTPRINT_RMS:?};\n",
-        FOOTPRINT.len(),
-        FOOTPRINT.len(),
-        points.join(", ")
-    ));
+    for (name, points) in [("FOOTPRINT", &FOOTPRINT), ("CELL_TAPS", &CELL_TAPS)] {
+        let points: Vec<String> = points.iter().map(|[x, y]| format!("vec2f({x:?}, {y:?})")).collect();
+        source.push_str(&format!("const {name}: array<vec2f, {n}> = array<vec2f, {n}>({});\n", points.join(", "), n = points.len()));
+    }
+    source.push_str(&format!("const FOOTPRINT_RMS: f32 = {FOOTPRINT_RMS:?};\n"));
     for part in [GpuBvhs::wgsl().as_str(), OPTICS_WGSL, COMMON_WGSL, include_str!("../shaders/through.wgsl")] {
         source.push_str(part);
         source.push('\n');

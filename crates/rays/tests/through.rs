@@ -449,3 +449,51 @@ fn the_footprint_reads_the_mip_level_of_its_share_of_the_pixel() {
     let fine: Vec<Vec2> = FOOTPRINT.iter().map(|&[x, y]| Vec2::new(0.5, 0.5) + Vec2::new(x, y) / size).collect();
     assert_eq!(footprint_lod(&fine, size, 4), 0.0);
 }
+
+/// A footprint whose rays land on uvs moved by an affine map of their offsets gives that map's
+/// gradients back, however it stretches and turns the pixel.
+#[test]
+fn the_footprint_gradients_are_the_map_from_its_offsets_to_its_uvs() {
+    use glam::{Mat2, Vec2};
+    use glassbake_rays::through::{footprint_gradients, FOOTPRINT};
+    let size = Vec2::new(512.0, 256.0);
+    let map = Mat2::from_cols(Vec2::new(7.0, -3.0), Vec2::new(2.5, 19.0));
+    let uvs = FOOTPRINT.map(|[x, y]| Vec2::new(0.3, 0.6) + map * Vec2::new(x, y) / size);
+    let gradients = footprint_gradients(&uvs, size);
+    assert!(gradients.abs_diff_eq(map, 1e-3), "{gradients} for {map}");
+}
+
+/// Each footprint ray's quarter of the pixel, read as four lookups with half their cell's
+/// gradients, is the box mean of the texels it covers where those line up with the texture's
+/// grid: 8 texels a pixel, so 4x4 texels a quarter, on a texture of random texels. One lookup
+/// at the quarter's level (what rough glass's lobe and mixed footprints read) is not.
+#[test]
+fn a_footprint_quarter_reads_the_mean_of_its_texels() {
+    use glam::{Mat2, Vec2, Vec4};
+    use glassbake_rays::through::{footprint_cell_sample, footprint_lod, FOOTPRINT};
+    use glassbake_scene::model::Texture;
+    use glassbake_scene::MipChain;
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let side = 64u32;
+    let texels: Vec<Vec4> = (0..side * side).map(|_| Vec4::new(rng.random(), rng.random(), rng.random(), 1.0)).collect();
+    let texture = Texture { name: "noise".into(), width: side, height: side, texels: texels.clone(), is_color: true };
+    let chain = MipChain::new(&texture);
+    let size = Vec2::splat(side as f32);
+    let gradients = Mat2::from_diagonal(Vec2::splat(8.0));
+    // The pixel's centre on the corner of texels (31, 31) and (32, 32).
+    let centre = Vec2::splat(0.5);
+    let uvs = FOOTPRINT.map(|[x, y]| centre + gradients * Vec2::new(x, y) / size);
+    let lod = footprint_lod(&uvs, size, FOOTPRINT.len());
+    let (mut cell_error, mut level_error) = (0.0f32, 0.0f32);
+    for (point, &[x, y]) in FOOTPRINT.iter().enumerate() {
+        // The quarter's texels: columns and rows 28..32 or 32..36.
+        let (x0, y0) = (if x < 0.0 { 28 } else { 32 }, if y < 0.0 { 28 } else { 32 });
+        let mean = (y0..y0 + 4).flat_map(|ty| (x0..x0 + 4).map(move |tx| (tx, ty))).map(|(tx, ty)| texels[(ty * side + tx) as usize]).sum::<Vec4>() / 16.0;
+        let cells = footprint_cell_sample(&chain, uvs[point], point, gradients);
+        cell_error = cell_error.max((cells - mean).abs().max_element());
+        level_error = level_error.max((chain.sample(uvs[point], lod) - mean).abs().max_element());
+    }
+    assert!(cell_error < 1e-5, "the quarters' lookups are {cell_error} from their texels' mean");
+    assert!(level_error > 0.05, "one lookup a quarter is as good: {level_error}");
+}

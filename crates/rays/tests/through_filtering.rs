@@ -82,7 +82,8 @@ fn the_through_albedo_is_the_footprints_mean_on_desk() {
     let e = albedo_errors(&[0, 1, 2, 3, 4, 5]);
     println!("desk through: {} detailed pixels, albedo RMS error {:.4} against a footprint spread of {:.4}", e.pixels, e.detailed, e.detail);
     assert!(e.pixels > 200, "too few textured pixels to judge: {}", e.pixels);
-    // Four point samples of the full-size texture a pixel measured 0.39 of the spread; read
-    // over each one's share of the footprint, 0.21.
-    assert!(e.detailed < 0.3 * e.detail, "RMS error {:.4}, spread {:.4}", e.detailed, e.detail);
+    // Four point samples of the full-size texture a pixel measured 0.39 of the spread; one
+    // lookup at the level of each one's share of the footprint, 0.21; four lookups over each
+    // one's quarter with half their cell's gradients, 0.18 (with a whole cell's, 0.19).
+    assert!(e.detailed < 0.2 * e.detail, "RMS error {:.4}, spread {:.4}", e.detailed, e.detail);
 }
