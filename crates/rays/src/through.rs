@@ -2,9 +2,10 @@
 //! the footprint of every pixel it covers, refracted at each of its surfaces (Snell's law with
 //! its IOR, total internal reflection followed), to the first opaque surface or light behind
 //! it, or the background where it leaves the scene, reading textures over each ray's share of
-//! the footprint (through the footprint's ray differential, or at a mip level). The other transparent objects are ignored, so a through buffer
-//! depends on its own object only, as GlassNet's permutation-invariant sum of per-object terms
-//! needs. Channels: `layout::THROUGH_ATTRIBUTES`.
+//! the footprint (through the footprint's ray differential, or at a mip level). The other
+//! transparent objects are ignored, so a through buffer depends on its own object only, as
+//! GlassNet's permutation-invariant sum of per-object terms needs. Channels:
+//! `layout::THROUGH_ATTRIBUTES`.
 //!
 //! The pass casts rays on the CPU in two BVHs per ray (the opaque scene with its lights, and
 //! the object alone), so neither the BVHs nor the rays depend on the other transparent objects.
