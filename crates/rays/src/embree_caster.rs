@@ -175,6 +175,12 @@ impl EmbreeCaster {
         })
     }
 
+    /// Embree's own occlusion query (`rtcOccluded1`) would call the panes' filter, which reads
+    /// a shadow query's state from its context; the nearest hit answers the same question.
+    pub(crate) fn occluded(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> bool {
+        self.closest_hit(origin, direction, t_min, t_max).is_some()
+    }
+
     /// Panes sorted by distance (then triangle), each once: Embree may report a triangle twice
     /// (spatial splits put it in two leaves), and its traversal order is its own.
     pub(crate) fn shadow_query(&self, _attributes: &[TriangleAttributes], origin: Vec3, direction: Vec3, t_min: f32, t_max: f32, panes: &mut Vec<Hit>) -> bool {

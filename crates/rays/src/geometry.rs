@@ -66,6 +66,13 @@ impl SceneGeometry {
         self.caster.as_ref()?.closest_hit(origin, direction, t_min, t_max)
     }
 
+    /// Whether any triangle lies on the segment (t_min, t_max): `closest_hit(..).is_some()`,
+    /// with a traversal that stops at the first hit it finds instead of looking on for the
+    /// nearest.
+    pub fn occluded(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> bool {
+        self.caster.as_ref().is_some_and(|caster| caster.occluded(origin, direction, t_min, t_max))
+    }
+
     /// One traversal for a shadow segment (t_min, t_max): returns whether anything that
     /// cannot let light through lies on it, and (when nothing does) leaves in `panes` every
     /// hit with a triangle that may pass light through, each once, in an order fixed by the
@@ -195,6 +202,12 @@ mod tests {
                 (Some(a), Some(b)) => assert!((a.0 - b.0).abs() < 1e-5, "{a:?} vs {b:?}"),
                 (None, None) => {}
                 other => panic!("BVH and brute force disagree: {other:?}"),
+            }
+            // The segment up to a random distance is blocked exactly when the nearest hit lies
+            // on it (hits within rounding of its end may go either way).
+            let t_max = rng.random::<f32>() * 3.0;
+            if slow.is_none_or(|(t, _)| (t - t_max).abs() > 1e-4 * t_max.max(1.0)) {
+                assert_eq!(geometry.occluded(origin, direction, 0.0, t_max), slow.is_some_and(|(t, _)| t < t_max), "{origin} {direction} {t_max}");
             }
             // Nothing lies before the closest hit; the closest hit blocks unless it is a pane,
             // and then the shadow query reports it.

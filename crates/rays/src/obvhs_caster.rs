@@ -125,6 +125,13 @@ impl ObvhsCaster {
         best.map(|(t, b1, b2, triangle)| Hit { t, triangle, b1, b2 })
     }
 
+    pub(crate) fn occluded(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> bool {
+        let hot = &self.hot;
+        !self.bvh.ray_traverse_miss(bvh_ray(origin, direction, t_min, t_max), |_, id| {
+            hot[id].intersect(origin, direction, t_min, t_max).map_or(f32::INFINITY, |(t, _, _)| t)
+        })
+    }
+
     /// Panes come in BVH traversal order, each once (`medium_build` does not split triangles, so
     /// each is in one leaf).
     pub(crate) fn shadow_query(&self, attributes: &[TriangleAttributes], origin: Vec3, direction: Vec3, t_min: f32, t_max: f32, panes: &mut Vec<Hit>) -> bool {

@@ -525,7 +525,7 @@ fn on_screen(camera: &Camera, geometry: &ThroughScene, opaque_gbuffer: &PlanarIm
     }
     let to_hit = position - camera.position;
     let distance = to_hit.length();
-    let blocked = geometry.opaque.closest_hit(camera.position, to_hit / distance, 0.0, distance * (1.0 - VIEW_SLACK)).is_some();
+    let blocked = geometry.opaque.occluded(camera.position, to_hit / distance, 0.0, distance * (1.0 - VIEW_SLACK));
     Some(((px as u32, py as u32), !blocked))
 }
 
