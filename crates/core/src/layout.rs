@@ -88,8 +88,9 @@ pub mod light_coverage {
 ///   from the pixel's centre reaches, as the opaque G-buffer would describe it if the glass did
 ///   not bend;
 /// - `albedo` (textured) and `Ld`, the direct light there (read from the opaque G-buffer at the
-///   pixel the hit projects to where the camera sees the hit, a light's radiance for a light, 0
-///   elsewhere): their mean over the pixel's footprint, the rays from
+///   pixel the hit projects to where the camera sees the hit, a light's radiance for a light,
+///   elsewhere the emission and the lights' direct diffuse light, `glassbake_rays::direct`):
+///   their mean over the pixel's footprint, the rays from
 ///   `glassbake_rays::through::FOOTPRINT`'s points of the pixel, each weighted by what its path
 ///   lets through. A lens spreads a pixel over a large region behind it, which the ground
 ///   truth averages and one ray would alias;

@@ -24,10 +24,13 @@ use serde::{Deserialize, Serialize};
 /// lavapipe blurred fine print to grey. 11: a through buffer's footprint rays that reach one
 /// textured material read it over the 2x2 sub-cells of their quarters of the pixel, through the
 /// footprint's ray differential (`glassbake_rays::through::footprint_cell_sample`), instead of
-/// one lookup each at their quarter's level. An older dataset is still read: its
+/// one lookup each at their quarter's level. 12: where the camera does not see what a through
+/// buffer's ray reaches, its L_d is the lights' direct diffuse light there
+/// (`glassbake_rays::direct::unseen_direct_light`), where it was only what that surface emits.
+/// An older dataset is still read: its
 /// ground truth is good, and its cached buffers, which are not today's, are rasterized again
 /// (or brought up to date in place by `glassbake dataset upgrade`).
-pub const FORMAT_VERSION: u32 = 11;
+pub const FORMAT_VERSION: u32 = 12;
 
 /// The most frames one dataset holds: its manifest lists every frame's camera and values
 /// (about 200 bytes each), and is planned in memory before any frame is traced.

@@ -30,8 +30,8 @@ struct Params {
     through_offset: u32,
     // The side of a pixel at distance 1 from the camera: 2 tan(fov_y / 2) / height.
     pixel_size: f32,
-    _pad1: u32,
-    _pad2: u32,
+    light_count: u32,
+    _pad: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -39,11 +39,11 @@ struct Params {
 @group(0) @binding(2) var<storage, read> triangles: array<vec4f>;
 // Per triangle: p0..p2 (w: material or light, flags, -), n0..n2, (uv0, uv1), (uv2, -).
 @group(0) @binding(3) var<storage, read> attributes: array<vec4f>;
-// Per material (base colour, base colour texture or NONE), (emission, -); then from
+// Per material (base colour, base colour texture or NONE), (emission, diffuse share); then from
 // params.texture_table one (offset, width, height, -) per texture.
 @group(0) @binding(4) var<storage, read> materials: array<vec4f>;
 @group(0) @binding(5) var<storage, read> texels: array<vec4f>;
-// Per rectangle light: (normal, two-sided), (radiance, -).
+// Per rectangle light: (normal, two-sided), (radiance, -), (corner, -), (edge u, -), (edge v, -).
 @group(0) @binding(6) var<storage, read> lights: array<vec4f>;
 // Planes of width x height: the opaque G-buffer's L_d from params.ld_offset on.
 @group(0) @binding(7) var<storage, read> gbuffer: array<f32>;
@@ -83,6 +83,8 @@ struct PathEnd {
     normal: vec3f,
     // The base colour; a texture, read over the footprint, multiplies it there.
     albedo: vec3f,
+    // through.rs: ThroughHit::diffuse.
+    diffuse: f32,
     // Where the end reads a texture: its material (NONE elsewhere) and UV.
     material: u32,
     uv: vec2f,
@@ -97,12 +99,12 @@ struct PathEnd {
 }
 
 fn lost() -> PathEnd {
-    return PathEnd(false, vec3f(0.0), vec3f(0.0), vec3f(0.0), NONE, vec2f(0.0), vec3f(0.0), false, false, 0.0, 0.0, 0.0);
+    return PathEnd(false, vec3f(0.0), vec3f(0.0), vec3f(0.0), 0.0, NONE, vec2f(0.0), vec3f(0.0), false, false, 0.0, 0.0, 0.0);
 }
 
 // through.rs: background_end.
 fn background_end(origin: vec3f, direction: vec3f, transmittance: f32, length: f32, path_length: f32) -> PathEnd {
-    return PathEnd(true, origin, -direction, vec3f(0.0), NONE, vec2f(0.0), params.background.xyz, true, true, transmittance, length, path_length);
+    return PathEnd(true, origin, -direction, vec3f(0.0), 0.0, NONE, vec2f(0.0), params.background.xyz, true, true, transmittance, length, path_length);
 }
 
 fn surface_end(hit: Hit, origin: vec3f, direction: vec3f, transmittance: f32, length: f32, path_length: f32) -> PathEnd {
@@ -122,6 +124,7 @@ fn surface_end(hit: Hit, origin: vec3f, direction: vec3f, transmittance: f32, le
         let normal = lights[material_or_light * LIGHT_VEC4S];
         let front = dot(normal.xyz, direction) < 0.0;
         end.albedo = vec3f(0.0);
+        end.diffuse = 0.0;
         end.emitted = select(vec3f(0.0), lights[material_or_light * LIGHT_VEC4S + 1u].xyz, front || normal.w != 0.0);
         end.is_light = true;
         return end;
@@ -134,7 +137,9 @@ fn surface_end(hit: Hit, origin: vec3f, direction: vec3f, transmittance: f32, le
         end.uv = uv01.xy * b0 + uv01.zw * hit.b1 + attributes[base + 7u].xy * hit.b2;
     }
     end.albedo = material.xyz;
-    end.emitted = materials[material_or_light * MATERIAL_VEC4S + 1u].xyz;
+    let emission = materials[material_or_light * MATERIAL_VEC4S + 1u];
+    end.emitted = emission.xyz;
+    end.diffuse = emission.w;
     end.is_light = false;
     return end;
 }
@@ -253,6 +258,41 @@ fn light_at(end: PathEnd, view: vec4f) -> vec3f {
     return end.emitted;
 }
 
+// direct.rs: unseen_direct_light, the shadow rays cast in the opaque scene.
+fn unseen_direct_light(position: vec3f, normal: vec3f, diffuse_albedo: vec3f, point: u32) -> vec3f {
+    if all(diffuse_albedo == vec3f(0.0)) {
+        return vec3f(0.0);
+    }
+    let frame = frame_around(normal);
+    var points = FOOTPRINT;
+    // direct.rs: light_point.
+    let on_light = points[point % FOOTPRINT_POINTS] + vec2f(0.5);
+    var total = vec3f(0.0);
+    for (var l = 0u; l < params.light_count; l++) {
+        let base = l * LIGHT_VEC4S;
+        let facing = lights[base];
+        let corner = lights[base + 2u].xyz;
+        let edge_u = lights[base + 3u].xyz;
+        let edge_v = lights[base + 4u].xyz;
+        let side = dot(position - corner, facing.xyz);
+        if !(side > 0.0 || (facing.w != 0.0 && side < 0.0)) {
+            continue;
+        }
+        let c = corner - position;
+        let form_factor = polygon_form_factor(frame * c, frame * (c + edge_u), frame * (c + edge_u + edge_v), frame * (c + edge_v));
+        if form_factor <= 0.0 {
+            continue;
+        }
+        let to_light = c + edge_u * on_light.x + edge_v * on_light.y;
+        let distance = length(to_light);
+        if traverse(params.opaque_root, position, to_light / distance, SELF_HIT, distance * (1.0 - VIEW_SLACK), CONSIDER_ALL, 0u, true).valid {
+            continue;
+        }
+        total += lights[base + 1u].xyz * diffuse_albedo * form_factor;
+    }
+    return total;
+}
+
 // core::camera: PrimaryRays::ray, through the point `offset` pixels from the centre of `pixel`.
 fn pixel_ray(pixel: vec2u, offset: vec2f) -> vec3f {
     let ndc_x = 2.0 * (f32(pixel.x) + 0.5 + offset.x) / f32(params.width) - 1.0;
@@ -268,6 +308,20 @@ struct FootprintEnd {
     albedo: vec3f,
     material: u32,
     uv: vec2f,
+    // light_at's: the G-buffer's L_d where the camera sees the end, else what it emits.
+    light: vec3f,
+    // The diffuse share where the camera does not see the end, whose lights' direct light is
+    // added to `light` once its albedo is read; 0 where it does, on a light, the background.
+    unseen_diffuse: f32,
+    normal: vec3f,
+}
+
+// through.rs: light_at, for `end` of footprint path `point` with `albedo` read over its share.
+fn end_light(end: FootprintEnd, albedo: vec3f, point: u32) -> vec3f {
+    if end.unseen_diffuse == 0.0 {
+        return end.light;
+    }
+    return end.light + unseen_direct_light(end.position, end.normal, albedo * end.unseen_diffuse, point);
 }
 
 // through.rs: footprint_lod, for the hit on `material` among the first `count` ends.
@@ -416,9 +470,9 @@ fn through_pass(@builtin(global_invocation_id) id: vec3u) {
             if !h.is_light {
                 h_view = on_screen(h.position);
             }
-            light += light_at(h, h_view) * h.transmittance;
+            let seen = !h.is_light && h_view.z != 0.0 && h_view.w != 0.0;
             transmittance += h.transmittance;
-            ends[hits] = FootprintEnd(h.position, h.transmittance, h.albedo, h.material, h.uv);
+            ends[hits] = FootprintEnd(h.position, h.transmittance, h.albedo, h.material, h.uv, light_at(h, h_view), select(h.diffuse, 0.0, seen), h.normal);
             hits += 1u;
         }
     }
@@ -432,7 +486,9 @@ fn through_pass(@builtin(global_invocation_id) id: vec3u) {
     if one_material {
         let gradients = footprint_gradients(&ends, texture_size(ends[0].material));
         for (var j = 0u; j < hits; j++) {
-            albedo += footprint_cell_albedo(ends[j], j, gradients) * ends[j].transmittance;
+            let a = footprint_cell_albedo(ends[j], j, gradients);
+            albedo += a * ends[j].transmittance;
+            light += end_light(ends[j], a, j) * ends[j].transmittance;
         }
     } else {
         var lod_material = NONE;
@@ -443,7 +499,9 @@ fn through_pass(@builtin(global_invocation_id) id: vec3u) {
                 lod_material = e.material;
                 lod = footprint_lod(&ends, hits, e.material, texture_size(e.material), paths);
             }
-            albedo += footprint_albedo(e, lod) * e.transmittance;
+            let a = footprint_albedo(e, lod);
+            albedo += a * e.transmittance;
+            light += end_light(e, a, j) * e.transmittance;
         }
     }
     // Albedo and light as seen: weighted by what each path lets through.

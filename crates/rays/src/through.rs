@@ -20,6 +20,7 @@ use glassbake_scene::model::SMOOTH_ROUGHNESS;
 use glassbake_scene::{MipChain, Scene, Texture};
 use rayon::prelude::*;
 
+use crate::direct::{diffuse_share, unseen_direct_light};
 use crate::geometry::{scene_triangles, SceneGeometry};
 use crate::optics::{fresnel_dielectric, reflect, refract, thin_slab_reflectance};
 use crate::triangle::{Hit, Owner, TriangleAttributes};
@@ -94,6 +95,9 @@ pub struct ThroughHit {
     pub normal: Vec3,
     /// The base colour times the full-size texture's colour at the hit.
     pub albedo: Vec3,
+    /// The share of the albedo that reflects diffusely (`direct::diffuse_share`); 0 on a
+    /// light or the background.
+    pub diffuse: f32,
     /// Where the hit reads a texture: its material and UV.
     pub textured: Option<(usize, Vec2)>,
     /// A light's radiance where the ray meets a light's emitting side, the background's where
@@ -273,21 +277,21 @@ fn surface_hit(scene: &Scene, triangle: &TriangleAttributes, hit: &Hit, origin: 
     let position = origin + direction * hit.t;
     let n = triangle.shading_normal(hit, triangle.face_normal());
     let normal = if n.dot(direction) > 0.0 { -n } else { n };
-    let (albedo, textured, emitted, is_light) = match triangle.owner {
+    let (albedo, diffuse, textured, emitted, is_light) = match triangle.owner {
         Owner::Object { material: index, .. } => {
             let material = &scene.materials[index as usize];
             let uv = triangle.uv(hit);
             let texture = material.base_color_texture.map_or(Vec3::ONE, |t| scene.textures[t].sample(uv).truncate());
             let textured = material.base_color_texture.map(|_| (index as usize, uv));
-            (material.base_color * texture, textured, material.emission, false)
+            (material.base_color * texture, diffuse_share(material), textured, material.emission, false)
         }
         Owner::RectLight { light } => {
             let light = &scene.rect_lights[light as usize];
             let front = light.normal().dot(direction) < 0.0;
-            (Vec3::ZERO, None, if front || light.two_sided { light.radiance } else { Vec3::ZERO }, true)
+            (Vec3::ZERO, 0.0, None, if front || light.two_sided { light.radiance } else { Vec3::ZERO }, true)
         }
     };
-    ThroughHit { position, normal, albedo, textured, emitted, is_light, background: false, transmittance, length, path_length, interfaces }
+    ThroughHit { position, normal, albedo, diffuse, textured, emitted, is_light, background: false, transmittance, length, path_length, interfaces }
 }
 
 /// Where a ray leaving the scene from `origin` along `direction` ends: on the background,
@@ -299,6 +303,7 @@ fn background_end(scene: &Scene, origin: Vec3, direction: Vec3, path: Path) -> T
         position: origin,
         normal: -direction,
         albedo: Vec3::ZERO,
+        diffuse: 0.0,
         textured: None,
         emitted: scene.background,
         is_light: true,
@@ -421,17 +426,20 @@ enum TextureRead {
 /// surface the pixel's centre sees, and its albedo and light averaged over the pixel's
 /// [`FOOTPRINT`] (or its lobe's samples through rough glass), with how far that footprint
 /// spreads. L_d comes from `opaque_gbuffer` where the camera sees the hit, at the pixel it
-/// projects to; a light's is its radiance, the background's where the ray leaves the scene.
+/// projects to; where it does not, it is the hit's emission and the lights' direct diffuse
+/// light there ([`unseen_direct_light`]); a light's is its radiance, the background's where
+/// the ray leaves the scene.
 pub fn through_buffer(scene: &Scene, geometry: &ThroughScene, k: usize, camera: &Camera, opaque_gbuffer: &PlanarImage, coverage: &[f32]) -> PlanarImage {
     let (width, height) = (opaque_gbuffer.width(), opaque_gbuffer.height());
     let pixels = (width * height) as usize;
     assert_eq!(coverage.len(), pixels, "one coverage value per pixel of the frame");
     let material = &scene.materials[scene.objects[geometry.object_indices[k]].material];
     let alpha = (material.roughness >= SMOOTH_ROUGHNESS).then_some(material.roughness * material.roughness);
-    let light_at = |hit: &ThroughHit, view: Option<((u32, u32), bool)>| match view {
+    // `albedo` is the hit's over its share of the footprint, `point` its path's index there.
+    let light_at = |hit: &ThroughHit, view: Option<((u32, u32), bool)>, albedo: Vec3, point: usize| match view {
         _ if hit.is_light => hit.emitted,
         Some(((sx, sy), true)) => opaque_light(opaque_gbuffer, sx, sy),
-        _ => hit.emitted,
+        _ => hit.emitted + unseen_direct_light(scene, &geometry.opaque, hit.position, hit.normal, albedo * hit.diffuse, point),
     };
     let rays = camera.primary_rays(width, height);
     let pixel_size = 2.0 * camera.tan_half_fov(width, height).1 / height as f32;
@@ -474,9 +482,10 @@ pub fn through_buffer(scene: &Scene, geometry: &ThroughScene, k: usize, camera: 
                     let mut positions = [Vec3::ZERO; LOBE_SAMPLES];
                     let mut last_read = None;
                     for (j, h) in hits.iter().enumerate() {
-                        albedo += footprint_albedo(scene, &geometry.mips, j, h, &hits, paths, &mut last_read) * h.transmittance;
+                        let hit_albedo = footprint_albedo(scene, &geometry.mips, j, h, &hits, paths, &mut last_read);
+                        albedo += hit_albedo * h.transmittance;
                         let view = if h.is_light { None } else { on_screen(camera, geometry, opaque_gbuffer, h.position) };
-                        light += light_at(h, view) * h.transmittance;
+                        light += light_at(h, view, hit_albedo, j) * h.transmittance;
                         transmittance += h.transmittance;
                         positions[j] = h.position;
                     }

@@ -18,6 +18,7 @@ use glassbake_scene::model::SMOOTH_ROUGHNESS;
 use glassbake_scene::{MipChain, Scene, Texture};
 use wgpu::util::DeviceExt;
 
+use crate::direct::{diffuse_share, POLYGON_WGSL};
 use crate::geometry::{scene_triangles, TriangleAttributes};
 use crate::gpu_bvh::{GpuBvhs, GpuTriangle, COMMON_WGSL, OPTICS_WGSL};
 use crate::gpu_cache::Recent;
@@ -28,7 +29,7 @@ use crate::through::{CELL_TAPS, FOOTPRINT, FOOTPRINT_RMS, LOBE_SAMPLES, MAX_INTE
 /// Record sizes in vec4s of the through pass's own records (the triangles' are
 /// `gpu_scene`'s): these constants reach the shader (`shader_source`).
 const MATERIAL_VEC4S: usize = 2;
-const LIGHT_VEC4S: usize = 2;
+const LIGHT_VEC4S: usize = 5;
 const WORKGROUP_SIDE: u32 = 8;
 
 /// The kernel's uniform block (`Params` in through.wgsl).
@@ -55,7 +56,8 @@ struct Params {
     coverage_offset: u32,
     through_offset: u32,
     pixel_size: f32,
-    _pad: [u32; 2],
+    light_count: u32,
+    _pad: u32,
 }
 
 fn shader_source() -> String {
@@ -87,7 +89,7 @@ fn shader_source() -> String {
         source.push_str(&format!("const {name}: array<vec2f, {n}> = array<vec2f, {n}>({});\n", points.join(", "), n = points.len()));
     }
     source.push_str(&format!("const FOOTPRINT_RMS: f32 = {FOOTPRINT_RMS:?};\n"));
-    for part in [GpuBvhs::wgsl().as_str(), OPTICS_WGSL, COMMON_WGSL, include_str!("../shaders/through.wgsl")] {
+    for part in [GpuBvhs::wgsl().as_str(), OPTICS_WGSL, COMMON_WGSL, POLYGON_WGSL, include_str!("../shaders/through.wgsl")] {
         source.push_str(part);
         source.push('\n');
     }
@@ -124,6 +126,7 @@ pub struct GpuThroughScene {
     objects: Vec<ObjectParams>,
     texture_table: u32,
     background: Vec3,
+    light_count: u32,
     geometry: BuiltGeometry,
     textures: PackedTextures,
 }
@@ -312,6 +315,7 @@ impl GpuThroughPass {
             objects,
             texture_table,
             background: scene.background,
+            light_count: scene.rect_lights.len() as u32,
             geometry,
             textures,
         })
@@ -417,7 +421,8 @@ impl GpuThroughPass {
             coverage_offset: element(object_offset + coverage * pixels)?,
             through_offset: element(object_offset + through * pixels)?,
             pixel_size: 2.0 * ty / height as f32,
-            _pad: [0; 2],
+            light_count: scene.light_count,
+            _pad: 0,
         };
         let key = (scene.arrays.clone(), ld_copy.clone(), object.clone(), object_binding.offset, object_binding.size.map_or(0, |s| s.get()));
         let mut refused = None;
@@ -547,10 +552,14 @@ fn pack_materials(scene: &Scene, textures: &PackedTextures) -> PackedMaterials {
     let mut materials = Vec::with_capacity(scene.materials.len() * MATERIAL_VEC4S + scene.textures.len());
     for m in &scene.materials {
         let texture = m.base_color_texture.filter(|&t| t < scene.textures.len()).map_or(NONE, |t| t as u32);
-        materials.extend([v4(m.base_color, bits(texture)), v4(m.emission, 0.0)]);
+        materials.extend([v4(m.base_color, bits(texture)), v4(m.emission, diffuse_share(m))]);
     }
     let texture_table = materials.len() as u32;
     materials.extend_from_slice(&textures.table);
-    let lights: Vec<[f32; 4]> = scene.rect_lights.iter().flat_map(|l| [v4(l.normal(), if l.two_sided { 1.0 } else { 0.0 }), v4(l.radiance, 0.0)]).collect();
+    let lights: Vec<[f32; 4]> = scene
+        .rect_lights
+        .iter()
+        .flat_map(|l| [v4(l.normal(), if l.two_sided { 1.0 } else { 0.0 }), v4(l.radiance, 0.0), v4(l.corner, 0.0), v4(l.edge_u, 0.0), v4(l.edge_v, 0.0)])
+        .collect();
     PackedMaterials { materials, texture_table, lights }
 }

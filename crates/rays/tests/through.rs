@@ -497,3 +497,125 @@ fn a_footprint_quarter_reads_the_mean_of_its_texels() {
     assert!(cell_error < 1e-5, "the quarters' lookups are {cell_error} from their texels' mean");
     assert!(level_error > 0.05, "one lookup a quarter is as good: {level_error}");
 }
+
+/// Where the camera does not see what a footprint ray reaches, that ray's L_d is the lights'
+/// direct diffuse light there: the light's radiance times the albedo times its form factor
+/// (here by quadrature over the light), if the segment to its point for the ray
+/// (`direct::light_point`) misses the posts that shadow the wall; where the camera sees it,
+/// the G-buffer's.
+#[test]
+fn a_hit_the_camera_does_not_see_is_lit_by_the_lights_it_sees() {
+    use glassbake_core::camera::Camera;
+    use glassbake_core::image::PlanarImage;
+    use glassbake_core::layout::{self, opaque, through, transparent};
+    use glassbake_rays::direct::light_point;
+    use glassbake_rays::through::{through_buffer, FOOTPRINT};
+    use glassbake_scene::model::RectLight;
+
+    let mut scene = scene_with(shapes::cuboid(Vec3::new(3.0, 2.0, 0.8)), false);
+    let post = Vec3::new(0.05, 2.0, 0.05);
+    let posts: Vec<Vec3> = (0..20).map(|i| Vec3::new(-4.0 + 0.3 * i as f32, 0.0, -1.5)).collect();
+    for (i, &at) in posts.iter().enumerate() {
+        add(&mut scene, &format!("post{i}"), shapes::cuboid(post), Material::diffuse("post", Vec3::ONE), at, false);
+    }
+    // Above the posts, facing down: they cast soft shadows on the wall.
+    let light = RectLight {
+        name: "strip".into(),
+        corner: Vec3::new(-3.0, 2.5, -0.5),
+        edge_u: Vec3::new(2.0, 0.0, 0.0),
+        edge_v: Vec3::new(0.0, 0.0, 0.6),
+        radiance: Vec3::new(4.0, 3.0, 2.0),
+        two_sided: false,
+    };
+    assert!(light.normal().y < -0.99);
+    scene.rect_lights.push(light.clone());
+    let geometry = ThroughScene::build(&scene);
+    let camera = Camera::look_at(Vec3::new(3.0, 0.3, 4.0), Vec3::new(0.0, 0.0, -1.0), 60.0);
+    let (w, h) = (64u32, 48u32);
+    let mut coverage = PlanarImage::new(w, h, layout::transparent_channel_names(0));
+    let mut gbuffer = PlanarImage::new(w, h, layout::opaque_channel_names());
+    for y in 0..h {
+        for x in 0..w {
+            coverage.set(transparent::COVERAGE, x, y, f32::from(u8::from(x < w / 2)));
+            for c in 0..3 {
+                gbuffer.set(opaque::LD + c, x, y, 100.0 + (y * w + x) as f32);
+            }
+        }
+    }
+    let cast = through_buffer(&scene, &geometry, 0, &camera, &gbuffer, coverage.plane(transparent::COVERAGE));
+    // Whether the segment from `a` to `b`, short of both ends, crosses a post.
+    let blocked = |a: DVec3, b: DVec3| {
+        let d = b - a;
+        posts.iter().any(|&centre| {
+            let (lo, hi) = ((centre - post).as_dvec3(), (centre + post).as_dvec3());
+            let (mut t0, mut t1): (f64, f64) = (1e-3, 1.0 - 1e-3);
+            for k in 0..3 {
+                let (ta, tb) = ((lo[k] - a[k]) / d[k], (hi[k] - a[k]) / d[k]);
+                t0 = t0.max(ta.min(tb));
+                t1 = t1.min(ta.max(tb));
+            }
+            t0 <= t1
+        })
+    };
+    let on_wall = |p: Vec3| (f64::from(p.z) - WALL_Z).abs() < 1e-3;
+    // The light's form factor at a point of the wall (facing +z), by the midpoint rule.
+    let form_factor = |p: DVec3| {
+        let n = 64;
+        let (corner, u, v) = (light.corner.as_dvec3(), light.edge_u.as_dvec3(), light.edge_v.as_dvec3());
+        let light_normal = u.cross(v).normalize();
+        let mut sum = 0.0;
+        for i in 0..n {
+            for j in 0..n {
+                let q = corner + u * ((i as f64 + 0.5) / n as f64) + v * ((j as f64 + 0.5) / n as f64) - p;
+                let r2 = q.length_squared();
+                let wi = q / r2.sqrt();
+                sum += wi.z.max(0.0) * (-wi.dot(light_normal)).max(0.0) / (std::f64::consts::PI * r2);
+            }
+        }
+        sum * u.cross(v).length() / (n * n) as f64
+    };
+    let (mut checked, mut lit, mut shadowed) = (0, 0, 0);
+    'pixels: for y in 0..h {
+        for x in 0..w / 2 {
+            let (mut light_sum, mut transmittance) = (DVec3::ZERO, 0.0f64);
+            let mut unseen = 0;
+            for (j, [dx, dy]) in FOOTPRINT.into_iter().enumerate() {
+                let ray = camera.ray(x as f32 + 0.5 + dx, y as f32 + 0.5 + dy, w, h);
+                let Some(end) = trace_through(&scene, &geometry, 0, ray.origin, ray.direction) else { continue 'pixels };
+                let t = f64::from(end.transmittance);
+                transmittance += t;
+                let p = end.position.as_dvec3();
+                let in_frame = camera.project(end.position, w, h).filter(|&(px, py)| px >= 0.0 && py >= 0.0 && px < w as f32 && py < h as f32);
+                let l = match in_frame {
+                    _ if end.is_light => end.emitted.as_dvec3(),
+                    Some((px, py)) if !blocked(camera.position.as_dvec3(), p) => DVec3::splat(100.0 + f64::from(py as u32 * w + px as u32)),
+                    // Only the wall's hits are worked out here.
+                    _ if !on_wall(end.position) => continue 'pixels,
+                    _ => {
+                        unseen += 1;
+                        let [u, v] = light_point(j);
+                        let target = (light.corner + light.edge_u * u + light.edge_v * v).as_dvec3();
+                        if blocked(p, target) {
+                            shadowed += 1;
+                            DVec3::ZERO
+                        } else {
+                            lit += 1;
+                            0.5 * light.radiance.as_dvec3() * form_factor(p)
+                        }
+                    }
+                };
+                light_sum += t * l;
+            }
+            if unseen == 0 {
+                continue;
+            }
+            checked += 1;
+            let expected = light_sum / transmittance;
+            for c in 0..3 {
+                let got = f64::from(cast.get(through::LD + c, x, y));
+                assert!((got - expected[c]).abs() <= 1e-3 * expected[c].max(1e-2), "({x}, {y}) channel {c}: L_d {got} vs {expected}");
+            }
+        }
+    }
+    assert!(checked > 40 && lit > 40 && shadowed > 10, "pixels checked {checked}; unseen rays lit {lit}, shadowed {shadowed}");
+}

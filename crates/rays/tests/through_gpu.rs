@@ -76,7 +76,7 @@ fn gpu_and_cpu_through_passes_agree_on_builtin_scenes() {
         let coverage = vec![1.0; (w * h) as usize];
         let geometry = ThroughScene::build(&scene);
         let uploaded = pass.upload(&scene).unwrap();
-        let mut bent = 0;
+        let (mut bent, mut lit_unseen) = (0, 0);
         for k in 0..geometry.object_count() {
             let cpu = through_buffer(&scene, &geometry, k, &sample.camera, &gbuffer, &coverage);
             let gpu = pass.through_buffer(&uploaded, k, &sample.camera, &gbuffer, &coverage).unwrap();
@@ -90,8 +90,15 @@ fn gpu_and_cpu_through_passes_agree_on_builtin_scenes() {
                 .flat_map(|y| (0..w).map(move |x| (x, y)))
                 .filter(|&(x, y)| cpu.get(through::SCREEN_OFFSET, x, y).abs() + cpu.get(through::SCREEN_OFFSET + 1, x, y).abs() >= 2.0)
                 .count();
+            // The lights' direct light reached the comparison: hits the camera does not see
+            // (whose L_d is not the G-buffer's) that are lit.
+            lit_unseen += (0..h)
+                .flat_map(|y| (0..w).map(move |x| (x, y)))
+                .filter(|&(x, y)| cpu.get(through::ON_SCREEN, x, y) == 0.0 && cpu.get(through::ALBEDO, x, y) > 0.0 && cpu.get(through::LD, x, y) > 0.0)
+                .count();
         }
         assert!(bent > 20, "{name}: only {bent} pixels see through bent glass");
+        assert!(lit_unseen > 20, "{name}: only {lit_unseen} lit pixels where the camera does not see the hit");
     }
 }
 

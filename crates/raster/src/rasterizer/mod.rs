@@ -469,10 +469,13 @@ fn bind_group_layouts(device: &wgpu::Device) -> (wgpu::BindGroupLayout, wgpu::Bi
     (view_layout, object_layout, shading_layout)
 }
 
-/// `shaders/gbuffer.wgsl` after the constants it takes from Rust.
+/// `shaders/gbuffer.wgsl` after the constants it takes from Rust and the lights' form factor,
+/// which the through pass shares (`glassbake_rays::direct::POLYGON_WGSL`).
 pub(crate) fn gbuffer_source() -> String {
     use glassbake_core::wgsl::{constants, Value, DIELECTRIC_F0};
-    constants(&[("LTC_SIZE", Value::I32(ltc::LTC_SIZE as i32)), ("DIELECTRIC_F0", Value::F32(DIELECTRIC_F0))]) + include_str!("../../shaders/gbuffer.wgsl")
+    constants(&[("LTC_SIZE", Value::I32(ltc::LTC_SIZE as i32)), ("DIELECTRIC_F0", Value::F32(DIELECTRIC_F0))])
+        + glassbake_rays::direct::POLYGON_WGSL
+        + include_str!("../../shaders/gbuffer.wgsl")
 }
 
 /// The render pipelines of `shaders/gbuffer.wgsl`.
