@@ -82,7 +82,8 @@ pub fn light_point(point: usize) -> [f32; 2] {
 /// shading `normal` (on the side it is seen from) and diffuse albedo `diffuse_albedo`, the
 /// shadow rays cast in `opaque` (the opaque scene): each light in front of the point brings its
 /// radiance times the albedo times its form factor, if the segment to its
-/// [`light_point`]`(point)` is clear. As in the rasterizer's shadow maps, glass casts no shadow.
+/// [`light_point`]`(point)` is clear. As in the rasterizer's shadow maps, glass casts no shadow;
+/// unlike them, one light's quad shadows another's light.
 pub fn unseen_direct_light(scene: &Scene, opaque: &SceneGeometry, position: Vec3, normal: Vec3, diffuse_albedo: Vec3, point: usize) -> Vec3 {
     if diffuse_albedo == Vec3::ZERO {
         return Vec3::ZERO;
