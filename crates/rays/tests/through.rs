@@ -192,6 +192,18 @@ fn a_ray_that_leaves_the_scene_ends_on_the_background() {
 /// exactly where a ray from the camera reaches the hit (a comb of thin posts behind a thick
 /// slab hides some of the wall the slab shows, and the slab's sideways shift lets rays pass
 /// the posts that the camera's straight view meets).
+/// A glass slab in front of a row of 20 white posts (half extents `post`, centres `posts`)
+/// between it and the wall, which hide parts of the wall from the camera.
+fn slab_before_posts() -> (Scene, Vec3, Vec<Vec3>) {
+    let mut scene = scene_with(shapes::cuboid(Vec3::new(3.0, 2.0, 0.8)), false);
+    let post = Vec3::new(0.05, 2.0, 0.05);
+    let posts: Vec<Vec3> = (0..20).map(|i| Vec3::new(-4.0 + 0.3 * i as f32, 0.0, -1.5)).collect();
+    for (i, &at) in posts.iter().enumerate() {
+        add(&mut scene, &format!("post{i}"), shapes::cuboid(post), Material::diffuse("post", Vec3::ONE), at, false);
+    }
+    (scene, post, posts)
+}
+
 #[test]
 fn a_frame_reads_the_gbuffer_light_only_where_the_camera_sees_the_hit() {
     use glassbake_core::camera::Camera;
@@ -199,12 +211,7 @@ fn a_frame_reads_the_gbuffer_light_only_where_the_camera_sees_the_hit() {
     use glassbake_core::layout::{self, opaque, through, transparent};
     use glassbake_rays::through::through_buffer;
 
-    let mut scene = scene_with(shapes::cuboid(Vec3::new(3.0, 2.0, 0.8)), false);
-    let post = Vec3::new(0.05, 2.0, 0.05);
-    let posts: Vec<Vec3> = (0..20).map(|i| Vec3::new(-4.0 + 0.3 * i as f32, 0.0, -1.5)).collect();
-    for (i, &at) in posts.iter().enumerate() {
-        add(&mut scene, &format!("post{i}"), shapes::cuboid(post), Material::diffuse("post", Vec3::ONE), at, false);
-    }
+    let (scene, post, posts) = slab_before_posts();
     let geometry = ThroughScene::build(&scene);
     let camera = Camera::look_at(Vec3::new(3.0, 0.3, 4.0), Vec3::new(0.0, 0.0, -1.0), 60.0);
     let (w, h) = (40u32, 30u32);
@@ -512,12 +519,7 @@ fn a_hit_the_camera_does_not_see_is_lit_by_the_lights_it_sees() {
     use glassbake_rays::through::{through_buffer, FOOTPRINT};
     use glassbake_scene::model::RectLight;
 
-    let mut scene = scene_with(shapes::cuboid(Vec3::new(3.0, 2.0, 0.8)), false);
-    let post = Vec3::new(0.05, 2.0, 0.05);
-    let posts: Vec<Vec3> = (0..20).map(|i| Vec3::new(-4.0 + 0.3 * i as f32, 0.0, -1.5)).collect();
-    for (i, &at) in posts.iter().enumerate() {
-        add(&mut scene, &format!("post{i}"), shapes::cuboid(post), Material::diffuse("post", Vec3::ONE), at, false);
-    }
+    let (mut scene, post, posts) = slab_before_posts();
     // Above the posts, facing down: they cast soft shadows on the wall.
     let light = RectLight {
         name: "strip".into(),
